@@ -1,0 +1,50 @@
+"""One place where user-supplied randomness is normalised.
+
+``rng`` may be ``None`` (fresh OS entropy), an int seed, a ``SeedSequence``, a
+``BitGenerator`` or a ``Generator``; the semantics are those of
+``numpy.random.default_rng``.  Independent streams for work units come from
+``SeedSequence.spawn`` (never from re-seeding with consecutive integers).
+"""
+from __future__ import annotations
+
+from typing import Union
+
+import numpy as np
+
+RNGLike = Union[None, int, np.integer, np.random.SeedSequence, np.random.BitGenerator, np.random.Generator]
+
+
+def as_generator(rng: RNGLike = None) -> np.random.Generator:
+    """Return a ``numpy.random.Generator`` for any accepted ``rng`` value."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is None or isinstance(rng, (int, np.integer, np.random.SeedSequence, np.random.BitGenerator)):
+        if isinstance(rng, (int, np.integer)) and rng < 0:
+            raise ValueError(f"rng: a seed must be non-negative, got {rng}")
+        return np.random.default_rng(rng)
+    raise TypeError(
+        "rng: expected None, an int seed, a numpy SeedSequence, BitGenerator or Generator, "
+        f"got {type(rng).__name__}"
+    )
+
+
+def spawn(rng: RNGLike, k: int) -> list[np.random.Generator]:
+    """``k`` statistically independent generators derived from ``rng``.
+
+    With a seed or ``SeedSequence`` this is ``SeedSequence(rng).spawn(k)``, so the
+    i-th child depends only on the seed and ``i`` (reproducible per work unit).
+    With a ``Generator`` the children come from its bit generator's ``spawn``.
+    """
+    if k < 0:
+        raise ValueError(f"k must be >= 0, got {k}")
+    if isinstance(rng, np.random.Generator):
+        return rng.spawn(k)
+    if isinstance(rng, np.random.SeedSequence):
+        seq = rng
+    elif rng is None or isinstance(rng, (int, np.integer)):
+        seq = np.random.SeedSequence(rng)
+    elif isinstance(rng, np.random.BitGenerator):
+        return np.random.Generator(rng).spawn(k)
+    else:
+        raise TypeError(f"rng: cannot spawn from {type(rng).__name__}")
+    return [np.random.default_rng(s) for s in seq.spawn(k)]

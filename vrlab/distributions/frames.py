@@ -1,0 +1,78 @@
+"""Local shading frames: directions with the axis (normal) along +z.
+
+``orthonormal_basis`` is the branchless construction of Duff et al., "Building
+an Orthonormal Basis, Revisited" (JCGT 2017): for a unit ``n`` with
+``s = sign(n_z)``, ``a = -1/(s + n_z)``, ``b = n_x n_y a``,
+``t = (1 + s n_x^2 a, s b, -s n_x)`` and ``b = (b, s + n_y^2 a, -n_y)``.
+Everything broadcasts, so many frames (one per pixel) are handled at once.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Distribution, as_points
+
+
+def normalize(v: np.ndarray, name: str = "axis") -> np.ndarray:
+    """Unit vectors along ``v`` (shape ``(..., 3)``); a zero or non-finite vector is an error."""
+    v = as_points(v, 3, name)
+    norm = np.linalg.norm(v, axis=-1, keepdims=True)
+    if not np.all(np.isfinite(norm)) or np.any(norm == 0):
+        raise ValueError(f"{name}: vectors must be finite and non-zero")
+    return v / norm
+
+
+def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tangent ``t`` and bitangent ``b`` with ``(t, b, n)`` right-handed, for unit ``n``."""
+    n = np.asarray(n, dtype=float)
+    nx, ny, nz = n[..., 0], n[..., 1], n[..., 2]
+    s = np.where(nz >= 0.0, 1.0, -1.0)
+    a = -1.0 / (s + nz)
+    b = nx * ny * a
+    t = np.stack([1.0 + s * nx * nx * a, s * b, -s * nx], axis=-1)
+    bt = np.stack([b, s + ny * ny * a, -ny], axis=-1)
+    return t, bt
+
+
+def to_world(v: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Map local directions ``v`` (+z = axis) into the frame whose axis is unit ``n``."""
+    t, b = orthonormal_basis(n)
+    return v[..., 0:1] * t + v[..., 1:2] * b + v[..., 2:3] * n
+
+
+def to_local(w: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Inverse of ``to_world``: coordinates of ``w`` in the frame with axis ``n``."""
+    t, b = orthonormal_basis(n)
+    return np.stack([np.sum(w * t, -1), np.sum(w * b, -1), np.sum(w * n, -1)], axis=-1)
+
+
+class Oriented(Distribution):
+    """A local-frame direction distribution turned to point its +z along ``axis``.
+
+    ``axis`` has shape ``(..., 3)`` and broadcasts against the leading shape of the
+    samples: for per-pixel normals of shape ``(*batch, 3)`` and uniforms
+    ``(*batch, n, d)`` pass ``axis[..., None, :]``.  A rotation keeps solid angle,
+    so ``pdf_world(w) = pdf_local(to_local(w))`` (measure: solid angle).
+    """
+
+    measure = "solid angle"
+    dim_x = 3
+
+    def __init__(self, local: Distribution, axis: np.ndarray):
+        if getattr(local, "dim_x", 3) != 3:
+            raise ValueError("Oriented: the local distribution must produce 3D directions")
+        self.local = local
+        self.axis = normalize(axis, "axis")
+        self.dim_u = local.dim_u
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        return to_world(self.local.sample(u), self.axis)
+
+    def pdf(self, w: np.ndarray) -> np.ndarray:
+        return self.local.pdf(to_local(np.asarray(w, dtype=float), self.axis))
+
+    def invert(self, w: np.ndarray) -> np.ndarray:
+        return self.local.invert(to_local(np.asarray(w, dtype=float), self.axis))
+
+    def _repr_fields(self) -> dict:
+        return {"local": self.local, "axis_shape": self.axis.shape}
