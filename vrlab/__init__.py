@@ -3,8 +3,7 @@
 Layers: ``vrlab.points`` (uniforms), ``vrlab.distributions`` (warps with pdfs and
 discrete sampling), ``vrlab.testing`` (chi-square harness).
 """
-from . import distributions, points, testing
-from .distributions import AliasTable, CDFTable
+from . import distributions, testing
 
 __version__ = "0.1.0"
-__all__ = ["AliasTable", "CDFTable", "distributions", "points", "testing", "__version__"]
+__all__ = ["distributions", "testing", "__version__"]
