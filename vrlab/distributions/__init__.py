@@ -1,5 +1,20 @@
-"""Warps from uniforms to domains, each with its pdf; discrete sampling."""
+"""Warps from uniforms to domains, each with its pdf; discrete sampling.
+
+Every distribution has ``dim_u``, ``sample(u)``, ``pdf(x)``, a ``measure`` and,
+where the warp is a bijection, ``invert(x)``.
+"""
 from .base import Distribution
 from .frames import Oriented, orthonormal_basis, to_local, to_world
+from .interval import Exponential, LinearInterval, UniformBox, UniformInterval
+from .mixture import Mixture
+from .planar import Disk, Rectangle, Triangle, concentric_disk
+from .spherical import GGX, CosineHemisphere, PhongLobe, UniformCone, UniformHemisphere, UniformSphere
+from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 
-__all__ = ["Distribution", "Oriented", "orthonormal_basis", "to_local", "to_world"]
+__all__ = [
+    "Distribution", "Oriented", "orthonormal_basis", "to_local", "to_world",
+    "Exponential", "LinearInterval", "UniformBox", "UniformInterval",
+    "Mixture", "Disk", "Rectangle", "Triangle", "concentric_disk",
+    "GGX", "CosineHemisphere", "PhongLobe", "UniformCone", "UniformHemisphere", "UniformSphere",
+    "PiecewiseConstant1D", "PiecewiseConstant2D",
+]

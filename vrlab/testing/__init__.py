@@ -1,12 +1,14 @@
 """Statistical test tools shipped with vrlab: chi-square goodness of fit on charts."""
 from .charts import (AtlasChart, BoxChart, CapChart, Chart, DiskChart, EllipsoidChart, HalfLineChart,
-                     HemisphereChart, IntervalChart, ParallelogramChart, SphereChart, box_surface_chart)
+                     HemisphereChart, IntervalChart, ParallelogramChart, SphereChart, TriangleChart,
+                     box_surface_chart)
 from .chisquare import (GofResult, assert_gof, cell_integrals, chi2_discrete, chi2_gof, histogram,
                         integrate, pooled_chi2, sidak_threshold)
 
 __all__ = [
     "AtlasChart", "BoxChart", "CapChart", "Chart", "DiskChart", "EllipsoidChart", "HalfLineChart",
-    "HemisphereChart", "IntervalChart", "ParallelogramChart", "SphereChart", "box_surface_chart",
+    "HemisphereChart", "IntervalChart", "ParallelogramChart", "SphereChart", "TriangleChart",
+    "box_surface_chart",
     "GofResult", "assert_gof", "cell_integrals", "chi2_discrete", "chi2_gof", "histogram", "integrate",
     "pooled_chi2", "sidak_threshold",
 ]

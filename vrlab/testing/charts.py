@@ -94,6 +94,39 @@ class DiskChart(Chart):
         return np.full(s.shape[:-1], np.pi * self.radius**2)
 
 
+class TriangleChart(Chart):
+    """Triangle (a, b, c) with barycentrics (s, t (1 - s)): x = c + s (a - c) + t (1 - s) (b - c).
+
+    A "collapsed square" (not the sqrt warp the sampler uses); area element 2 A (1 - s).
+    """
+
+    p = 2
+
+    def __init__(self, a, b, c):
+        self.v = np.stack([np.asarray(a, float), np.asarray(b, float), np.asarray(c, float)])
+        self.dim_x = self.v.shape[1]
+        e = np.stack([self.v[0] - self.v[2], self.v[1] - self.v[2]])
+        self._pinv = np.linalg.pinv(e.T)
+        self.e = e
+        if self.dim_x == 2:
+            self.area = 0.5 * abs(e[0, 0] * e[1, 1] - e[0, 1] * e[1, 0])
+        else:
+            self.area = 0.5 * float(np.linalg.norm(np.cross(e[0], e[1])))
+
+    def to_param(self, x):
+        b = (as_points(x, self.dim_x) - self.v[2]) @ self._pinv.T
+        rest = 1.0 - b[..., 0]
+        return np.stack([b[..., 0], np.where(rest > 0, b[..., 1] / np.where(rest > 0, rest, 1.0), 0.0)], -1)
+
+    def from_param(self, s):
+        b0 = s[..., 0]
+        b1 = s[..., 1] * (1.0 - b0)
+        return self.v[2] + b0[..., None] * self.e[0] + b1[..., None] * self.e[1]
+
+    def jacobian(self, s):
+        return 2.0 * self.area * (1.0 - s[..., 0])
+
+
 class CapChart(Chart):
     """Spherical cap z >= z_min about +z: 1 - z = (1 - z_min) s^power, phi = 2 pi t.
 

@@ -1,0 +1,230 @@
+"""Continuous warps: chi-square fit, normalisation, domain, inverse, batching, closed-form values."""
+import numpy as np
+import pytest
+
+from vrlab import distributions as D
+from vrlab.testing import (BoxChart, CapChart, DiskChart, HalfLineChart, HemisphereChart, IntervalChart,
+                           SphereChart, TriangleChart, assert_gof, chi2_gof, integrate)
+
+PI = np.pi
+IMAGE = np.array([[0.0, 1.0, 2.0, 0.5, 0.0, 3.0],
+                  [1.0, 0.0, 0.0, 4.0, 1.0, 1.0],
+                  [0.2, 0.2, 5.0, 0.0, 0.0, 2.0],
+                  [1.0, 1.0, 1.0, 1.0, 0.0, 0.0]])
+TILT = np.array([1.0, 0.5, 0.2]) / np.linalg.norm([1.0, 0.5, 0.2])
+
+# name -> (distribution, chart, chi-square bins)
+CASES = {
+    "uniform-interval": (D.UniformInterval(-1, 3), IntervalChart(-1, 3), (40,)),
+    "linear-8x/pi^2": (D.LinearInterval(0, PI / 2, 0, 1), IntervalChart(0, PI / 2), (40,)),
+    "linear-decreasing": (D.LinearInterval(1, 2, 3, 0.5), IntervalChart(1, 2), (40,)),
+    "exponential": (D.Exponential(2.0), HalfLineChart(0.5), (40,)),
+    "exponential-truncated": (D.Exponential(2.0, upper=1.5), IntervalChart(0, 1.5), (30,)),
+    "piecewise-1d": (D.PiecewiseConstant1D([1, 0, 3, 2, 0.5], (0, 2)), IntervalChart(0, 2), (50,)),
+    "piecewise-2d": (D.PiecewiseConstant2D(IMAGE, ((0, 3), (0, 2))), BoxChart([(0, 3), (0, 2)]), (24, 24)),
+    "box-2d": (D.UniformBox([(0, 1), (2, 5)]), BoxChart([(0, 1), (2, 5)]), (16, 16)),
+    "rectangle": (D.Rectangle((-1, 2), (0, 0.5)), BoxChart([(-1, 2), (0, 0.5)]), (16, 16)),
+    "disk-concentric": (D.Disk(2.0, (1, -1)), DiskChart(2.0, (1, -1)), (16, 24)),
+    "disk-polar": (D.Disk(0.5, method="polar"), DiskChart(0.5), (16, 24)),
+    "triangle": (D.Triangle((0, 0), (2, 0), (0.5, 1.5)), TriangleChart((0, 0), (2, 0), (0.5, 1.5)), (16, 16)),
+    "uniform-sphere": (D.UniformSphere(), SphereChart(), (20, 30)),
+    "uniform-hemisphere": (D.UniformHemisphere(), HemisphereChart(), (20, 30)),
+    "cosine-inversion": (D.CosineHemisphere("inversion"), HemisphereChart(), (20, 30)),
+    "cosine-disk": (D.CosineHemisphere("disk"), HemisphereChart(), (20, 30)),
+    "cosine-sphere-shift": (D.CosineHemisphere("sphere-shift"), HemisphereChart(), (20, 30)),
+    "phong-20": (D.PhongLobe(20), HemisphereChart(power=2), (30, 24)),
+    "phong-0": (D.PhongLobe(0), HemisphereChart(), (20, 24)),
+    "ggx-0.2": (D.GGX(0.2), HemisphereChart(power=3), (40, 24)),
+    "ggx-0.7": (D.GGX(0.7), HemisphereChart(power=2), (30, 24)),
+    "cone-0.8": (D.UniformCone(0.8), CapChart(0.8), (20, 24)),
+    "phong-tilted": (D.PhongLobe(10).around(TILT), SphereChart(), (30, 30)),
+    "mixture": (D.Mixture([D.CosineHemisphere(), D.PhongLobe(30).around(TILT)], [0.3, 0.7]), SphereChart(), (30, 30)),
+}
+NAMES = sorted(CASES)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_chi_square(name):
+    dist, chart, bins = CASES[name]
+    res = chi2_gof(dist, chart, bins, n=100_000, rng=20261121, name=name)
+    assert_gof(res, alpha=0.01, m=len(CASES))
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_pdf_integrates_to_one(name):
+    dist, chart, _ = CASES[name]
+    bins = (120,) if chart.p == 1 else (96, 96)
+    assert integrate(dist.pdf, chart, bins, quad=8) == pytest.approx(1.0, abs=2e-3)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_samples_in_domain(name):
+    dist, chart, _ = CASES[name]
+    u = np.random.default_rng(1).random((20_000, dist.dim_u))
+    u[:4] = [[0.0] * dist.dim_u, [np.nextafter(1, 0)] * dist.dim_u, [0.5] * dist.dim_u,
+             [0.0] + [np.nextafter(1, 0)] * (dist.dim_u - 1)]
+    x = dist.sample(u)
+    assert x.shape == (len(u), dist.dim_x) and np.isfinite(x).all()
+    s = chart.to_param(x)
+    assert np.all((s >= -1e-12) & (s <= 1 + 1e-12))
+    assert np.all(dist.pdf(x[4:]) > 0)  # strict interior: the sampler never lands where pdf = 0
+    if dist.dim_x == 3:
+        np.testing.assert_allclose(np.linalg.norm(x, axis=-1), 1.0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", [n for n in NAMES if hasattr(CASES[n][0], "invert")])
+def test_invert_undoes_sample(name):
+    dist = CASES[name][0]
+    u = np.random.default_rng(2).uniform(1e-6, 1 - 1e-6, (5000, dist.dim_u))
+    back = dist.invert(dist.sample(u))
+    np.testing.assert_allclose(back, u, atol=1e-7)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_batched_equals_one_at_a_time(name):
+    dist = CASES[name][0]
+    u = np.random.default_rng(3).random((6, 7, dist.dim_u))
+    x = dist.sample(u)
+    assert x.shape == (6, 7, dist.dim_x)
+    single = np.array([[dist.sample(u[i, j][None])[0] for j in range(7)] for i in range(6)])
+    np.testing.assert_allclose(x, single, rtol=0, atol=1e-13)
+    p = dist.pdf(x)
+    assert p.shape == (6, 7)
+    np.testing.assert_allclose(p, [[dist.pdf(x[i, j][None])[0] for j in range(7)] for i in range(6)])
+
+
+def test_closed_form_pdf_values():
+    z = np.array([[0.0, 0.0, 1.0]])
+    s45 = np.array([[np.sqrt(0.5), 0.0, np.sqrt(0.5)]])
+    assert D.UniformSphere().pdf(z)[0] == pytest.approx(1 / (4 * PI))
+    assert D.UniformHemisphere().pdf(-z)[0] == 0
+    for m in D.CosineHemisphere.METHODS:
+        assert D.CosineHemisphere(m).pdf(s45)[0] == pytest.approx(np.sqrt(0.5) / PI)
+        assert D.CosineHemisphere(m).pdf(-z)[0] == 0
+    assert D.PhongLobe(7).pdf(s45)[0] == pytest.approx(8 / (2 * PI) * np.sqrt(0.5) ** 7)
+    a = 0.3
+    assert D.GGX(a).pdf(z)[0] == pytest.approx(1 / (PI * a * a))       # D(n) = 1/(pi a^2), cos = 1
+    # at 45 degrees tan^2 = 1, cos^4 = 1/4: D = a^2 / (pi/4 (a^2 + 1)^2)
+    assert D.GGX(a).D(s45)[0] == pytest.approx(a * a / (PI / 4 * (a * a + 1) ** 2))
+    assert D.UniformCone(0.5).pdf(z)[0] == pytest.approx(1 / (2 * PI * 0.5))
+    assert D.LinearInterval(0, PI / 2, 0, 1).pdf([[1.0]])[0] == pytest.approx(8 / PI**2)
+    assert D.Exponential(3.0).pdf([[0.0], [1.0]]) == pytest.approx([3.0, 3 * np.exp(-3)])
+    assert D.Disk(2.0).pdf([[0.5, 0.5], [2.5, 0]]) == pytest.approx([1 / (4 * PI), 0])
+    assert D.Triangle((0, 0), (2, 0), (0, 1)).pdf([[0.2, 0.2]])[0] == pytest.approx(1.0)
+    pw = D.PiecewiseConstant1D([1, 3], (0, 2))
+    assert pw.pdf([[0.5], [1.5]]) == pytest.approx([0.25, 0.75])
+    pw2 = D.PiecewiseConstant2D(IMAGE, ((0, 3), (0, 2)))
+    # x = 1.2 -> column 2, y = 1.1 -> row 2 (cells are 0.5 x 0.5): IMAGE[2, 2] = 5
+    assert pw2.pdf([[1.2, 1.1], [2.2, 1.1]]) == pytest.approx([5.0 / (IMAGE.sum() * 0.25), 0.0])
+
+
+def test_piecewise_2d_follows_image_orientation():
+    # image[iy, ix]: a single bright pixel at row 2, column 4 puts every sample there
+    img = np.zeros((4, 6))
+    img[2, 4] = 1.0
+    dist = D.PiecewiseConstant2D(img, ((0, 6), (0, 4)))
+    x = dist.sample(np.random.default_rng(0).random((1000, 2)))
+    assert np.all((x[:, 0] >= 4) & (x[:, 0] <= 5) & (x[:, 1] >= 2) & (x[:, 1] <= 3))
+
+
+def test_zero_cells_never_sampled():
+    dist = D.PiecewiseConstant1D([0, 1, 0, 0, 2, 0])
+    u = np.concatenate([np.linspace(0, 1, 10001, endpoint=False), [np.nextafter(1, 0)]])
+    cell = np.floor(dist.sample(u[:, None])[:, 0] * 6).astype(int)
+    assert set(np.unique(np.minimum(cell, 5))) <= {1, 4}
+
+
+class _WrongPdf:
+    """Samples from one distribution, reports another's pdf (a deliberate bug)."""
+
+    def __init__(self, sampler, pdf_from):
+        self.dim_u, self.dim_x, self.sampler, self.pdf_from = sampler.dim_u, sampler.dim_x, sampler, pdf_from
+
+    def sample(self, u):
+        return self.sampler.sample(u)
+
+    def pdf(self, x):
+        return self.pdf_from.pdf(x)
+
+
+@pytest.mark.parametrize("sampler, wrong, chart", [
+    (D.PhongLobe(20), D.PhongLobe(21), HemisphereChart(power=2)),             # exponent off by one
+    (D.GGX(0.3), D.GGX(0.33), HemisphereChart(power=2)),                      # roughness off by 10%
+    (D.CosineHemisphere("disk"), D.UniformHemisphere(), HemisphereChart()),
+    (D.LinearInterval(0, PI / 2, 0, 1), D.LinearInterval(0, PI / 2, 0.05, 1), IntervalChart(0, PI / 2)),
+])
+def test_harness_rejects_a_slightly_wrong_pdf(sampler, wrong, chart):
+    bins = (30,) if chart.p == 1 else (30, 24)
+    with pytest.raises(AssertionError, match="chi-square test rejected"):
+        assert_gof(chi2_gof(_WrongPdf(sampler, wrong), chart, bins, n=200_000, rng=5))
+
+
+def test_ggx_pdf_without_cosine_is_rejected():
+    class NoCos(D.GGX):
+        def pdf(self, h):
+            return self.D(h)  # D alone is normalised in projected area, not as a density
+    with pytest.raises(AssertionError):
+        assert_gof(chi2_gof(NoCos(0.5), HemisphereChart(power=2), (30, 24), n=100_000, rng=6))
+
+
+def test_oriented_batched_frames():
+    rng = np.random.default_rng(7)
+    axes = rng.normal(size=(5, 3))
+    axes /= np.linalg.norm(axes, axis=-1, keepdims=True)
+    u = rng.random((5, 100, 2))
+    local = D.PhongLobe(5)
+    batched = local.around(axes[:, None, :])
+    w = batched.sample(u)
+    assert w.shape == (5, 100, 3)
+    for i in range(5):
+        wi = local.around(axes[i]).sample(u[i])
+        np.testing.assert_allclose(w[i], wi, atol=1e-14)
+        # the lobe is centred on its axis: cos to the axis equals local z
+        np.testing.assert_allclose(w[i] @ axes[i], local.sample(u[i])[:, 2], atol=1e-12)
+    np.testing.assert_allclose(batched.pdf(w), local.pdf(local.sample(u)), rtol=1e-10)
+    np.testing.assert_allclose(batched.invert(w), u, atol=1e-9)
+
+
+def test_orthonormal_basis_is_orthonormal():
+    n = np.random.default_rng(8).normal(size=(1000, 3))
+    n = np.concatenate([n, [[0, 0, 1], [0, 0, -1], [0, 1e-12, -1]]])
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    t, b = D.orthonormal_basis(n)
+    for a, c in [(t, b), (t, n), (b, n)]:
+        np.testing.assert_allclose(np.sum(a * c, -1), 0, atol=1e-12)
+    np.testing.assert_allclose(np.cross(t, b), n, atol=1e-12)
+
+
+def test_mixture_selection_and_zero_probability():
+    mix = D.Mixture([D.UniformInterval(0, 1), D.UniformInterval(2, 3), D.UniformInterval(5, 6)], [1, 0, 3])
+    x = mix.sample(np.random.default_rng(9).random((40_000, 1)))[:, 0]
+    assert not np.any((x >= 2) & (x <= 3))
+    assert np.mean(x > 4) == pytest.approx(0.75, abs=0.01)
+    assert mix.pdf([[0.5], [2.5], [5.5]]) == pytest.approx([0.25, 0.0, 0.75])
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda: D.CosineHemisphere("uniform"), "method"),
+    (lambda: D.PhongLobe(-1), "exponent"),
+    (lambda: D.GGX(0), "alpha"),
+    (lambda: D.GGX(np.nan), "alpha"),
+    (lambda: D.UniformCone(1.0), "cos_max"),
+    (lambda: D.LinearInterval(0, 1, 0, 0), "f0, f1"),
+    (lambda: D.LinearInterval(1, 0), "a < b"),
+    (lambda: D.Exponential(-2), "rate"),
+    (lambda: D.PiecewiseConstant1D([1, -1]), "negative"),
+    (lambda: D.PiecewiseConstant1D([0, 0]), "zero"),
+    (lambda: D.PiecewiseConstant1D([1, np.nan]), "NaN"),
+    (lambda: D.PiecewiseConstant2D([1, 2]), "2-D"),
+    (lambda: D.Disk(0), "radius"),
+    (lambda: D.Triangle((0, 0), (1, 1), (2, 2)), "collinear"),
+    (lambda: D.Mixture([]), "components"),
+    (lambda: D.Mixture([D.UniformInterval(), D.UniformSphere()]), "dimensions"),
+    (lambda: D.Mixture([D.UniformInterval()], [1, 2]), "probabilities"),
+    (lambda: D.UniformSphere().sample(np.zeros((4, 3))), r"\(\.\.\., 2\)"),
+    (lambda: D.UniformSphere().pdf(np.zeros((4, 2))), r"\(\.\.\., 3\)"),
+    (lambda: D.PhongLobe(3).around([0, 0, 0]), "non-zero"),
+])
+def test_bad_input_raises(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()

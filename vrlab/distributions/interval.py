@@ -1,0 +1,133 @@
+"""One-dimensional (and box) warps.  Measure: length (volume for boxes).
+
+Points of a k-dimensional domain have shape ``(..., k)``, also for k = 1.
+
+* ``UniformBox(bounds)``: x = a + (b - a) u, p = 1 / volume.
+* ``LinearInterval(a, b, f0, f1)``: p proportional to the line from f0 at a to f1
+  at b; inverting F(t) = (f0 t + (f1 - f0) t^2 / 2) / ((f0 + f1) / 2) gives the
+  cancellation-free root t = u (f0 + f1) / (f0 + sqrt((1 - u) f0^2 + u f1^2)).
+  With f0 = 0, f1 = 1 on [0, pi/2] this is the lecture's p(x) = 8 x / pi^2
+  (Russian lecture 4, "importance sampling of sin x").
+* ``Exponential(rate, upper=None)``: p = rate e^(-rate x) on [0, inf), or truncated
+  to [0, upper] (divide by 1 - e^(-rate upper)); x = -log(1 - u c) / rate.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from .base import Distribution, as_points, as_uniforms, positive_float
+
+
+def as_bounds(bounds, name: str = "bounds") -> np.ndarray:
+    """Bounds of a box as a (k, 2) float array, checked: finite, lo < hi."""
+    try:
+        b = np.asarray(bounds, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected [(a1, b1), (a2, b2), ...], got {bounds!r}") from None
+    if b.ndim == 1 and b.shape == (2,):
+        b = b[None, :]
+    if b.ndim != 2 or b.shape[1] != 2 or b.shape[0] == 0:
+        raise ValueError(f"{name}: expected [(a1, b1), (a2, b2), ...], got {bounds!r}")
+    if not np.all(np.isfinite(b)) or not np.all(b[:, 1] > b[:, 0]):
+        raise ValueError(f"{name}: every interval must be finite with a < b, got {bounds!r}")
+    return b
+
+
+class UniformBox(Distribution):
+    """Uniform on the box ``[(a1, b1), ..., (ak, bk)]``; p = 1 / prod(b - a) (length/area/volume)."""
+
+    measure = "volume"
+
+    def __init__(self, bounds: Sequence):
+        b = as_bounds(bounds)
+        self.lo, self.hi = b[:, 0], b[:, 1]
+        self.dim_u = self.dim_x = len(b)
+        self.volume = float(np.prod(self.hi - self.lo))
+        self.measure = {1: "length", 2: "area"}.get(self.dim_x, "volume")
+
+    def sample(self, u):
+        return self.lo + (self.hi - self.lo) * as_uniforms(u, self.dim_u)
+
+    def pdf(self, x):
+        x = as_points(x, self.dim_x)
+        inside = np.all((x >= self.lo) & (x <= self.hi), -1)
+        return np.where(inside, 1.0 / self.volume, 0.0)
+
+    def invert(self, x):
+        return (as_points(x, self.dim_x) - self.lo) / (self.hi - self.lo)
+
+    def _repr_fields(self):
+        return {"bounds": np.stack([self.lo, self.hi], 1).tolist()}
+
+
+def UniformInterval(a: float = 0.0, b: float = 1.0) -> UniformBox:
+    """Uniform on [a, b]: p = 1 / (b - a) (length)."""
+    return UniformBox([(a, b)])
+
+
+class LinearInterval(Distribution):
+    """Density on [a, b] proportional to the linear function from f0 (at a) to f1 (at b).
+
+    p(x) = 2 ((1 - t) f0 + t f1) / ((f0 + f1)(b - a)), t = (x - a) / (b - a) (length).
+    """
+
+    dim_u = dim_x = 1
+    measure = "length"
+
+    def __init__(self, a: float = 0.0, b: float = 1.0, f0: float = 0.0, f1: float = 1.0):
+        bnd = as_bounds([(a, b)], "a, b")[0]
+        self.a, self.b = float(bnd[0]), float(bnd[1])
+        f0, f1 = float(f0), float(f1)
+        if not (np.isfinite(f0) and np.isfinite(f1)) or f0 < 0 or f1 < 0 or f0 + f1 == 0:
+            raise ValueError(f"f0, f1 must be finite, >= 0 and not both zero, got {f0}, {f1}")
+        self.f0, self.f1 = f0, f1
+
+    def sample(self, u):
+        u = as_uniforms(u, 1)[..., 0]
+        f0, f1 = self.f0, self.f1
+        denom = f0 + np.sqrt((1.0 - u) * f0 * f0 + u * f1 * f1)
+        t = np.where(denom > 0, u * (f0 + f1) / np.where(denom > 0, denom, 1.0), 0.0)
+        return (self.a + (self.b - self.a) * np.clip(t, 0.0, 1.0))[..., None]
+
+    def pdf(self, x):
+        x = as_points(x, 1)[..., 0]
+        t = (x - self.a) / (self.b - self.a)
+        p = 2.0 * ((1.0 - t) * self.f0 + t * self.f1) / ((self.f0 + self.f1) * (self.b - self.a))
+        return np.where((t >= 0) & (t <= 1), p, 0.0)
+
+    def invert(self, x):
+        t = (as_points(x, 1)[..., 0] - self.a) / (self.b - self.a)
+        return ((self.f0 * t + 0.5 * (self.f1 - self.f0) * t * t) * 2.0 / (self.f0 + self.f1))[..., None]
+
+    def _repr_fields(self):
+        return {"a": self.a, "b": self.b, "f0": self.f0, "f1": self.f1}
+
+
+class Exponential(Distribution):
+    """Exponential density rate e^(-rate x) on [0, inf), or truncated to [0, upper] (length)."""
+
+    dim_u = dim_x = 1
+    measure = "length"
+
+    def __init__(self, rate: float = 1.0, upper: float | None = None):
+        self.rate = positive_float(rate, "rate")
+        self.upper = None if upper is None else positive_float(upper, "upper")
+        # mass of [0, upper] under the untruncated density
+        self._mass = 1.0 if self.upper is None else -np.expm1(-self.rate * self.upper)
+
+    def sample(self, u):
+        u = as_uniforms(u, 1)
+        return -np.log1p(-u * self._mass) / self.rate
+
+    def pdf(self, x):
+        x = as_points(x, 1)[..., 0]
+        inside = x >= 0 if self.upper is None else (x >= 0) & (x <= self.upper)
+        return np.where(inside, self.rate * np.exp(-self.rate * np.where(inside, x, 0.0)) / self._mass, 0.0)
+
+    def invert(self, x):
+        return -np.expm1(-self.rate * as_points(x, 1)) / self._mass
+
+    def _repr_fields(self):
+        return {"rate": self.rate, "upper": self.upper}
