@@ -9,6 +9,8 @@ from .interval import Exponential, LinearInterval, UniformBox, UniformInterval
 from .mixture import Mixture
 from .planar import Disk, Rectangle, Triangle, concentric_disk
 from .spherical import GGX, CosineHemisphere, PhongLobe, UniformCone, UniformHemisphere, UniformSphere
+from .solid_angle import LightSample, SolidAngleFromArea, SphereCone
+from .surfaces import BoxSurface, EllipsoidSurface, RectangleSurface, SphereSurface, Surface
 from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 
 __all__ = [
@@ -17,4 +19,6 @@ __all__ = [
     "Mixture", "Disk", "Rectangle", "Triangle", "concentric_disk",
     "GGX", "CosineHemisphere", "PhongLobe", "UniformCone", "UniformHemisphere", "UniformSphere",
     "PiecewiseConstant1D", "PiecewiseConstant2D",
+    "LightSample", "SolidAngleFromArea", "SphereCone",
+    "BoxSurface", "EllipsoidSurface", "RectangleSurface", "SphereSurface", "Surface",
 ]

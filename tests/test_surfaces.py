@@ -1,0 +1,657 @@
+"""Tests for vrlab.distributions.surfaces: light surfaces and the directions they induce.
+
+Area sampling is checked with the chi-square harness on the matching charts.  The
+solid-angle pdfs have silhouettes (discontinuities for polygons, integrable 1/sqrt
+singularities for smooth closed shapes), where per-cell Gauss quadrature is poor, so:
+* rectangle and box directions use an aimed ``CapChart`` with expected counts from a
+  refined quadrature (``_chi2_refined``: cells split ``sub`` x ``sub``);
+* ellipsoid/sphere directions use ``_EllipsoidViewChart``, which maps the silhouette
+  of the ellipsoid onto the chart's edge and cancels the singularity, so
+  ``pdf * jacobian`` is smooth.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vrlab._rng import as_generator
+from vrlab.distributions.frames import to_local, to_world
+from vrlab.distributions.solid_angle import LightSample, SolidAngleFromArea, SphereCone
+from vrlab.distributions.surfaces import (BoxSurface, EllipsoidSurface, RectangleSurface,
+                                          SphereSurface, Surface)
+from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, ParallelogramChart, SphereChart,
+                           assert_gof, box_surface_chart, chi2_gof, integrate)
+from vrlab.testing.charts import Chart
+from vrlab.testing.chisquare import cell_integrals, histogram, pooled_chi2
+
+
+def _rotation(axis, angle):
+    """Rodrigues rotation matrix."""
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+R_BOX = _rotation([1, 2, 3], 0.8)
+R_ELL = _rotation([-1, 0.5, 2], 1.1)
+M_ELL = np.array([[1.0, 0.4, 0.1], [0.2, 2.0, 0.3], [0.0, 0.5, 0.7]])  # non-diagonal, det > 0
+REF = np.array([3.0, 4.0, 6.0])                                          # outside every shape below
+
+
+def rect():
+    return RectangleSurface([0.0, 0.0, 1.0], [1.0, 0.0, 0.2], [0.3, 1.0, 0.0])
+
+
+def box():
+    return BoxSurface([0.3, -0.2, 1.0], [0.5, 1.0, 2.0], R_BOX)
+
+
+def ellipsoid():
+    return EllipsoidSurface([1.0, 2.0, 3.0], M_ELL)
+
+
+def sphere():
+    return SphereSurface([0.0, 0.0, 0.0], 2.0)
+
+
+def ones(x):
+    return np.ones(np.shape(x)[:-1])
+
+
+# ----------------------------------------------------------------------------- test helpers
+
+class _InFrame:
+    """View a world direction distribution in the frame whose +z is ``axis``."""
+
+    dim_u = 2
+
+    def __init__(self, dist, axis):
+        self.dist, self.axis = dist, axis
+
+    def sample(self, u):
+        return to_local(self.dist.sample(u), self.axis)
+
+    def pdf(self, w):
+        return self.dist.pdf(to_world(w, self.axis))
+
+
+def _aimed(surface, ref, margin=1.01):
+    """Axis from ``ref`` to the bounding sphere's center and a cap z_min that contains it."""
+    c, r = surface.bounding_sphere()
+    v = c - ref
+    d = np.linalg.norm(v)
+    z = np.sqrt(1.0 - (r / d) ** 2)
+    return v / d, 1.0 - (1.0 - z) * margin
+
+
+def _chi2_refined(dist, chart, bins, *, sub=8, n=100_000, rng=0, quad=4, name="refined"):
+    """Chi-square with expected counts integrated on a grid refined ``sub`` times per axis.
+
+    Cells whose quadrature nodes all miss the support (thin slivers at a silhouette) get a
+    tiny floor instead of exactly 0, so a legitimate sample there is pooled rather than
+    failing outright; samples where the pdf is really 0 are caught by the caller's
+    ``pdf(sample) > 0`` check.
+    """
+    u = as_generator(rng).random((n, dist.dim_u))
+    x = dist.sample(u)
+    counts, outside = histogram(chart.to_param(x), bins)
+    fine = cell_integrals(dist.pdf, chart, (bins[0] * sub, bins[1] * sub), quad)
+    expected = n * fine.reshape(bins[0], sub, bins[1], sub).sum(axis=(1, 3))
+    expected = np.maximum(expected, 1e-9 * n / expected.size)
+    res = pooled_chi2(counts, expected, 5.0, name)
+    if outside:
+        res.outside += outside
+        res.pvalue = 0.0
+    return res, x
+
+
+class _EllipsoidViewChart(Chart):
+    """Directions from ``ref`` that hit the ellipsoid c + M S^2 (covers exactly that set).
+
+    Ray ref + t w meets the ellipsoid iff ref' + t M^-1 w meets the unit sphere,
+    ref' = M^-1 (ref - c).  So w = normalize(M w') for w' in the cone the unit sphere
+    subtends from ref' (axis a, 1 - cos_max = omc), with dw = |det M| / |M w'|^3 dw'.
+    Parameters: 1 - w'.a = omc s (2 - s), phi = 2 pi t; the silhouette is s = 1 and the
+    Jacobian 4 pi omc (1 - s) cancels the 1/sqrt singularity of the solid-angle pdf there.
+    """
+
+    p, dim_x = 2, 3
+
+    def __init__(self, center, M, ref):
+        self.M = np.asarray(M, float)
+        self.Minv = np.linalg.inv(self.M)
+        self.det = abs(np.linalg.det(self.M))
+        o = (np.asarray(ref, float) - center) @ self.Minv.T
+        d = np.linalg.norm(o)
+        assert d > 1, "ref must be outside the ellipsoid"
+        self.axis = -o / d
+        self.omc = 1.0 - np.sqrt(1.0 - 1.0 / d**2)
+
+    def _wp(self, s):
+        omz = self.omc * s[..., 0] * (2.0 - s[..., 0])
+        sin = np.sqrt(omz * (2.0 - omz))
+        phi = 2 * np.pi * s[..., 1]
+        return to_world(np.stack([sin * np.cos(phi), sin * np.sin(phi), 1.0 - omz], -1), self.axis)
+
+    def from_param(self, s):
+        w = self._wp(s) @ self.M.T
+        return w / np.linalg.norm(w, axis=-1, keepdims=True)
+
+    def to_param(self, w):
+        wp = np.asarray(w, float) @ self.Minv.T
+        wp = wp / np.linalg.norm(wp, axis=-1, keepdims=True)
+        local = to_local(wp, self.axis)
+        omz = 0.5 * np.sum((wp - self.axis) ** 2, -1)
+        s = 1.0 - np.sqrt(np.clip(1.0 - omz / self.omc, 0.0, None))
+        t = np.mod(np.arctan2(local[..., 1], local[..., 0]) / (2 * np.pi), 1.0)
+        return np.stack([s, t], -1)
+
+    def jacobian(self, s):
+        norm = np.linalg.norm(self._wp(s) @ self.M.T, axis=-1)
+        return 4 * np.pi * self.omc * (1.0 - s[..., 0]) * self.det / norm**3
+
+
+class _FirstHitOnly:
+    """A surface proxy whose ``intersect`` reports only the nearest hit (a common bug)."""
+
+    def __init__(self, surface):
+        self.s = surface
+        self.dim_u = surface.dim_u
+
+    def __getattr__(self, name):
+        return getattr(self.s, name)
+
+    def intersect(self, origin, direction, t_min=None):
+        return self.s.intersect(origin, direction, t_min)[..., :1]
+
+
+class _WrongEllipsoid(EllipsoidSurface):
+    """Ellipsoid density without the ||M^-T n|| factor: 1 / (4 pi |det M|)."""
+
+    def pdf(self, x):
+        return np.full(np.shape(x)[:-1], 1.0 / (4 * np.pi * self.abs_det))
+
+
+def _parallelepiped_chart(center, L):
+    charts = []
+    for axis in range(3):
+        i, j = [a for a in range(3) if a != axis]
+        for sign in (-1.0, 1.0):
+            corner = center + sign * L[:, axis] - L[:, i] - L[:, j]
+            charts.append(ParallelogramChart(corner, 2 * L[:, i], 2 * L[:, j]))
+    return AtlasChart(charts)
+
+
+L_SHEAR = np.array([[0.6, 0.3, 0.0], [0.0, 1.0, 0.4], [0.2, 0.0, 1.5]])
+C_SHEAR = np.array([0.5, 0.0, -1.0])
+
+
+def sheared_box():
+    M = np.eye(4)
+    M[:3, :3], M[:3, 3] = L_SHEAR, C_SHEAR
+    return BoxSurface.from_matrix(M)
+
+
+# ----------------------------------------------------------------------------- area sampling
+
+AREA_CASES = [
+    ("rectangle", rect,
+     lambda: ParallelogramChart([0.0, 0.0, 1.0], [1.0, 0.0, 0.2], [0.3, 1.0, 0.0]), (16, 16)),
+    ("box", box, lambda: box_surface_chart([0.3, -0.2, 1.0], [0.5, 1.0, 2.0], R_BOX), (36, 12)),
+    ("parallelepiped", sheared_box, lambda: _parallelepiped_chart(C_SHEAR, L_SHEAR), (36, 12)),
+    ("ellipsoid", ellipsoid, lambda: EllipsoidChart([1.0, 2.0, 3.0], M_ELL), (20, 20)),
+    ("sphere", sphere, lambda: EllipsoidChart([0.0, 0.0, 0.0], 2.0 * np.eye(3)), (20, 20)),
+]
+
+
+def test_area_sampling_chi_square():
+    results = [chi2_gof(make(), chart(), bins, n=100_000, rng=10 + k, name=name)
+               for k, (name, make, chart, bins) in enumerate(AREA_CASES)]
+    assert_gof(results, alpha=0.01)
+
+
+@pytest.mark.parametrize("name,make,chart,bins", AREA_CASES, ids=[c[0] for c in AREA_CASES])
+def test_area_pdf_integrates_to_one_and_area_is_exact(name, make, chart, bins):
+    surface, ch = make(), chart()
+    fine = (bins[0] * 2, bins[1] * 2)
+    assert integrate(surface.pdf, ch, fine) == pytest.approx(1.0, abs=1e-9)
+    assert integrate(ones, ch, fine) == pytest.approx(surface.area, rel=1e-9)
+
+
+def test_wrong_ellipsoid_pdf_fails_chi_square():
+    wrong = _WrongEllipsoid([1.0, 2.0, 3.0], M_ELL)
+    res = chi2_gof(wrong, EllipsoidChart([1.0, 2.0, 3.0], M_ELL), (20, 20), n=100_000, rng=3)
+    with pytest.raises(AssertionError):
+        assert_gof(res)
+
+
+def test_samples_lie_on_the_surface():
+    u = as_generator(5).random((20_000, 2))
+    r = rect()
+    x = r.sample(u)
+    assert np.all(np.abs((x - r.corner) @ r.unit_normal) <= 1e-12 * np.sqrt(r.area))
+    st = r.invert(x)
+    assert np.all((st >= -1e-12) & (st <= 1 + 1e-12))
+
+    for b, L, c in [(box(), R_BOX * [0.5, 1.0, 2.0], box().center), (sheared_box(), L_SHEAR, C_SHEAR)]:
+        q = (b.sample(u) - c) @ np.linalg.inv(L).T
+        assert np.allclose(np.max(np.abs(q), -1), 1.0, rtol=0, atol=1e-12)
+        # every face is used, in proportion to its area (checked by chi-square above)
+        assert set(np.unique(b.face(b.sample(u)))) == set(range(6))
+
+    e = ellipsoid()
+    d = (e.sample(u) - e.center) @ np.linalg.inv(M_ELL).T
+    assert np.allclose(np.linalg.norm(d, axis=-1), 1.0, rtol=0, atol=1e-12)
+    s = sphere()
+    assert np.allclose(np.linalg.norm(s.sample(u) - s.center, axis=-1), 2.0, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere])
+def test_invert_undoes_sample(make):
+    surface = make()
+    u = as_generator(6).random((5_000, 2))
+    assert np.allclose(surface.invert(surface.sample(u)), u, rtol=0, atol=1e-10)
+
+
+def test_closed_form_densities():
+    s = sphere()
+    x = s.sample(as_generator(1).random((10, 2)))
+    assert np.allclose(s.pdf(x), 1.0 / (4 * np.pi * 4.0), rtol=1e-14)
+    assert s.area == pytest.approx(16 * np.pi)
+
+    a, b, c = 1.5, 0.7, 2.5
+    center = np.array([0.2, -1.0, 3.0])
+    e = EllipsoidSurface(center, np.diag([a, b, c]))
+    poles = center + np.array([[a, 0, 0], [-a, 0, 0], [0, b, 0], [0, 0, c], [0, 0, -c]])
+    expect = 1 / (4 * np.pi * np.array([b * c, b * c, a * c, a * b, a * b]))
+    assert np.allclose(e.pdf(poles), expect, rtol=1e-13)
+    # same ellipsoid rotated: the density follows the poles
+    er = EllipsoidSurface.from_radii(center, [a, b, c], R_ELL)
+    rotated_poles = center + np.diag([a, b, c]) @ R_ELL.T
+    assert np.allclose(er.pdf(rotated_poles), 1 / (4 * np.pi * np.array([b * c, a * c, a * b])), rtol=1e-12)
+    # sphere as an ellipsoid M = r I agrees with SphereSurface
+    e2 = EllipsoidSurface([0, 0, 0], 2.0 * np.eye(3))
+    assert np.allclose(e2.pdf(x), s.pdf(x), rtol=1e-13)
+    assert e2.area == pytest.approx(s.area, rel=1e-13)
+    # box: 1 / total area, faces (4 h_i h_j)
+    bx = BoxSurface([0, 0, 0], [0.5, 1.0, 2.0])
+    assert bx.area == pytest.approx(8 * (0.5 * 1.0 + 0.5 * 2.0 + 1.0 * 2.0))
+    assert np.allclose(bx.face_probs, np.repeat([2.0, 1.0, 0.5], 2) / 7.0)
+
+
+def test_normals():
+    u = as_generator(2).random((2_000, 2))
+    for make in [box, sheared_box, ellipsoid, sphere]:
+        s = make()
+        x = s.sample(u)
+        n = s.normal(x)
+        assert np.allclose(np.linalg.norm(n, axis=-1), 1.0)
+        assert np.all(np.sum((x - s.center) * n, -1) > 0)          # outward
+    # ellipsoid normal is the gradient of |M^-1 (x - c)|^2
+    e = ellipsoid()
+    x = e.sample(u[:50])
+    Minv = np.linalg.inv(M_ELL)
+    f = lambda p: np.sum(((p - e.center) @ Minv.T) ** 2, -1)  # noqa: E731
+    h = 1e-6
+    grad = np.stack([(f(x + h * np.eye(3)[k]) - f(x - h * np.eye(3)[k])) / (2 * h) for k in range(3)], -1)
+    assert np.allclose(e.normal(x), grad / np.linalg.norm(grad, axis=-1, keepdims=True), atol=1e-7)
+    # box normals are perpendicular to the face edges
+    b = box()
+    x = b.sample(u)
+    k = b.face(x)
+    assert np.allclose(np.sum(b.normal(x) * b._e1[k], -1), 0, atol=1e-12)
+    assert np.allclose(np.sum(b.normal(x) * b._e2[k], -1), 0, atol=1e-12)
+    r = rect()
+    assert np.allclose(r.normal(r.sample(u[:3])), np.cross(r.edge1, r.edge2) / r.area)
+
+
+# ----------------------------------------------------------------------------- intersect
+
+def test_intersect_known_values():
+    s = SphereSurface([0, 0, 0], 1.0)
+    t = s.intersect([0, 0, -5], [[0, 0, 1], [0, 0, -1], [0, 1, 0]])
+    assert np.allclose(t[0], [4, 6]) and np.all(np.isinf(t[1:]))
+    t = s.intersect([0, 0, 0.5], [0, 0, 1])                      # from inside: one hit
+    assert np.allclose(t[0], 0.5) and np.isinf(t[1])
+    assert np.allclose(s.intersect([0, 0, -5], [0, 0, 2]), [2, 3])  # t in units of |direction|
+
+    b = BoxSurface([0, 0, 0], [1, 2, 3])
+    assert np.allclose(b.intersect([-5, 0, 0], [1, 0, 0]), [4, 6])
+    t = b.intersect([0, 0, 0], [0, 0, 1])                         # from inside: one hit
+    assert np.allclose(t[0], 3) and np.isinf(t[1])
+    assert np.all(np.isinf(b.intersect([-5, 0, 0], [0, 1, 0])))
+
+    r = RectangleSurface.from_matrix(np.eye(4))
+    assert r.intersect([0.5, 0.5, 2], [0, 0, -1]).shape == (1,)
+    assert np.allclose(r.intersect([[0.5, 0.5, 2], [0.5, 0.5, -2]], [0, 0, -1]), [[2], [np.inf]])
+    assert np.isinf(r.intersect([1.5, 0, 2], [0, 0, -1])[0])
+
+    e = EllipsoidSurface.from_radii([0, 0, 0], [1, 2, 3])
+    assert np.allclose(e.intersect([0, 0, -10], [0, 0, 1]), [7, 13])
+    assert np.allclose(e.intersect([0, -10, 0], [0, 1, 0]), [8, 12])
+
+
+@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere])
+def test_intersect_finds_the_sampled_point_and_broadcasts(make):
+    s = make()
+    u = as_generator(8).random((4, 500, 2))
+    y = s.sample(u)
+    v = y - REF
+    dist = np.linalg.norm(v, axis=-1)
+    t = s.intersect(REF, v / dist[..., None])
+    assert t.shape == (4, 500, s.max_hits)
+    assert np.all(np.min(np.abs(t - dist[..., None]), -1) <= 1e-9 * dist)
+    hits = np.isfinite(t)
+    pts = REF + np.where(hits, t, 0)[..., None] * (v / dist[..., None])[..., None, :]
+    q = s.invert(pts[hits])                                       # back onto the surface chart
+    assert np.allclose(s.sample(q), pts[hits], atol=1e-9)
+    assert np.all(np.diff(t, axis=-1) >= 0) if s.max_hits > 1 else True
+
+
+# ----------------------------------------------------------------------------- directions
+
+def test_rectangle_and_box_directions_chi_square():
+    results = []
+    for k, (make, power) in enumerate([(rect, 1), (rect, 2), (box, 1), (box, 2), (sheared_box, 2)]):
+        d = SolidAngleFromArea(make(), REF)
+        axis, z_min = _aimed(d.surface, REF)
+        res, w = _chi2_refined(_InFrame(d, axis), CapChart(z_min, power), (16, 16), rng=20 + k,
+                               name=f"{make.__name__} power={power}")
+        assert np.all(d.pdf(to_world(w, axis)) > 0)
+        results.append(res)
+    assert_gof(results, alpha=0.01)
+
+
+def test_ellipsoid_and_sphere_directions_chi_square():
+    results = []
+    for k, (make, M) in enumerate([(ellipsoid, M_ELL), (sphere, 2.0 * np.eye(3))]):
+        s = make()
+        d = s.solid_angle_from(REF)
+        chart = _EllipsoidViewChart(s.center, M, REF)
+        results.append(chi2_gof(d, chart, (16, 16), n=100_000, rng=30 + k, name=make.__name__))
+        # also seen from another side, closer
+        ref2 = s.center + np.array([-1.0, 2.5, -2.0]) * 1.3
+        chart2 = _EllipsoidViewChart(s.center, M, ref2)
+        results.append(chi2_gof(s.solid_angle_from(ref2), chart2, (16, 16), n=100_000, rng=40 + k,
+                                name=make.__name__ + " near"))
+    assert_gof(results, alpha=0.01)
+
+
+@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere])
+def test_solid_angle_pdf_integrates_to_one(make):
+    s = make()
+    d = s.solid_angle_from(REF)
+    axis, z_min = _aimed(s, REF)
+    # an aimed cap, independent of the shape; silhouettes limit the accuracy (jumps for
+    # polygons, 1/sqrt singularities for smooth shapes), the view chart below is exact
+    smooth = isinstance(s, (EllipsoidSurface, SphereSurface))
+    total = float(cell_integrals(_InFrame(d, axis).pdf, CapChart(z_min, 1), (128, 128), 4).sum())
+    assert total == pytest.approx(1.0, abs=2e-2 if smooth else 3e-3)
+    if smooth:
+        M = M_ELL if isinstance(s, EllipsoidSurface) else 2.0 * np.eye(3)
+        view = _EllipsoidViewChart(s.center, M, REF)
+        assert integrate(d.pdf, view, 32) == pytest.approx(1.0, abs=1e-9)
+        # the view chart covers the directions that hit the shape: its solid angle is right
+        hits = lambda w: np.isfinite(s.intersect(REF, to_world(w, axis))[..., 0])  # noqa: E731
+        omega = float(cell_integrals(hits, CapChart(z_min, 1), (256, 256), 2).sum())
+        assert integrate(ones, view, 16) == pytest.approx(omega, rel=2e-3)
+        if isinstance(s, SphereSurface):
+            D = np.linalg.norm(REF - s.center)
+            cone = 2 * np.pi * (1 - np.sqrt(1 - 4 / D**2))
+            assert integrate(ones, view, 16) == pytest.approx(cone, rel=1e-12)
+    # directions that miss have density 0
+    w = -(s.bounding_sphere()[0] - REF)
+    assert d.pdf(w / np.linalg.norm(w)) == 0.0
+
+
+def test_two_hits_are_needed():
+    # sphere radius r at distance D: the first hit alone carries the visible cap's mass,
+    # (1 - r/D)/2, the second hit the rest; a one-hit pdf fails chi-square
+    s = sphere()
+    D = np.linalg.norm(REF)
+    chart = _EllipsoidViewChart(s.center, 2.0 * np.eye(3), REF)
+    one = SolidAngleFromArea(_FirstHitOnly(s), REF)
+    both = s.solid_angle_from(REF)
+    assert integrate(one.pdf, chart, 32) == pytest.approx(0.5 * (1 - 2.0 / D), abs=1e-9)
+    assert integrate(both.pdf, chart, 32) == pytest.approx(1.0, abs=1e-9)
+    e = ellipsoid()
+    echart = _EllipsoidViewChart(e.center, M_ELL, REF)
+    first = integrate(SolidAngleFromArea(_FirstHitOnly(e), REF).pdf, echart, 32)
+    assert 0.3 < first < 0.5
+    for surf, ch in [(s, chart), (e, echart)]:
+        res = chi2_gof(SolidAngleFromArea(_FirstHitOnly(surf), REF), ch, (16, 16), n=100_000, rng=4)
+        with pytest.raises(AssertionError):
+            assert_gof(res)
+    # the box too: first-hit-only integrates well below 1
+    b = box()
+    axis, z_min = _aimed(b, REF)
+    bo = _InFrame(SolidAngleFromArea(_FirstHitOnly(b), REF), axis)
+    assert float(cell_integrals(bo.pdf, CapChart(z_min, 1), (64, 64), 4).sum()) < 0.6
+
+
+def test_wrong_solid_angle_conversion_fails():
+    class NoCos(SolidAngleFromArea):  # forgets the 1/|cos| of the area-to-solid-angle Jacobian
+        def pdf(self, w):
+            t = self.surface.intersect(self.ref, w)
+            t = np.where(np.isfinite(t), t, 0.0)
+            return np.sum(self.surface.pdf(self.ref + t[..., None] * w[..., None, :]) * t * t * (t > 0), -1)
+
+    d = NoCos(rect(), REF)
+    axis, z_min = _aimed(d.surface, REF)
+    res, _ = _chi2_refined(_InFrame(d, axis), CapChart(z_min, 2), (16, 16), rng=1)
+    with pytest.raises(AssertionError):
+        assert_gof(res)
+
+
+# ----------------------------------------------------------------------------- irradiance
+
+def _polygon_irradiance(vertices, ref, n):
+    """Lambert's formula: int over a polygon's directions of max(0, w.n) (polygon above the horizon)."""
+    r = vertices - ref
+    r = r / np.linalg.norm(r, axis=-1, keepdims=True)
+    total = 0.0
+    for i in range(len(r)):
+        a, b = r[i], r[(i + 1) % len(r)]
+        cr = np.cross(a, b)
+        total += np.arctan2(np.linalg.norm(cr), a @ b) * (cr / np.linalg.norm(cr)) @ n
+    return abs(0.5 * total)
+
+
+def _quadrature_irradiance(surface, ref, n_ref, m):
+    """Midpoint rule on an aimed cap: int 1[ray hits] max(0, w.n) dw, and its change from 2m/3."""
+    axis, z_min = _aimed(surface, ref)
+    chart = CapChart(z_min, 1)
+
+    def q(m):
+        g = (np.arange(m) + 0.5) / m
+        s = np.stack(np.meshgrid(g, g, indexing="ij"), -1)
+        w = to_world(chart.from_param(s), axis)
+        hit = np.isfinite(surface.intersect(ref, w)[..., 0])
+        return float(np.sum(hit * np.clip(w @ n_ref, 0, None) * chart.jacobian(s)) / m**2)
+
+    fine = q(m)
+    return fine, abs(fine - q(2 * m // 3))  # 2/3: rows not aligned with the fine grid
+
+
+IRRADIANCE_CASES = [
+    ("rectangle", rect, np.array([-0.3, -0.5, -0.8])),
+    ("box", box, np.array([-0.2, -0.6, -0.6])),
+    ("ellipsoid", ellipsoid, np.array([-0.5, -0.3, -0.6])),
+    ("sphere", sphere, np.array([-0.6, -0.8, -0.3])),
+]
+
+
+@pytest.mark.parametrize("name,make,n_ref", IRRADIANCE_CASES, ids=[c[0] for c in IRRADIANCE_CASES])
+def test_irradiance_estimate_matches_quadrature(name, make, n_ref):
+    """E = int_{w hits the light} max(0, w.n) dw (L = 1): each sampled w weighs cos/p(w),
+    with p summed over both hits, since the integral is over directions, not points."""
+    s = make()
+    n_ref = n_ref / np.linalg.norm(n_ref)
+    d = s.solid_angle_from(REF)
+    w, p = d.sample_pdf(as_generator(50).random((200_000, 2)))
+    f = np.clip(w @ n_ref, 0, None) / p
+    est, se = f.mean(), f.std(ddof=1) / np.sqrt(len(f))
+    quad, qerr = _quadrature_irradiance(s, REF, n_ref, 800)
+    assert abs(est - quad) <= 4 * se + 2 * qerr + 1e-12, (est, se, quad, qerr)
+    if name == "rectangle":
+        verts = s.corner + np.array([[0, 0], [1, 0], [1, 1], [0, 1]]) @ np.stack([s.edge1, s.edge2])
+        exact = _polygon_irradiance(verts, REF, n_ref)
+        assert abs(est - exact) <= 4 * se
+        assert abs(quad - exact) <= 2 * qerr + 1e-4
+    if name == "sphere":
+        D = np.linalg.norm(REF)
+        exact = np.pi * (2.0 / D) ** 2 * (-REF / D) @ n_ref   # sphere fully above the horizon
+        assert abs(est - exact) <= 4 * se
+        cone = s.cone_from(REF)
+        wc, pc = cone.sample_pdf(as_generator(51).random((200_000, 2)))
+        fc = np.clip(wc @ n_ref, 0, None) / pc
+        assert abs(fc.mean() - exact) <= 4 * fc.std(ddof=1) / np.sqrt(len(fc))
+
+
+def test_one_hit_irradiance_is_biased():
+    s = sphere()
+    n_ref = -REF / np.linalg.norm(REF)
+    D = np.linalg.norm(REF)
+    exact = np.pi * (2.0 / D) ** 2
+    d = SolidAngleFromArea(_FirstHitOnly(s), REF)
+    u = as_generator(52).random((200_000, 2))
+    w = d.sample(u)
+    p = d.pdf(w)
+    f = np.where(p > 0, np.clip(w @ n_ref, 0, None) / np.where(p > 0, p, 1), 0)
+    assert abs(f.mean() - exact) > 10 * f.std(ddof=1) / np.sqrt(len(f))
+
+
+# ----------------------------------------------------------------------------- batching
+
+@pytest.mark.parametrize("make", [rect, box, ellipsoid, sphere])
+def test_batched_reference_points_match_one_at_a_time(make):
+    s = make()
+    rng = as_generator(60)
+    refs = REF + rng.normal(size=(5, 3))
+    u = rng.random((5, 300, 2))
+    d = SolidAngleFromArea(s, refs[:, None, :])
+    batch = d.sample_point(u)
+    assert isinstance(batch, LightSample)
+    assert batch.w.shape == (5, 300, 3) and batch.pdf.shape == (5, 300) and batch.dist.shape == (5, 300)
+    for i in range(5):
+        one = SolidAngleFromArea(s, refs[i]).sample_point(u[i])
+        for a, b in zip(batch, one):
+            assert np.allclose(a[i], b, rtol=1e-12, atol=1e-14)
+    # pdf of arbitrary directions, broadcast (B, 1, 3) refs against (B, n, 3) directions
+    assert np.allclose(d.pdf(batch.w), batch.pdf, rtol=1e-12)
+    # sample_point: y is the sampled point at distance dist along w
+    assert np.allclose(refs[:, None, :] + batch.dist[..., None] * batch.w, batch.y)
+    if isinstance(s, SphereSurface):
+        cone = s.cone_from(refs[:, None, :])
+        wb, pb = cone.sample_pdf(u)
+        for i in range(5):
+            w1, p1 = s.cone_from(refs[i]).sample_pdf(u[i])
+            assert np.allclose(wb[i], w1, rtol=1e-12, atol=1e-14) and np.allclose(pb[i], p1)
+
+
+# ----------------------------------------------------------------------------- sphere cone
+
+def test_sphere_cone_chi_square_and_normalisation():
+    s = sphere()
+    results = []
+    for k, ref in enumerate([REF, np.array([0.5, -2.2, 0.4]), np.array([0.3, 0.2, -0.5])]):
+        cone = s.cone_from(ref)
+        assert isinstance(cone, SphereCone)
+        chart = CapChart(float(cone.cos_max), 1)
+        results.append(chi2_gof(_InFrame(cone, cone.axis), chart, (16, 16), n=100_000, rng=70 + k))
+        assert integrate(_InFrame(cone, cone.axis).pdf, chart, 16) == pytest.approx(1.0, abs=1e-12)
+        assert integrate(cone.pdf, SphereChart(), 128) == pytest.approx(1.0, abs=1e-2)
+    assert bool(cone.inside)                       # the last ref is inside: uniform sphere
+    assert np.allclose(cone.pdf(cone.sample(as_generator(0).random((10, 2)))), 1 / (4 * np.pi))
+    assert_gof(results, alpha=0.01)
+
+
+def test_sphere_cone_support_matches_area_sampling():
+    s = sphere()
+    cone = s.cone_from(REF)
+    area = s.solid_angle_from(REF)
+    axis, z_min = cone.axis, float(cone.cos_max)
+    # directions uniform in a cap twice as wide as the cone
+    g = as_generator(9).random((50_000, 2))
+    w = to_world(CapChart(1 - 2 * (1 - z_min), 1).from_param(g), axis)
+    pc, pa = cone.pdf(w), area.pdf(w)
+    near = np.abs(1 - w @ axis - (1 - z_min)) < 1e-9
+    assert np.array_equal((pc > 0)[~near], (pa > 0)[~near])
+    assert 0.3 < np.mean(pc > 0) < 0.7
+    # the cone formula: 1 / (2 pi (1 - cos_max)), cos_max = sqrt(1 - r^2/d^2)
+    D = np.linalg.norm(REF)
+    assert cone.pdf(axis) == pytest.approx(1 / (2 * np.pi * (1 - np.sqrt(1 - 4 / D**2))), rel=1e-12)
+
+
+def test_sphere_cone_small_cone_and_sample_point():
+    far = SphereCone([0, 0, 0], 1.0, [0, 0, 1e5])
+    assert far.one_minus_cos == pytest.approx(0.5e-10, rel=1e-9)   # r^2 / (2 d^2), no cancellation
+    u = as_generator(11).random((1000, 2))
+    w = far.sample(u)
+    assert np.all(far.pdf(w) > 0)
+    assert np.allclose(far.invert(w), u, atol=1e-6)
+    s = sphere()
+    for ref in [REF, np.array([0.3, 0.2, -0.5])]:                 # outside, inside
+        cone = s.cone_from(ref)
+        ls = cone.sample_point(u)
+        assert np.allclose(np.linalg.norm(ls.y, axis=-1), 2.0, rtol=1e-9)
+        assert np.allclose(ls.dist, s.intersect(ref, ls.w)[..., 0], rtol=1e-9)
+        assert np.allclose(cone.invert(ls.w), u, atol=1e-9)
+
+
+# ----------------------------------------------------------------------------- constructors
+
+def test_from_matrix_follows_mitsuba():
+    r = RectangleSurface.from_matrix(np.eye(4))
+    assert np.allclose(r.corner, [-1, -1, 0]) and r.area == pytest.approx(4)
+    assert np.allclose(r.unit_normal, [0, 0, 1])
+    M = np.eye(4)
+    M[:3, :3] = R_ELL @ np.diag([2.0, 0.5, 3.0])
+    M[:3, 3] = [1, 2, 3]
+    r = RectangleSurface.from_matrix(M)
+    assert np.allclose(r.center, [1, 2, 3]) and r.area == pytest.approx(4.0)
+    n_mitsuba = np.linalg.inv(M[:3, :3]).T @ [0, 0, 1]
+    assert np.allclose(r.unit_normal, n_mitsuba / np.linalg.norm(n_mitsuba))
+    mirror = M.copy()
+    mirror[:3, 0] *= -1                                            # det < 0
+    rm = RectangleSurface.from_matrix(mirror)
+    n_mitsuba = np.linalg.inv(mirror[:3, :3]).T @ [0, 0, 1]
+    assert np.allclose(rm.unit_normal, n_mitsuba / np.linalg.norm(n_mitsuba))
+    assert np.allclose(RectangleSurface.from_matrix(M, flip_normals=True).unit_normal, -r.unit_normal)
+
+    B = np.eye(4)
+    B[:3, :3] = R_BOX @ np.diag([0.5, 1.0, 2.0])
+    B[:3, 3] = [0.3, -0.2, 1.0]
+    u = as_generator(3).random((100, 2))
+    assert np.allclose(BoxSurface.from_matrix(B).sample(u), box().sample(u))
+    E = np.eye(4)
+    E[:3, :3], E[:3, 3] = M_ELL, [1.0, 2.0, 3.0]
+    assert np.allclose(EllipsoidSurface.from_matrix(E).sample(u), ellipsoid().sample(u))
+    assert isinstance(box(), Surface) and box().measure == "area"
+
+
+@pytest.mark.parametrize("build,arg", [
+    (lambda: SphereSurface([0, 0, 0], 0.0), "radius"),
+    (lambda: SphereSurface([0, 0], 1.0), "center"),
+    (lambda: SphereSurface([0, 0, np.nan], 1.0), "center"),
+    (lambda: EllipsoidSurface([0, 0, 0], np.diag([1.0, 1.0, 0.0])), "matrix"),
+    (lambda: EllipsoidSurface([0, 0, 0], np.eye(2)), "matrix"),
+    (lambda: EllipsoidSurface.from_radii([0, 0, 0], [1, -1, 1]), "radii"),
+    (lambda: EllipsoidSurface.from_radii([0, 0, 0], [1, 1, 1], np.ones((3, 3))), "rotation"),
+    (lambda: RectangleSurface([0, 0, 0], [1, 0, 0], [2, 0, 0]), "edge1, edge2"),
+    (lambda: RectangleSurface([0, 0, 0], [0, 0, 0], [0, 1, 0]), "edge1"),
+    (lambda: RectangleSurface([0, 0, 0], [1, 0, 0], [0, 1]), "edge2"),
+    (lambda: RectangleSurface.from_matrix(np.eye(3)), "matrix"),
+    (lambda: RectangleSurface.from_matrix(np.diag([1.0, 1.0, 1.0, 2.0])), "matrix"),
+    (lambda: BoxSurface([0, 0, 0], [1, 0, 1]), "half_extents"),
+    (lambda: BoxSurface([0, 0, 0], [1, 1, 1], rotation=2 * np.eye(3)), "rotation"),
+    (lambda: BoxSurface.from_matrix(np.diag([1.0, 1.0, 0.0, 1.0])), "matrix"),
+    (lambda: SphereCone([0, 0, 0], -1.0, [0, 0, 5]), "radius"),
+    (lambda: SphereCone([0, 0, 0], 1.0, [0, 5]), "ref"),
+    (lambda: SolidAngleFromArea(sphere(), [1.0, 2.0]), "ref"),
+    (lambda: SolidAngleFromArea(object(), [1.0, 2.0, 3.0]), "surface"),
+    (lambda: sphere().sample(np.zeros((4, 3))), "u"),
+])
+def test_bad_input_raises_value_error(build, arg):
+    with pytest.raises(ValueError, match=arg):
+        build()

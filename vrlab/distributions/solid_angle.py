@@ -1,0 +1,170 @@
+"""Directions towards light surfaces, with solid-angle densities.
+
+* ``SolidAngleFromArea(surface, ref)``: w = normalize(y - ref) for y ~ surface; in solid
+  angle p(w) = sum over *all* hits y_k of the ray (ref, w) of p_A(y_k) |y_k - ref|^2 /
+  |cos theta_k|.  A closed (two-sided) light is met twice by one direction, and both
+  points could have produced w, so both terms count (Russian lecture 4, "two-sided lights").
+* ``SphereCone(center, r, ref)``: directions uniform in the cone subtended by a sphere,
+  cos_max = sqrt(1 - r^2/d^2), p = 1 / (2 pi (1 - cos_max)) (PBRT 3rd ed. 14.2.2).
+"""
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from .base import Distribution, as_points, as_uniforms, positive_float
+from .frames import to_local, to_world
+from .surfaces import TWO_PI, Surface, _sphere_to_u, _unit
+
+
+class LightSample(NamedTuple):
+    """A direction sample towards a light: unit ``w``, the point ``y`` that produced it,
+    ``dist = |y - ref|`` and the solid-angle ``pdf`` of ``w`` (all hits counted)."""
+
+    w: np.ndarray
+    y: np.ndarray
+    dist: np.ndarray
+    pdf: np.ndarray
+
+
+class SolidAngleFromArea(Distribution):
+    """Directions from reference points ``ref`` to area samples of ``surface``.
+
+    sample(u) = normalize(y - ref), y = surface.sample(u).  Measure: solid angle,
+
+        p(w) = sum_k p_A(y_k) |y_k - ref|^2 / |cos theta_k|,  cos theta_k = -w . n(y_k),
+
+    over *every* hit y_k of the ray (ref, w) with the surface (``surface.intersect``).
+    A closed light seen from outside is crossed twice, and a sample on either point
+    produces the same w, so both terms belong to p (Russian lecture 4; Shirley et al.
+    1996).  Dropping the far hit leaves a pdf that integrates to the visible fraction
+    of the light's sampling mass (1/2 - r/(2d) for a sphere at distance d), not to 1.
+
+    ``ref`` (shape (..., 3)) broadcasts against the leading shape of the samples: for
+    per-pixel points ``(*batch, 3)`` and u ``(*batch, n, 2)`` pass ``ref[..., None, :]``.
+
+    For rendering: the estimator of int f(w) dw over the directions that hit the light
+    is f(w) / p(w); radiance along w comes from the *first* hit (the sampled y may be
+    the far point, hidden by the light itself), so visibility should be tested to the
+    first hit, ``surface.intersect(ref, w)[..., 0]``.
+    """
+
+    dim_x = 3
+    measure = "solid angle"
+
+    def __init__(self, surface: Surface, ref: np.ndarray):
+        for attr in ("sample", "pdf", "normal", "intersect"):
+            if not hasattr(surface, attr):
+                raise ValueError(f"surface: needs a {attr}() method, got {type(surface).__name__}")
+        self.surface = surface
+        self.ref = as_points(ref, 3, "ref")
+        if not np.all(np.isfinite(self.ref)):
+            raise ValueError("ref: must be finite")
+        self.dim_u = getattr(surface, "dim_u", 2)
+
+    def _directions(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        y = self.surface.sample(u)
+        v = y - self.ref
+        dist = np.linalg.norm(v, axis=-1)
+        w = v / np.where(dist > 0, dist, 1.0)[..., None]
+        return w, y, dist
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        return self._directions(u)[0]
+
+    def pdf(self, w: np.ndarray) -> np.ndarray:
+        w = _unit(as_points(w, 3, "w"))
+        t = self.surface.intersect(self.ref, w)            # (..., K)
+        hit = np.isfinite(t)
+        tt = np.where(hit, t, 0.0)
+        y = self.ref[..., None, :] + tt[..., None] * w[..., None, :]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cos = np.abs(np.sum(self.surface.normal(y) * w[..., None, :], -1))
+            term = self.surface.pdf(y) * tt * tt / cos
+        return np.sum(np.where(hit, term, 0.0), -1)
+
+    def sample_pdf(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        s = self.sample_point(u)
+        return s.w, s.pdf
+
+    def sample_point(self, u: np.ndarray) -> LightSample:
+        """``LightSample(w, y, dist, pdf)``: direction, sampled light point, its distance
+        from ``ref`` and the solid-angle pdf of ``w`` (sum over all hits)."""
+        w, y, dist = self._directions(u)
+        return LightSample(w, y, dist, self.pdf(w))
+
+    def _repr_fields(self):
+        return {"surface": self.surface, "ref_shape": self.ref.shape}
+
+
+class SphereCone(Distribution):
+    """Directions uniform in the cone a sphere (center, radius) subtends from ``ref``.
+
+    d = |center - ref|, axis = (center - ref)/d, cos_max = sqrt(1 - r^2/d^2), computed as
+    1 - cos_max = (r^2/d^2) / (1 + cos_max) to keep small cones accurate; z = 1 -
+    u1 (1 - cos_max), phi = 2 pi u2 about the axis; p = 1 / (2 pi (1 - cos_max)) for
+    w . axis >= cos_max, else 0 (measure: solid angle; Pharr et al., PBRT 3rd ed.
+    14.2.2).  Every direction in the cone hits the sphere, and only those do.
+    ``ref`` inside (or on) the sphere: the cone is the whole sphere of directions
+    (cos_max = -1, p = 1/(4 pi)).  ``ref`` (..., 3) broadcasts like ``Oriented.axis``:
+    pass ``ref[..., None, :]`` for u of shape (*batch, n, 2).
+    """
+
+    dim_u = 2
+    dim_x = 3
+    measure = "solid angle"
+
+    def __init__(self, center: Any, radius: float, ref: np.ndarray):
+        self.center = as_points(center, 3, "center")
+        self.radius = positive_float(radius, "radius")
+        self.ref = as_points(ref, 3, "ref")
+        if not (np.all(np.isfinite(self.ref)) and np.all(np.isfinite(self.center))):
+            raise ValueError("ref, center: must be finite")
+        v = self.center - self.ref
+        d = np.linalg.norm(v, axis=-1)
+        self.inside = d <= self.radius
+        safe = np.where(d > 0, d, 1.0)
+        self.axis = np.where((d > 0)[..., None], v / safe[..., None], np.array([0.0, 0.0, 1.0]))
+        ratio2 = np.where(self.inside, 1.0, (self.radius / safe) ** 2)
+        self.one_minus_cos = np.where(self.inside, 2.0, ratio2 / (1.0 + np.sqrt(1.0 - ratio2)))
+        self.cos_max = 1.0 - self.one_minus_cos
+        self.solid_angle = TWO_PI * self.one_minus_cos
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        u = as_uniforms(u, 2)
+        omz = u[..., 0] * self.one_minus_cos                # 1 - z, exact for small cones
+        sin = np.sqrt(np.clip(omz * (2.0 - omz), 0.0, None))
+        phi = TWO_PI * u[..., 1]
+        local = np.stack([sin * np.cos(phi), sin * np.sin(phi), 1.0 - omz], -1)
+        return to_world(local, self.axis)
+
+    def _one_minus_cos(self, w: np.ndarray) -> np.ndarray:
+        diff = w - self.axis                                # |w - a|^2 / 2 = 1 - w.a
+        return 0.5 * np.sum(diff * diff, -1)
+
+    def pdf(self, w: np.ndarray) -> np.ndarray:
+        w = as_points(w, 3, "w")
+        inside = self._one_minus_cos(w) <= self.one_minus_cos
+        return np.where(inside, 1.0 / self.solid_angle, 0.0)
+
+    def invert(self, w: np.ndarray) -> np.ndarray:
+        w = as_points(w, 3, "w")
+        u1 = self._one_minus_cos(w) / self.one_minus_cos
+        u2 = _sphere_to_u(to_local(w, self.axis))[..., 1]
+        return np.stack(np.broadcast_arrays(u1, u2), -1)
+
+    def sample_point(self, u: np.ndarray) -> LightSample:
+        """``LightSample(w, y, dist, pdf)`` with y the first (visible) point of the sphere
+        along w (from inside: the exit point); grazing rays are clamped onto the sphere."""
+        w = self.sample(u)
+        o = self.ref - self.center
+        b = np.sum(o * w, -1)
+        c = np.sum(o * o, -1) - self.radius**2
+        sq = np.sqrt(np.clip(b * b - c, 0.0, None))
+        t = np.where(self.inside, -b + sq, -b - sq)
+        y = self.ref + t[..., None] * w
+        return LightSample(w, y, t, self.pdf(w))
+
+    def _repr_fields(self):
+        return {"radius": self.radius, "ref_shape": self.ref.shape}

@@ -1,0 +1,489 @@
+"""Light surfaces: points sampled on a shape (measure: area) and the directions they induce.
+
+Every surface maps ``u`` of shape ``(..., 2)`` to points ``(..., 3)`` and reports the
+density per unit area, ``pdf(x)``.  ``pdf`` assumes ``x`` lies on the surface (it is
+*not* zero off it; points off the surface are treated as their projection).  All
+surfaces share ``area``, ``normal(x)``, ``intersect(origin, direction)`` (every hit,
+not just the first) and ``solid_angle_from(ref)``.  Sources: Russian lecture 4
+("light surface sampling"), Shirley, Wang & Zimmerman, "Monte Carlo techniques for
+direct lighting calculations" (TOG 1996), Arvo, "Stratified sampling of spherical
+triangles" (1995), Pharr, Jakob & Humphreys, PBRT 3rd ed. 14.2.
+
+* ``RectangleSurface(corner, edge1, edge2)``: x = corner + u1 e1 + u2 e2, p = 1/|e1 x e2|.
+* ``BoxSurface(center, half_extents, rotation)``: pick a face with probability
+  area_k / A (u1 is remapped through the 6-face CDF and reused), uniform on it;
+  p = 1/A.  ``BoxSurface.from_matrix`` gives any parallelepiped (Mitsuba ``cube``).
+* ``SphereSurface(center, r)``: p = 1/(4 pi r^2).
+* ``EllipsoidSurface(center, M)``: x = c + M d with d uniform on the unit sphere.  This
+  is *not* uniform by area.  A linear map scales the area element at a point with unit
+  normal N by |det M| ||M^-T N||: a thin prism on the tangent patch with one edge N has
+  volume dA; after the map its volume is |det M| dA, its base is the image patch dA',
+  and its height is (M N) . n' with n' = M^-T N / ||M^-T N||, i.e. 1 / ||M^-T N||.
+  Hence (lecture 4)
+
+      p_A(x) = 1 / (4 pi |det M| ||M^-T n_s||),   n_s = M^-1 (x - c) (on the unit sphere).
+
+  For M = diag(a, b, c) and n_s = (1, 0, 0) this is 1 / (4 pi b c).
+Directions towards these surfaces (``solid_angle_from``, ``cone_from``) live in
+``solid_angle.py``.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from scipy.special import elliprg
+
+from .base import Distribution, as_points, as_uniforms, positive_float
+from .frames import to_local, to_world  # noqa: F401
+
+if TYPE_CHECKING:
+    from .solid_angle import SolidAngleFromArea, SphereCone
+
+TWO_PI = 2.0 * np.pi
+FOUR_PI = 4.0 * np.pi
+_T_EPS = 1e-9  # hits closer than _T_EPS * (bounding radius) are ignored (self-intersection)
+
+
+# ----------------------------------------------------------------------------- helpers
+
+def _vector3(v: Any, name: str) -> np.ndarray:
+    a = np.asarray(v, dtype=float)
+    if a.shape != (3,):
+        raise ValueError(f"{name}: expected a 3-vector, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: must be finite, got {v!r}")
+    return a
+
+
+def _matrix3(m: Any, name: str) -> np.ndarray:
+    a = np.asarray(m, dtype=float)
+    if a.shape != (3, 3):
+        raise ValueError(f"{name}: expected a 3x3 matrix, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: must be finite")
+    scale = np.linalg.norm(a, 2)
+    if scale == 0 or abs(np.linalg.det(a)) <= 1e-12 * scale**3:
+        raise ValueError(f"{name}: must be non-singular (the shape would be flat)")
+    return a
+
+
+def _rotation3(m: Any, name: str = "rotation") -> np.ndarray:
+    if m is None:
+        return np.eye(3)
+    a = np.asarray(m, dtype=float)
+    if a.shape != (3, 3) or not np.all(np.isfinite(a)) or not np.allclose(a.T @ a, np.eye(3), atol=1e-9):
+        raise ValueError(f"{name}: expected an orthogonal 3x3 matrix")
+    return a
+
+
+def _affine4(m: Any, name: str = "matrix") -> tuple[np.ndarray, np.ndarray]:
+    """Linear part and translation of a 4x4 affine ``to_world`` matrix."""
+    a = np.asarray(m, dtype=float)
+    if a.shape != (4, 4):
+        raise ValueError(f"{name}: expected a 4x4 to_world matrix, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: must be finite")
+    if not np.allclose(a[3], [0.0, 0.0, 0.0, 1.0], rtol=0, atol=1e-12):
+        raise ValueError(f"{name}: must be affine (last row 0 0 0 1), got {a[3].tolist()}")
+    return a[:3, :3].copy(), a[:3, 3].copy()
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    """v / |v| along the last axis, without warnings for zero vectors (they give NaN)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _finish_hits(t: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Misses to inf, hits sorted ascending along the last axis."""
+    return np.sort(np.where(valid, t, np.inf), axis=-1)
+
+
+def _sphere_from_u(u: np.ndarray) -> np.ndarray:
+    """Uniform unit-sphere point: z = 1 - 2 u1, phi = 2 pi u2 (Archimedes' hat-box)."""
+    z = 1.0 - 2.0 * u[..., 0]
+    r = np.sqrt(np.clip(1.0 - z * z, 0.0, None))
+    phi = TWO_PI * u[..., 1]
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+
+
+def _sphere_to_u(d: np.ndarray) -> np.ndarray:
+    u2 = np.arctan2(d[..., 1], d[..., 0]) / TWO_PI
+    u2 = np.where(u2 < 0, u2 + 1.0, u2)
+    u2 = np.where(u2 >= 1.0, 0.0, u2)
+    return np.stack([(1.0 - d[..., 2]) / 2.0, u2], axis=-1)
+
+
+def _quadric_hits(o: np.ndarray, d: np.ndarray, t_min: float) -> np.ndarray:
+    """Parameters t > t_min with |o + t d| = 1 (unit sphere), shape (..., 2), misses inf.
+
+    Stable roots: q = -(b + sign(b) sqrt(disc)), t = q / a and c / q.
+    """
+    a = np.sum(d * d, -1)
+    b = np.sum(o * d, -1)
+    c = np.sum(o * o, -1) - 1.0
+    disc = b * b - a * c
+    hit = disc >= 0.0
+    sq = np.sqrt(np.where(hit, disc, 0.0))
+    q = -(b + np.where(b >= 0.0, sq, -sq))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = q / a
+        t2 = np.where(q != 0.0, c / np.where(q != 0.0, q, 1.0), t1)
+    t = np.stack([t1, t2], -1)
+    return _finish_hits(t, hit[..., None] & np.isfinite(t) & (t > t_min))
+
+
+# ----------------------------------------------------------------------------- base
+
+class Surface(Distribution):
+    """A sampled light surface.  Measure of ``pdf``: area.
+
+    Subclasses provide ``sample``, ``pdf`` (points assumed on the surface), ``area``,
+    ``normal(x)`` (unit, outward for closed shapes), ``intersect`` and ``max_hits`` (K).
+    """
+
+    dim_u = 2
+    dim_x = 3
+    measure = "area"
+    max_hits: int = 1
+    area: float
+
+    def normal(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError  # abstract
+
+    def intersect(self, origin: np.ndarray, direction: np.ndarray,
+                  t_min: float | None = None) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError  # abstract
+
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:  # pragma: no cover - interface
+        """``(center, radius)`` of a sphere containing the surface."""
+        raise NotImplementedError  # abstract
+
+    def _t_min(self, t_min: float | None) -> float:
+        if t_min is not None:
+            return float(t_min)
+        if not hasattr(self, "_t_eps"):
+            self._t_eps = _T_EPS * self.bounding_sphere()[1]
+        return self._t_eps
+
+    def solid_angle_from(self, ref: np.ndarray) -> "SolidAngleFromArea":
+        """Directions from ``ref`` towards area samples of this surface (solid angle pdf)."""
+        from .solid_angle import SolidAngleFromArea
+        return SolidAngleFromArea(self, ref)
+
+    def _rays(self, origin: np.ndarray, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return as_points(origin, 3, "origin"), as_points(direction, 3, "direction")
+
+
+_INTERSECT_DOC = """All hits of the rays ``origin + t direction`` with t > t_min.
+
+        ``origin`` and ``direction`` (shape (..., 3), broadcast; direction need not be
+        unit, t is in units of its length) give ``t`` of shape (..., K), ascending,
+        ``inf`` for misses.  ``t_min`` defaults to 1e-9 x the bounding radius.
+        """
+
+
+# ----------------------------------------------------------------------------- rectangle
+
+class RectangleSurface(Surface):
+    """Uniform points on the parallelogram corner + s e1 + t e2, (s, t) in [0, 1)^2.
+
+    p = 1 / |e1 x e2| (area); normal = normalize(e1 x e2); ``invert`` gives (s, t).
+    ``RectangleSurface.from_matrix(M)``: Mitsuba's ``rectangle`` ([-1, 1]^2 in the xy
+    plane, normal +z) under the 4x4 ``to_world`` matrix ``M``.
+    """
+
+    max_hits = 1
+
+    def __init__(self, corner: Any, edge1: Any, edge2: Any):
+        self.corner = _vector3(corner, "corner")
+        self.edge1 = _vector3(edge1, "edge1")
+        self.edge2 = _vector3(edge2, "edge2")
+        cross = np.cross(self.edge1, self.edge2)
+        self.area = float(np.linalg.norm(cross))
+        l1, l2 = np.linalg.norm(self.edge1), np.linalg.norm(self.edge2)
+        if l1 == 0:
+            raise ValueError("edge1: must be non-zero")
+        if l2 == 0:
+            raise ValueError("edge2: must be non-zero")
+        if self.area <= 1e-12 * l1 * l2:
+            raise ValueError("edge1, edge2: must not be parallel (degenerate rectangle)")
+        self.unit_normal = cross / self.area
+        self._edges = np.stack([self.edge1, self.edge2])   # (2, 3)
+        self._dual = np.linalg.pinv(self._edges)           # (3, 2): (x - corner) @ dual = (s, t)
+
+    @classmethod
+    def from_matrix(cls, matrix: Any, flip_normals: bool = False) -> "RectangleSurface":
+        """Mitsuba ``rectangle`` under the affine 4x4 ``to_world`` ``matrix``.
+
+        Corners M (+-1, +-1, 0); the normal is Mitsuba's, M^-T (0, 0, 1) (flipped with
+        ``flip_normals``): when det of the linear part is negative the edges are swapped
+        so that normalize(e1 x e2) still equals it.
+        """
+        lin, trans = _affine4(matrix, "matrix")
+        corner = lin @ np.array([-1.0, -1.0, 0.0]) + trans
+        e1, e2 = lin @ np.array([2.0, 0.0, 0.0]), lin @ np.array([0.0, 2.0, 0.0])
+        flip = (np.linalg.det(lin) < 0) != bool(flip_normals)
+        return cls(corner, e2, e1) if flip else cls(corner, e1, e2)
+
+    @property
+    def center(self) -> np.ndarray:
+        return self.corner + 0.5 * (self.edge1 + self.edge2)
+
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:
+        r = 0.5 * max(np.linalg.norm(self.edge1 + self.edge2), np.linalg.norm(self.edge1 - self.edge2))
+        return self.center, float(r)
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        u = as_uniforms(u, 2)
+        return self.corner + u[..., 0:1] * self.edge1 + u[..., 1:2] * self.edge2
+
+    def pdf(self, x: np.ndarray) -> np.ndarray:
+        x = as_points(x, 3)
+        return np.full(x.shape[:-1], 1.0 / self.area)
+
+    def invert(self, x: np.ndarray) -> np.ndarray:
+        return (as_points(x, 3) - self.corner) @ self._dual
+
+    def normal(self, x: np.ndarray) -> np.ndarray:
+        x = as_points(x, 3)
+        return np.broadcast_to(self.unit_normal, x.shape).copy()
+
+    def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
+        o, d = self._rays(origin, direction)
+        n = self.unit_normal
+        denom = d @ n
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((self.corner - o) @ n) / denom
+        ok = np.isfinite(t) & (t > self._t_min(t_min))
+        tt = np.where(ok, t, 0.0)
+        st = (o + tt[..., None] * d - self.corner) @ self._dual
+        ok &= np.all((st >= 0.0) & (st <= 1.0), -1)
+        return np.where(ok, t, np.inf)[..., None]
+
+    intersect.__doc__ = _INTERSECT_DOC
+
+    def _repr_fields(self):
+        return {"corner": self.corner.tolist(), "edge1": self.edge1.tolist(), "edge2": self.edge2.tolist()}
+
+
+# ----------------------------------------------------------------------------- box
+
+class BoxSurface(Surface):
+    """Uniform points on the surface of a box (parallelepiped); p = 1 / total area.
+
+    The box is c + L q for q in [-1, 1]^3 with L = rotation @ diag(half_extents)
+    (``from_matrix`` accepts any affine map of Mitsuba's ``cube``, i.e. any
+    parallelepiped).  Face k = 2 axis + (0 for the -side, 1 for +) has area
+    4 |L e_i x L e_j|.  Sampling (lecture 4): u1 picks the face through the CDF of face
+    areas and is remapped to u1' = (u1 - F_{k-1}) / P_k, then (u1', u2) is uniform on the
+    face.  Normals are outward.  ``invert`` undoes ``sample``.
+    """
+
+    max_hits = 2
+
+    def __init__(self, center: Any, half_extents: Any, rotation: Any = None):
+        h = np.asarray(half_extents, dtype=float) * np.ones(3)
+        if h.shape != (3,) or not np.all(np.isfinite(h)) or np.any(h <= 0):
+            raise ValueError(f"half_extents: expected 3 finite numbers > 0 (or one), got {half_extents!r}")
+        R = _rotation3(rotation)
+        self.half_extents = h
+        self.rotation = R
+        self._setup(_vector3(center, "center"), R * h)
+
+    @classmethod
+    def from_matrix(cls, matrix: Any) -> "BoxSurface":
+        """Mitsuba's ``cube`` ([-1, 1]^3) under the affine 4x4 ``to_world`` ``matrix``."""
+        lin, trans = _affine4(matrix, "matrix")
+        self = cls.__new__(cls)
+        self.half_extents = np.linalg.norm(lin, axis=0)
+        self.rotation = None
+        self._setup(trans, _matrix3(lin, "matrix"))
+        return self
+
+    def _setup(self, center: np.ndarray, L: np.ndarray) -> None:
+        self.center = center
+        self.L = L
+        self.Linv = np.linalg.inv(L)
+        corners, e1s, e2s, normals, areas = [], [], [], [], []
+        for axis in range(3):
+            i, j = [a for a in range(3) if a != axis]
+            for sign in (-1.0, 1.0):
+                corners.append(center + L @ (sign * np.eye(3)[axis] - np.eye(3)[i] - np.eye(3)[j]))
+                e1s.append(2.0 * L[:, i])
+                e2s.append(2.0 * L[:, j])
+                n = sign * self.Linv[axis]           # L^-T e_axis: outward face normal
+                normals.append(n / np.linalg.norm(n))
+                areas.append(np.linalg.norm(np.cross(e1s[-1], e2s[-1])))
+        self._corner = np.array(corners)            # (6, 3)
+        self._e1, self._e2 = np.array(e1s), np.array(e2s)
+        self._normals = np.array(normals)
+        self.face_areas = np.array(areas)
+        self.area = float(self.face_areas.sum())
+        self.face_probs = self.face_areas / self.area
+        cdf = np.cumsum(self.face_probs)
+        cdf[-1] = 1.0
+        self._cdf = cdf
+        self._cdf_lo = np.concatenate([[0.0], cdf[:-1]])
+        # (6, 3, 2): (x - corner_k) @ dual_k = (s, t) on face k
+        self._dual = np.stack([np.linalg.pinv(np.stack([a, b])) for a, b in zip(self._e1, self._e2)])
+
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
+        return self.center, float(np.max(np.linalg.norm(signs @ self.L.T, axis=-1)))
+
+    def face(self, x: np.ndarray) -> np.ndarray:
+        """Index 2 axis + (q_axis > 0) of the face holding each surface point."""
+        q = (as_points(x, 3) - self.center) @ self.Linv.T
+        axis = np.argmax(np.abs(q), axis=-1)
+        side = np.take_along_axis(q, axis[..., None], -1)[..., 0] > 0
+        return 2 * axis + side
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        u = as_uniforms(u, 2)
+        k = np.minimum(np.searchsorted(self._cdf, u[..., 0], side="right"), 5)
+        s = np.clip((u[..., 0] - self._cdf_lo[k]) / self.face_probs[k], 0.0, 1.0)
+        return self._corner[k] + s[..., None] * self._e1[k] + u[..., 1:2] * self._e2[k]
+
+    def pdf(self, x: np.ndarray) -> np.ndarray:
+        x = as_points(x, 3)
+        return np.full(x.shape[:-1], 1.0 / self.area)
+
+    def invert(self, x: np.ndarray) -> np.ndarray:
+        x = as_points(x, 3)
+        k = self.face(x)
+        st = np.einsum("...i,...ij->...j", x - self._corner[k], self._dual[k])
+        return np.stack([self._cdf_lo[k] + st[..., 0] * self.face_probs[k], st[..., 1]], -1)
+
+    def normal(self, x: np.ndarray) -> np.ndarray:
+        return self._normals[self.face(x)]
+
+    def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
+        o, d = self._rays(origin, direction)
+        o = (o - self.center) @ self.Linv.T          # unit-cube coordinates, same t
+        d = d @ self.Linv.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / d
+            t1, t2 = (-1.0 - o) * inv, (1.0 - o) * inv
+        near = np.max(np.minimum(t1, t2), axis=-1)
+        far = np.min(np.maximum(t1, t2), axis=-1)
+        hit = near <= far                            # NaN (ray in a face plane) is a miss
+        t = np.stack([near, far], -1)
+        return _finish_hits(t, hit[..., None] & (t > self._t_min(t_min)))
+
+    intersect.__doc__ = _INTERSECT_DOC
+
+    def _repr_fields(self):
+        return {"center": self.center.tolist(), "half_extents": np.round(self.half_extents, 6).tolist()}
+
+
+# ----------------------------------------------------------------------------- ellipsoid / sphere
+
+class EllipsoidSurface(Surface):
+    """x = c + M d with d uniform on the unit sphere (measure: area, not uniform).
+
+    p_A(x) = 1 / (4 pi |det M| ||M^-T n_s||), n_s = M^-1 (x - c): the uniform density
+    1/(4 pi) divided by the area scale of M on the tangent plane (derivation in the
+    module docstring; Russian lecture 4).  ``area`` is exact: 4 pi R_G(a^2 b^2, b^2 c^2,
+    c^2 a^2) with a, b, c the singular values of M and R_G Carlson's symmetric elliptic
+    integral (``scipy.special.elliprg``).  Normals (outward) are normalize(M^-T n_s).
+    ``invert`` gives the u of the unit-sphere point.
+    """
+
+    max_hits = 2
+
+    def __init__(self, center: Any, matrix: Any):
+        self.center = _vector3(center, "center")
+        self.M = _matrix3(matrix, "matrix")
+        self.Minv = np.linalg.inv(self.M)
+        self.abs_det = float(abs(np.linalg.det(self.M)))
+        self.semi_axes = np.linalg.svd(self.M, compute_uv=False)
+        a, b, c = self.semi_axes
+        self.area = float(FOUR_PI * elliprg(a * a * b * b, b * b * c * c, c * c * a * a))
+
+    @classmethod
+    def from_radii(cls, center: Any, radii: Any, rotation: Any = None) -> "EllipsoidSurface":
+        """Ellipsoid with semi-axes ``radii`` along the columns of ``rotation`` (M = R diag(radii))."""
+        r = np.asarray(radii, dtype=float) * np.ones(3)
+        if r.shape != (3,) or not np.all(np.isfinite(r)) or np.any(r <= 0):
+            raise ValueError(f"radii: expected 3 finite numbers > 0 (or one), got {radii!r}")
+        return cls(center, _rotation3(rotation) * r)
+
+    @classmethod
+    def from_matrix(cls, matrix: Any) -> "EllipsoidSurface":
+        """The unit sphere at the origin under an affine 4x4 ``to_world`` ``matrix``."""
+        lin, trans = _affine4(matrix, "matrix")
+        return cls(trans, lin)
+
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:
+        return self.center, float(self.semi_axes[0])
+
+    def _sphere_point(self, x: np.ndarray) -> np.ndarray:
+        return _unit((as_points(x, 3) - self.center) @ self.Minv.T)
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        return self.center + _sphere_from_u(as_uniforms(u, 2)) @ self.M.T
+
+    def pdf(self, x: np.ndarray) -> np.ndarray:
+        g = self._sphere_point(x) @ self.Minv       # (M^-T n_s)^T = n_s^T M^-1
+        return 1.0 / (FOUR_PI * self.abs_det * np.linalg.norm(g, axis=-1))
+
+    def invert(self, x: np.ndarray) -> np.ndarray:
+        return _sphere_to_u(self._sphere_point(x))
+
+    def normal(self, x: np.ndarray) -> np.ndarray:
+        return _unit(self._sphere_point(x) @ self.Minv)
+
+    def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
+        o, d = self._rays(origin, direction)
+        return _quadric_hits((o - self.center) @ self.Minv.T, d @ self.Minv.T, self._t_min(t_min))
+
+    intersect.__doc__ = _INTERSECT_DOC
+
+    def _repr_fields(self):
+        return {"center": self.center.tolist(), "matrix": np.round(self.M, 6).tolist()}
+
+
+class SphereSurface(Surface):
+    """Uniform points on the sphere |x - c| = r: z = 1 - 2 u1, phi = 2 pi u2, p = 1/(4 pi r^2).
+
+    ``cone_from(ref)`` gives the (better) uniform-cone direction sampler of PBRT.
+    """
+
+    max_hits = 2
+
+    def __init__(self, center: Any, radius: float):
+        self.center = _vector3(center, "center")
+        self.radius = positive_float(radius, "radius")
+        self.area = FOUR_PI * self.radius**2
+
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:
+        return self.center, self.radius
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        return self.center + self.radius * _sphere_from_u(as_uniforms(u, 2))
+
+    def pdf(self, x: np.ndarray) -> np.ndarray:
+        x = as_points(x, 3)
+        return np.full(x.shape[:-1], 1.0 / self.area)
+
+    def invert(self, x: np.ndarray) -> np.ndarray:
+        return _sphere_to_u(self.normal(x))
+
+    def normal(self, x: np.ndarray) -> np.ndarray:
+        return _unit(as_points(x, 3) - self.center)
+
+    def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
+        o, d = self._rays(origin, direction)
+        return _quadric_hits((o - self.center) / self.radius, d / self.radius, self._t_min(t_min))
+
+    intersect.__doc__ = _INTERSECT_DOC
+
+    def cone_from(self, ref: np.ndarray) -> "SphereCone":
+        """Directions uniform in the cone this sphere subtends from ``ref`` (batched)."""
+        from .solid_angle import SphereCone
+        return SphereCone(self.center, self.radius, ref)
+
+    def _repr_fields(self):
+        return {"center": self.center.tolist(), "radius": self.radius}
