@@ -1,0 +1,233 @@
+r"""The radical inverse and its digit tables (shared by Halton, Hammersley and scrambles).
+
+Radical inverse
+---------------
+Write ``i = sum_k d_k b^k`` in base ``b`` (digits ``0 <= d_k < b``); the radical
+inverse mirrors the digits about the radix point (van der Corput 1935)::
+
+    phi_b(i) = sum_k d_k b^{-k-1}.
+
+The first ``b^m`` values of ``phi_b`` hit every interval ``[j/b^m, (j+1)/b^m)``
+exactly once.
+
+Implementation
+--------------
+Digits are handled ``k`` at a time: ``B = b^k <= 2^16`` and a table
+``T[r] = phi_b(r)`` over ``k`` digits (permuted tables for ``scramble=True``)
+give ``phi_b(i) = T[i mod B] + phi'(i // B) / B``.  For a contiguous range of
+indices the low part is the table itself, repeated, and the high part is constant
+over blocks of ``B`` indices, so a whole dimension costs one broadcast addition
+(no integer division per point).  Arbitrary index arrays use divmod per digit group.
+Output arrays are Fortran-ordered (each coordinate contiguous), as in SciPy.
+"""
+from __future__ import annotations
+
+import functools
+import math
+from collections import OrderedDict
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .base import check_int, clamp_open
+
+_TABLE_LIMIT = 1 << 16     # largest table b^k (entries) per digit group
+_PRECISION_BITS = 53       # digits are scrambled until b^-K <= 2^-53
+
+
+
+# ---------------------------------------------------------------------------------------
+# primes
+# ---------------------------------------------------------------------------------------
+@functools.cache
+def _primes_upto(limit: int) -> np.ndarray:
+    sieve = np.ones(limit + 1, dtype=bool)
+    sieve[:2] = False
+    for p in range(2, int(limit ** 0.5) + 1):
+        if sieve[p]:
+            sieve[p * p::p] = False
+    return np.flatnonzero(sieve)
+
+
+def first_primes(d: int) -> np.ndarray:
+    """The first ``d`` primes ``2, 3, 5, ...`` (int64 array)."""
+    d = check_int("d", d, 0)
+    if d == 0:
+        return np.zeros(0, dtype=np.int64)
+    # p_d < d (ln d + ln ln d) for d >= 6 (Rosser 1941)
+    limit = 15 if d < 6 else int(d * (math.log(d) + math.log(math.log(d)))) + 1
+    return _primes_upto(limit)[:d].astype(np.int64)
+
+
+# ---------------------------------------------------------------------------------------
+# digit tables
+# ---------------------------------------------------------------------------------------
+def _digits_per_group(b: int) -> int:
+    k = 1
+    while b ** (k + 1) <= _TABLE_LIMIT:
+        k += 1
+    return k
+
+
+def _precision_digits(b: int) -> int:
+    K = 1
+    while b ** K < (1 << _PRECISION_BITS):
+        K += 1
+    return K
+
+
+def _group_table(b: int, perms: np.ndarray | None, k: int) -> np.ndarray:
+    """``T[r] = sum_{j<k} pi_j(digit_j(r)) b^{-j-1}`` for ``r < b^k`` (identity if no perms).
+
+    Built in integers (exact) and divided once: ``T = R / b^k``."""
+    digits = np.arange(b, dtype=np.int64)
+    R = np.zeros(1, dtype=np.int64)
+    for j in range(k):
+        dj = digits if perms is None else perms[j]
+        # index r = digit_j * b^j + r_low  ->  row digit_j, column r_low
+        R = np.add.outer(dj * b ** (k - 1 - j), R).ravel()
+    return R / float(b ** k)
+
+
+class _Digits:
+    """Radical-inverse tables of one base, identity or with digit permutations."""
+
+    def __init__(self, b: int, perms: np.ndarray | None = None) -> None:
+        self.b = b
+        self.k = _digits_per_group(b)
+        self.B = b ** self.k
+        self.K = _precision_digits(b)
+        self.G = -(-self.K // self.k)          # digit groups inside float64 precision
+        self.perms = perms                    # (G*k, b) or None
+        self._tables: dict[int, np.ndarray] = {}
+        if perms is None:
+            self._tails = np.zeros(self.G + 1)
+        else:
+            # value of groups g, g+1, ... when all their digits are 0 (permuted zeros)
+            # (computed exactly like T_g[0], so that gather() does not depend on how many
+            # all-zero groups it expands: T_g[0] + tail(g+1)/B == tail(g) bit for bit)
+            zero = perms[:, 0].reshape(self.G, self.k)
+            w = b ** np.arange(self.k - 1, -1, -1, dtype=np.int64)
+            per_group = (zero @ w) / float(self.B)
+            tails = np.zeros(self.G + 1)
+            for g in range(self.G - 1, -1, -1):
+                tails[g] = per_group[g] + tails[g + 1] / self.B
+            self._tails = tails
+
+    def _perms_of(self, g: int) -> np.ndarray | None:
+        """Permutations of the ``k`` digits of group ``g`` (None: identity)."""
+        if self.perms is None or g >= self.G:
+            return None
+        return self.perms[g * self.k:(g + 1) * self.k]
+
+    def has_table(self, g: int) -> bool:
+        if self._perms_of(g) is None:
+            return self.b in _IDENTITY_TABLES
+        return g in self._tables
+
+    def table(self, g: int) -> np.ndarray:
+        p = self._perms_of(g)
+        if p is None:
+            return _identity_table(self.b, self.k)
+        T = self._tables.get(g)
+        if T is None:
+            T = self._tables[g] = _group_table(self.b, p, self.k)
+        return T
+
+    def lookup(self, g: int, r: np.ndarray) -> np.ndarray:
+        """``table(g)[r]``; for a few indices and no table yet, the same values computed
+        directly (integer digit sums divided by ``b^k``, bit-identical to the table)."""
+        if self.has_table(g) or 8 * r.size >= self.B:
+            return self.table(g)[r]
+        b, k = self.b, self.k
+        p = self._perms_of(g)
+        R = np.zeros(r.shape, dtype=np.int64)
+        q = r
+        for j in range(k):
+            q, dig = np.divmod(q, b)
+            R += (dig if p is None else p[j][dig]) * b ** (k - 1 - j)
+        return R / float(b ** k)
+
+    def tail(self, g: int) -> float:
+        return float(self._tails[g]) if g < self.G else 0.0
+
+    # -- evaluation ---------------------------------------------------------------------
+    def gather(self, i: np.ndarray, g0: int = 0) -> np.ndarray:
+        """Radical inverse (from digit group ``g0`` on) of an int64 array ``i``."""
+        B = self.B
+        groups = []
+        q = i
+        while q.size and q.max() > 0:
+            q, r = np.divmod(q, B)
+            groups.append(r)
+        res = np.full(i.shape, self.tail(g0 + len(groups)))
+        for j in range(len(groups) - 1, -1, -1):
+            res = self.lookup(g0 + j, groups[j]) + res / B
+        return res
+
+    def fill_range(self, s: int, n: int, out: np.ndarray, g0: int = 0) -> None:
+        """``out[:] = phi(s), ..., phi(s + n - 1)`` (``out`` contiguous, length ``n``)."""
+        B = self.B
+        if n <= 64 or (8 * n < B and not self.has_table(g0)):
+            out[:] = self.gather(np.arange(s, s + n, dtype=np.int64), g0)
+            return
+        q0, q1 = s // B, (s + n - 1) // B
+        hi = np.empty(q1 - q0 + 1)
+        self.fill_range(q0, q1 - q0 + 1, hi, g0 + 1)
+        hi /= B
+        T = self.table(g0)
+        a = s - q0 * B
+        h = min(n, B - a)                           # rest of the first block
+        np.add(T[a:a + h], hi[0], out=out[:h])
+        m = (n - h) // B                            # full blocks
+        block = out[h:h + m * B].reshape(m, B)      # a view: out is contiguous
+        np.add(T[None, :], hi[1:1 + m, None], out=block)
+        rest = n - h - m * B
+        if rest:
+            np.add(T[:rest], hi[1 + m], out=out[h + m * B:])
+
+
+# Unscrambled tables are shared by all engines: a small LRU cache, at most
+# _IDENTITY_MAX tables of at most 2^16 entries each (64 MiB).
+_IDENTITY_TABLES: OrderedDict[int, np.ndarray] = OrderedDict()
+_IDENTITY_MAX = 128
+
+
+def _identity_table(b: int, k: int) -> np.ndarray:
+    T = _IDENTITY_TABLES.get(b)
+    if T is None:
+        T = _IDENTITY_TABLES[b] = _group_table(b, None, k)
+        if len(_IDENTITY_TABLES) > _IDENTITY_MAX:
+            _IDENTITY_TABLES.popitem(last=False)
+    else:
+        _IDENTITY_TABLES.move_to_end(b)
+    return T
+
+
+@functools.cache
+def _identity_digits(b: int) -> _Digits:
+    return _Digits(b)
+
+
+def radical_inverse(i: ArrayLike, base: int = 2) -> np.ndarray:
+    """Vectorised radical inverse ``phi_b(i) = sum_k d_k b^{-k-1}`` where ``i = sum_k d_k b^k``.
+
+    ``i``: non-negative integers (any shape, int dtype); ``base``: integer >= 2.
+    Returns float64 of the same shape (van der Corput 1935; Halton 1960).
+    """
+    base = check_int("base", base, 2)
+    arr = np.asarray(i)
+    if arr.dtype == object or arr.dtype.kind not in "iu":
+        if arr.size == 0 and arr.dtype.kind == "f":
+            arr = arr.astype(np.int64)
+        else:
+            raise TypeError(f"i must be an array of integers, got dtype {arr.dtype}")
+    if arr.size and (arr.min() < 0):
+        raise ValueError("i must be non-negative")
+    if arr.dtype == np.uint64 and arr.size and arr.max() > np.iinfo(np.int64).max:
+        raise ValueError("i must be < 2**63")
+    flat = arr.astype(np.int64, copy=False).ravel()
+    # clamp: for i >= 2^53 the exact value 1 - b^-m can round up to 1.0
+    return clamp_open(_identity_digits(base).gather(flat)).reshape(arr.shape)
+
+

@@ -1,0 +1,135 @@
+"""Point-set factory, independent replicates and discrepancy."""
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy.stats import qmc
+
+from .._rng import RNGLike, spawn
+from .base import PointSet, check_int
+from .halton import Halton, Hammersley
+from .iid import Independent
+from .lhs import LatinHypercube
+from .rotation import CranleyPatterson
+from .sobol import Sobol
+from .stratified import Stratified
+
+#: canonical name -> class, and accepted aliases
+POINT_SETS: dict[str, type] = {
+    "independent": Independent,
+    "stratified": Stratified,
+    "lhs": LatinHypercube,
+    "halton": Halton,
+    "hammersley": Hammersley,
+    "sobol": Sobol,
+    "cranley-patterson": CranleyPatterson,
+}
+_ALIASES = {
+    "iid": "independent", "random": "independent", "mc": "independent", "uniform": "independent",
+    "jittered": "stratified", "latin": "lhs", "latinhypercube": "lhs", "latin-hypercube": "lhs",
+    "latin_hypercube": "lhs", "cp": "cranley-patterson", "cranleypatterson": "cranley-patterson",
+    "cranley_patterson": "cranley-patterson", "rotation": "cranley-patterson",
+}
+
+
+def make_points(name: str, d: int, *, rng: RNGLike = None, **kwargs: Any) -> PointSet:
+    """Build a point set by name: ``make_points("halton", 2, rng=1, scramble=True)``.
+
+    Names (case-insensitive): ``independent`` (``iid``, ``mc``), ``stratified``
+    (``jittered``), ``lhs`` (``latin-hypercube``), ``halton``, ``hammersley``, ``sobol``,
+    ``cranley-patterson`` (``cp``; ``points=`` names the shifted set, default unscrambled
+    Halton).  ``kwargs`` go to the class.  Unknown names raise ``ValueError``.
+    """
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a string, got {type(name).__name__}")
+    key = name.strip().lower().replace(" ", "-")
+    key = _ALIASES.get(key, key)
+    if key not in POINT_SETS:
+        allowed = ", ".join(sorted(POINT_SETS) + sorted(_ALIASES))
+        raise ValueError(f"name: unknown point set {name!r}; allowed names: {allowed}")
+    return POINT_SETS[key](d, rng=rng, **kwargs)
+
+
+def replicates(points: Any, R: int, *, rng: RNGLike = None, d: int | None = None,
+               **kwargs: Any) -> list[Any]:
+    """``R`` independent randomised replicates of one point set (for randomised QMC).
+
+    ``points`` may be
+    * a vrlab engine instance: ``points.replicate(R, rng)`` (same class and settings);
+    * a name (see :func:`make_points`) or a point-set class (vrlab or
+      ``scipy.stats.qmc``): built as ``cls(d, rng=child, **kwargs)``;
+    * a factory ``f(rng) -> engine``: called as ``f(child)``.
+
+    The children are ``vrlab._rng.spawn(rng, R)``, i.e. ``SeedSequence(rng).spawn(R)``:
+    replicates are independent of each other and reproducible from ``rng`` (never make
+    replicates by re-creating an engine with the same seed, or by sharing one engine).
+    A deterministic set (``Halton(d, scramble=False)``, unscrambled Sobol, ...) would give
+    ``R`` identical copies, so it raises ``ValueError``: scramble it or wrap it in
+    :class:`CranleyPatterson`.
+    """
+    R = check_int("R", R, 0)
+    if isinstance(points, PointSet):
+        return points.replicate(R, rng=rng)
+    if isinstance(points, qmc.QMCEngine):
+        raise TypeError(
+            "points: cannot re-randomise a scipy.stats.qmc engine instance; pass its class "
+            "(with d=... and settings) or a factory rng -> engine"
+        )
+    if isinstance(points, (str, type)):
+        if d is None:
+            raise TypeError("d is required when points is a name or a class")
+        d = check_int("d", d, 1)
+        if isinstance(points, str):
+            def factory(g):
+                return make_points(points, d, rng=g, **kwargs)
+        else:
+            def factory(g):
+                return points(d, rng=g, **kwargs)
+    elif callable(points):
+        if d is not None or kwargs:
+            raise TypeError("d=/keyword settings are not used with a factory function")
+        factory = points
+    else:
+        raise TypeError(f"points must be a point set, a name, a class or a factory, got {type(points).__name__}")
+    reps = [factory(child) for child in spawn(rng, R)]
+    _check_not_identical(reps)
+    return reps
+
+
+def _check_not_identical(reps: list[Any]) -> None:
+    if not reps:
+        return
+    flag = getattr(reps[0], "randomized", None)
+    if flag is None and len(reps) >= 2:
+        # a foreign engine: compare the first points of copies of two replicates
+        a = copy.deepcopy(reps[0]).random(4)
+        b = copy.deepcopy(reps[1]).random(4)
+        flag = not np.array_equal(a, b)
+    if flag is False:
+        raise ValueError(
+            f"points: {reps[0]!r} is deterministic, so its replicates would be identical copies "
+            "(zero spread, no error estimate); use scramble=True or wrap it in CranleyPatterson(...)"
+        )
+
+
+_DISCREPANCY_METHODS = ("CD", "WD", "MD", "L2-star")
+
+
+def discrepancy(points: ArrayLike, method: str = "CD", *, workers: int = 1) -> float:
+    """Discrepancy of points in ``[0, 1]^d`` by ``scipy.stats.qmc.discrepancy``.
+
+    ``method``: ``"CD"`` centered L2 (Hickernell 1998, default), ``"WD"`` wrap-around,
+    ``"MD"`` mixture, ``"L2-star"`` (Warnock 1972).  Lower is more uniform; the cost is
+    O(n^2 d).
+    """
+    if method not in _DISCREPANCY_METHODS:
+        raise ValueError(f"method must be one of {', '.join(_DISCREPANCY_METHODS)}, got {method!r}")
+    x = np.asarray(points, dtype=np.float64)
+    if x.ndim != 2:
+        raise ValueError(f"points must have shape (n, d), got {x.shape}")
+    if x.size and ((x.min() < 0) or (x.max() > 1)):
+        raise ValueError("points must lie in [0, 1]^d")
+    return float(qmc.discrepancy(x, method=method, workers=workers))
