@@ -5,7 +5,7 @@ where the warp is a bijection, ``invert(x)``.
 """
 from .base import Distribution
 from .frames import Oriented, orthonormal_basis, to_local, to_world
-from .interval import Exponential, LinearInterval, UniformBox, UniformInterval
+from .interval import Exponential, LinearInterval, Product, TruncatedNormal, UniformBox, UniformInterval
 from .mixture import Mixture
 from .planar import Disk, Rectangle, Triangle, concentric_disk
 from .spherical import GGX, CosineHemisphere, PhongLobe, UniformCone, UniformHemisphere, UniformSphere
@@ -15,7 +15,7 @@ from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 
 __all__ = [
     "Distribution", "Oriented", "orthonormal_basis", "to_local", "to_world",
-    "Exponential", "LinearInterval", "UniformBox", "UniformInterval",
+    "Exponential", "LinearInterval", "Product", "TruncatedNormal", "UniformBox", "UniformInterval",
     "Mixture", "Disk", "Rectangle", "Triangle", "concentric_disk",
     "GGX", "CosineHemisphere", "PhongLobe", "UniformCone", "UniformHemisphere", "UniformSphere",
     "PiecewiseConstant1D", "PiecewiseConstant2D",

@@ -59,6 +59,9 @@ class PointSet:
     """
 
     randomized: bool = True
+    #: False for point sets whose n is part of the design (stratified, Latin hypercube,
+    #: Hammersley): estimators then draw all n points in one call instead of chunks.
+    extensible: bool = True
 
     def __init__(self, d: int, *, rng: RNGLike = None) -> None:
         self.d = check_int("d", d, 1)

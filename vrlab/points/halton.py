@@ -84,6 +84,8 @@ class Hammersley(PointSet):
     rng : seed or generator for the scrambling (drawn once, in the constructor).
     """
 
+    extensible = False
+
     def __init__(self, d: int, *, n: int | None = None, scramble: ScrambleArg = False,
                  rng: RNGLike = None) -> None:
         super().__init__(d, rng=rng)

@@ -30,6 +30,8 @@ class LatinHypercube(PointSet):
     and discards one ``k``-point set.  ``reset()`` rewinds the random stream.
     """
 
+    extensible = False
+
     def __init__(self, d: int, *, centered: bool = False, rng: RNGLike = None) -> None:
         super().__init__(d, rng=rng)
         if not isinstance(centered, (bool, np.bool_)):

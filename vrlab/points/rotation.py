@@ -53,6 +53,10 @@ class CranleyPatterson(PointSet):
         self.shift = self.rng.random(self.d)
         self._points, self._kwargs = points, kwargs
 
+    @property
+    def extensible(self) -> bool:  # type: ignore[override]
+        return getattr(self.base, "extensible", True)
+
     def _random(self, n: int) -> np.ndarray:
         x = np.asarray(self.base.random(n), dtype=np.float64) + self.shift
         x -= x >= 1.0          # both terms are in [0, 1): one wrap is enough

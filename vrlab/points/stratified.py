@@ -78,6 +78,8 @@ class Stratified(PointSet):
     draws and discards one ``k``-point set.  ``reset()`` rewinds the jitter stream.
     """
 
+    extensible = False
+
     def __init__(self, d: int, *, strata: Sequence[int] | None = None, rng: RNGLike = None) -> None:
         super().__init__(d, rng=rng)
         if strata is not None:

@@ -1,0 +1,132 @@
+"""``Estimate`` and the mergeable moment accumulator behind it.
+
+Moments are accumulated with Welford's update generalised to blocks (Chan, Golub &
+LeVeque 1979, "Updating formulae and a pairwise algorithm for computing sample
+variances"): for two blocks with counts n_a, n_b, means m_a, m_b and sums of squared
+deviations M_a, M_b,
+
+    n = n_a + n_b,  delta = m_b - m_a,
+    m = m_a + delta n_b / n,  M = M_a + M_b + delta^2 n_a n_b / n.
+
+So a run of 10^8 samples goes in chunks with bounded memory, and the result does
+not depend on the chunk size beyond rounding.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+
+class Moments:
+    """Running count, mean and sum of squared deviations along the last axis (batched)."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.mean: np.ndarray | float = 0.0
+        self.m2: np.ndarray | float = 0.0
+
+    def add(self, values: np.ndarray) -> "Moments":
+        """Merge a block of samples ``values (*batch, m)``."""
+        v = np.asarray(values, dtype=float)
+        m = v.shape[-1]
+        if m == 0:
+            return self
+        mean_b = v.mean(axis=-1)
+        m2_b = np.sum((v - mean_b[..., None]) ** 2, axis=-1)
+        return self.merge_stats(m, mean_b, m2_b)
+
+    def merge_stats(self, n_b: int, mean_b, m2_b) -> "Moments":
+        if self.count == 0:
+            self.count, self.mean, self.m2 = n_b, np.asarray(mean_b, float), np.asarray(m2_b, float)
+            return self
+        n = self.count + n_b
+        delta = mean_b - self.mean
+        self.mean = self.mean + delta * (n_b / n)
+        self.m2 = self.m2 + m2_b + delta * delta * (self.count * n_b / n)
+        self.count = n
+        return self
+
+    def merge(self, other: "Moments") -> "Moments":
+        """Fold another accumulator into this one (e.g. from another worker)."""
+        if other.count:
+            self.merge_stats(other.count, other.mean, other.m2)
+        return self
+
+    @property
+    def variance(self):
+        """Unbiased sample variance of one sample (ddof = 1)."""
+        if self.count < 2:
+            return np.full(np.shape(self.mean), np.nan)
+        return self.m2 / (self.count - 1)
+
+
+@dataclass
+class Estimate:
+    """A Monte Carlo estimate with its standard error.
+
+    ``value`` and ``stderr`` have the integrand's batch shape (scalars for a plain
+    integral).  ``n`` counts independent sample units (points, pairs, replicates),
+    ``n_evals`` integrand evaluations (the cost), ``seconds`` wall time.
+    ``variance`` is the per-unit sample variance, so stderr = sqrt(variance / n).
+    """
+
+    value: Any
+    stderr: Any
+    n: int
+    n_evals: int
+    seconds: float = 0.0
+    variance: Any = None
+    method: str = ""
+    extra: dict = field(default_factory=dict)
+
+    def ci(self, level: float = 0.95):
+        """Normal-theory confidence interval ``(lo, hi)`` at ``level``."""
+        if not 0 < level < 1:
+            raise ValueError(f"level must be in (0, 1), got {level}")
+        z = stats.norm.ppf(0.5 + level / 2)
+        v, s = np.asarray(self.value), np.asarray(self.stderr)
+        return v - z * s, v + z * s
+
+    def zscore(self, exact):
+        """(value - exact) / stderr: about N(0, 1) for a calibrated unbiased estimator."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return (np.asarray(self.value) - exact) / np.asarray(self.stderr)
+
+    @property
+    def efficiency(self):
+        """1 / (variance of the estimate x seconds): higher is better (equal-time comparisons)."""
+        with np.errstate(divide="ignore"):
+            return 1.0 / (np.asarray(self.stderr) ** 2 * self.seconds)
+
+    def to_dict(self) -> dict:
+        """Plain-Python fields (arrays as lists) for JSON and DataFrames."""
+        def plain(v):
+            a = np.asarray(v)
+            return a.item() if a.ndim == 0 else a.tolist()
+        out = {"value": plain(self.value), "stderr": plain(self.stderr), "n": int(self.n),
+               "n_evals": int(self.n_evals), "seconds": float(self.seconds), "method": self.method}
+        if self.variance is not None:
+            out["variance"] = plain(self.variance)
+        out.update({k: plain(v) if isinstance(v, (np.ndarray, np.generic, float, int)) else v
+                    for k, v in self.extra.items()})
+        return out
+
+    @classmethod
+    def from_moments(cls, mom: Moments, n_evals: int, seconds: float = 0.0, method: str = "",
+                     **extra) -> "Estimate":
+        var = mom.variance
+        stderr = np.sqrt(var / mom.count) if mom.count else np.nan
+        def scalar(a):
+            a = np.asarray(a, dtype=float)
+            return float(a) if a.ndim == 0 else a
+        return cls(scalar(mom.mean), scalar(stderr), int(mom.count), int(n_evals), seconds,
+                   scalar(var), method, dict(extra))
+
+    def __repr__(self) -> str:
+        if np.ndim(self.value) == 0:
+            return (f"Estimate({self.value:.6g} ± {self.stderr:.3g}, n={self.n}, n_evals={self.n_evals}, "
+                    f"{self.seconds:.3g} s{', ' + self.method if self.method else ''})")
+        return f"Estimate(shape={np.shape(self.value)}, n={self.n}, n_evals={self.n_evals})"

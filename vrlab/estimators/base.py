@@ -1,0 +1,166 @@
+"""What every estimator shares: settings as keyword arguments, uniforms in, ``Estimate`` out.
+
+An estimator turns blocks of uniforms ``u (*batch, m, d)`` into ``m`` independent,
+unbiased *unit values* (one per sample point, pair, or group) with
+``unit_values(integrand, u)``; ``estimate`` draws the uniforms from a point set in
+chunks, folds the unit values into mergeable moments (``vrlab.estimate.Moments``)
+and reports the mean and its standard error.  ``n`` always counts integrand
+evaluations, so estimators compare at equal cost.
+"""
+from __future__ import annotations
+
+import inspect
+import time
+import warnings
+from typing import Any, Iterator
+
+import numpy as np
+
+from .._rng import RNGLike, as_generator
+from ..estimate import Estimate, Moments
+
+DEFAULT_CHUNK = 1 << 18  # sample units per chunk: bounded memory for any n
+
+
+class BiasWarning(UserWarning):
+    """The sampling density is zero where the integrand is not: the estimate is biased."""
+
+
+def point_engine(points: Any, d: int, rng: RNGLike):
+    """A point-set engine of dimension ``d`` from ``points`` (None, a class, a name or an engine)."""
+    from ..points import Independent, make_points
+
+    if points is None:
+        return Independent(d, rng=rng)
+    if isinstance(points, str):
+        return make_points(points, d, rng=rng)
+    if isinstance(points, type):
+        return points(d, rng=rng)
+    if callable(getattr(points, "random", None)):
+        if getattr(points, "d", d) != d:
+            raise ValueError(f"points: the engine has d = {points.d}, but this estimator needs d = {d} "
+                             "uniforms per sample unit")
+        return points
+    raise TypeError("points: expected None, a point-set class or name, an engine with random(n), "
+                    f"or an array of uniforms; got {type(points).__name__}")
+
+
+def uniform_blocks(points: Any, d: int, m: int, rng: RNGLike, chunk: int = DEFAULT_CHUNK) -> Iterator[np.ndarray]:
+    """Yield uniforms for ``m`` sample units of dimension ``d`` in blocks of at most ``chunk``.
+
+    An array ``points`` of shape ``(*batch, m, d)`` is used as-is (one block).  Point
+    sets whose size is part of their design (``extensible = False``: stratified, Latin
+    hypercube, Hammersley) are drawn in one call so their structure is kept.
+    """
+    if isinstance(points, np.ndarray):
+        if points.ndim < 2 or points.shape[-1] != d or points.shape[-2] != m:
+            raise ValueError(f"points: an array of uniforms must have shape (*batch, {m}, {d}), got {points.shape}")
+        yield points
+        return
+    engine = point_engine(points, d, rng)
+    if not getattr(engine, "extensible", True):
+        chunk = m
+    done = 0
+    while done < m:
+        k = min(chunk, m - done)
+        yield np.asarray(engine.random(k), dtype=float)
+        done += k
+
+
+class Estimator:
+    """Base class.  Subclasses set ``evals_per_unit`` and implement ``dim_u`` and
+    ``unit_values``; estimators that are not averages of i.i.d. units override ``estimate``."""
+
+    evals_per_unit: int = 1
+
+    # -- scikit-learn style settings ----------------------------------------------------
+    def get_params(self) -> dict:
+        """The constructor settings, by name."""
+        sig = inspect.signature(type(self).__init__)
+        return {k: getattr(self, k) for k in sig.parameters if k != "self" and hasattr(self, k)}
+
+    def __repr__(self) -> str:
+        params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+        return f"{type(self).__name__}({params})"
+
+    @property
+    def label(self) -> str:
+        return type(self).__name__
+
+    # -- the work ------------------------------------------------------------------------
+    def dim_u(self, integrand) -> int:  # pragma: no cover - interface
+        raise NotImplementedError  # abstract
+
+    def unit_values(self, integrand, u: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError  # abstract
+
+    def check(self, integrand) -> None:
+        """Hook: validate settings against the integrand (warn about bias, shapes...)."""
+
+    def units_for(self, n: int) -> int:
+        n = check_n(n)
+        m = n // self.evals_per_unit
+        if m < 2:
+            raise ValueError(f"n: {type(self).__name__} needs n >= {2 * self.evals_per_unit} evaluations "
+                             f"(2 sample units) for a standard error, got {n}")
+        return m
+
+    def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
+                 chunk: int = DEFAULT_CHUNK) -> Estimate:
+        """Estimate ``integrand``'s integral with ``n`` evaluations.
+
+        ``points``: the uniforms' point set (class, name or engine; default
+        independent) or an array of uniforms ``(*batch, m, d)``; ``rng`` seeds it.
+        """
+        self.check(integrand)
+        m = self.units_for(n)
+        gen = as_generator(rng) if not isinstance(rng, np.random.Generator) else rng
+        t0 = time.perf_counter()
+        mom = Moments()
+        for u in uniform_blocks(points, self.dim_u(integrand), m, gen, chunk):
+            mom.add(self.unit_values(integrand, u))
+        return Estimate.from_moments(mom, mom.count * self.evals_per_unit, time.perf_counter() - t0, self.label)
+
+
+def check_n(n: Any) -> int:
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)):
+        raise TypeError(f"n must be an integer number of evaluations, got {n!r}")
+    if n < 1:
+        raise ValueError(f"n must be >= 1, got {n}")
+    return int(n)
+
+
+def resolve_distribution(distribution, integrand):
+    """``distribution`` or, for None, the uniform distribution on the integrand's domain."""
+    dist = integrand.uniform() if distribution is None else distribution
+    for attr in ("dim_u", "sample", "pdf"):
+        if not hasattr(dist, attr):
+            raise TypeError(f"distribution: {dist!r} has no {attr!r} (needs dim_u, sample, pdf)")
+    return dist
+
+
+def support_probe(integrand, distributions, n: int = 4096, label: str = "distribution") -> None:
+    """Warn (``BiasWarning``) if every density is zero somewhere the integrand is not.
+
+    Probes a fixed scrambled-Sobol sample of the integrand's domain; a cheap check
+    that catches the common mistake (e.g. sampling a hemisphere for a sphere
+    integrand, or an interval that misses part of the support), not a proof.
+    """
+    from ..points import Sobol
+
+    probe = integrand.uniform()
+    x = probe.sample(Sobol(probe.dim_u, rng=12345).random(n))
+    f = np.asarray(integrand(x))
+    if f.ndim > 1:  # batched integrand: probe where any batch element is non-zero
+        f = np.abs(f).reshape(-1, f.shape[-1]).max(0)
+    covered = np.zeros(x.shape[:-1], bool)
+    for d in distributions:
+        p = np.asarray(d.pdf(x))
+        covered |= (p.reshape(-1, p.shape[-1]).max(0) if p.ndim > 1 else p) > 0
+    missed = (f != 0) & ~covered
+    if missed.any():
+        share = float(np.abs(f[missed]).sum() / np.abs(f).sum())
+        warnings.warn(
+            f"{label} has zero density on {missed.mean():.1%} of the probed domain where the integrand "
+            f"is non-zero (about {share:.1%} of |f|): the estimate is biased (it misses that part of "
+            "the integral)", BiasWarning, stacklevel=3)

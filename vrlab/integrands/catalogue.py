@@ -1,0 +1,182 @@
+"""Lab integrands with closed forms (integral, integral of f^2, golden variances).
+
+Names (``get(name)``; ``names()`` lists them):
+
+* ``sin``: sin x on [0, pi/2] = 1 (Russian lecture 4).  Uniform: Var = pi^2/8 - 1.
+  With p2(x) = 8x/pi^2: E[(f/p2)^2] = (pi^2/8) int_0^{pi/2} sin^2 x / x dx and
+  int_0^a sin^2 x / x dx = (ln 2a + gamma - Ci(2a)) / 2.
+* ``step-x2``: x^2 1[x > 1/2] on [0, 1] = 7/24 (lecture 4).  int f^2 = 31/160;
+  sampling uniformly on [1/2, 1] instead of [0, 1] lowers the variance by
+  (|A| - |B|) int f^2 = 31/320.
+* ``exp``: e^x on [0, 1] = e - 1 (lecture 000).  Var = (e^2 - 1)/2 - (e - 1)^2 = 0.242036;
+  antithetic factor 1 + rho = 1 + (e - (e - 1)^2) / Var = 0.03233; control h = x:
+  beta* = Cov(f, h)/Var(h) = 12 (1 - (e - 1)/2) = 1.6903, factor 1 - rho^2 = 0.01628.
+* ``gauss-bump``: exp(-(x - 1/2)^2 / (2 s^2)) on [0, 1], s = 0.05 (erf closed forms).
+* ``disk-indicator``: 1[|x - (1/2, 1/2)| < 0.4] on [0, 1]^2 = 0.16 pi (discontinuous).
+* ``smooth-2d``: e^x sin(pi y) on [0, 1]^2 = 2 (e - 1) / pi.
+* ``glossy-light``: a 2D toy of Veach's glossy plates: f = L(x) rho(x) with a sharp
+  Gaussian "glossy lobe" plus a diffuse floor, rho = k_s g(x) + k_d, lit by a big dim
+  light (around the lobe) and a small bright one (away from it).  Techniques "brdf"
+  (density proportional to rho) and "light" (lights by power, uniform on each): BRDF
+  sampling wins on the lobe, light sampling on the small light; MIS gets both.
+* ``cos-hemisphere``: cos(theta) over the hemisphere = pi; uniform Var = pi^2/3,
+  cosine sampling has zero variance.
+* ``cos8-hemisphere``: cos^8(theta) = 2 pi / 9; cosine sampling Var = pi^2/8 - (2pi/9)^2,
+  Phong(8) sampling zero variance.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import special
+
+from .. import distributions as D
+from .base import Integrand
+
+E = np.e
+EULER_GAMMA = float(np.euler_gamma)
+
+
+def _sin() -> Integrand:
+    ci_pi = special.sici(np.pi)[1]
+    sin2_over_x = 0.5 * (np.log(np.pi) + EULER_GAMMA - ci_pi)
+    return Integrand(lambda x: np.sin(x[..., 0]), [(0, np.pi / 2)], 1.0, "sin", f2=np.pi / 4,
+                     theory={"var:uniform": np.pi**2 / 8 - 1,
+                             "var:linear": np.pi**2 / 8 * sin2_over_x - 1},
+                     techniques={"uniform": D.UniformInterval(0, np.pi / 2),
+                                 "linear": D.LinearInterval(0, np.pi / 2, 0, 1)})
+
+
+def _step_x2() -> Integrand:
+    f2, exact = 31 / 160, 7 / 24
+    return Integrand(lambda x: np.where(x[..., 0] > 0.5, x[..., 0] ** 2, 0.0), [(0, 1)], exact, "step-x2",
+                     f2=f2, theory={"var:uniform": f2 - exact**2, "var:half": 0.5 * f2 - exact**2},
+                     techniques={"uniform": D.UniformInterval(0, 1), "half": D.UniformInterval(0.5, 1)})
+
+
+def _exp() -> Integrand:
+    var = (E * E - 1) / 2 - (E - 1) ** 2
+    cov_x = 1 - (E - 1) / 2                      # Cov(e^U, U)
+    rho_anti = (E - (E - 1) ** 2) / var          # corr(e^U, e^(1-U))
+    return Integrand(lambda x: np.exp(x[..., 0]), [(0, 1)], E - 1, "exp", f2=(E * E - 1) / 2,
+                     theory={"var:uniform": var, "antithetic_factor": 1 + rho_anti,
+                             "cv_x:beta": 12 * cov_x, "cv_x:factor": 1 - 12 * cov_x**2 / var},
+                     techniques={"uniform": D.UniformInterval(0, 1), "linear": D.LinearInterval(0, 1, 1, E)})
+
+
+def _gauss_bump(mu: float = 0.5, s: float = 0.05) -> Integrand:
+    def mass(scale):  # int_0^1 exp(-(x - mu)^2 / (2 scale^2)) dx
+        return scale * np.sqrt(2 * np.pi) * (special.ndtr((1 - mu) / scale) - special.ndtr(-mu / scale))
+    return Integrand(lambda x: np.exp(-0.5 * ((x[..., 0] - mu) / s) ** 2), [(0, 1)], mass(s), "gauss-bump",
+                     f2=mass(s / np.sqrt(2)),
+                     techniques={"uniform": D.UniformInterval(0, 1),
+                                 "normal": D.TruncatedNormal(mu, 1.5 * s, 0, 1)})
+
+
+def _disk_indicator(r: float = 0.4) -> Integrand:
+    def f(x):
+        return (np.sum((x - 0.5) ** 2, -1) < r * r).astype(float)
+    return Integrand(f, [(0, 1), (0, 1)], np.pi * r * r, "disk-indicator", f2=np.pi * r * r)
+
+
+def _smooth_2d() -> Integrand:
+    return Integrand(lambda x: np.exp(x[..., 0]) * np.sin(np.pi * x[..., 1]), [(0, 1), (0, 1)],
+                     (E - 1) * 2 / np.pi, "smooth-2d", f2=(E * E - 1) / 2 * 0.5)
+
+
+class GlossyLight:
+    """Parameters and pieces of the ``glossy-light`` toy (all closed forms)."""
+
+    center = (0.3, 0.5)
+    sigma = 0.03
+    k_s, k_d = 1.0, 0.5
+    # edges on multiples of 1/32 so that grid quadrature (mc_variance) is exact at them
+    lights = (((5 / 32, 15 / 32), (11 / 32, 21 / 32), 1.0),   # big dim light around the lobe
+              ((24 / 32, 25 / 32), (22 / 32, 23 / 32), 200.0))  # small bright light
+
+    def __init__(self):
+        self.lobe = D.Product([D.TruncatedNormal(c, self.sigma, 0, 1) for c in self.center])
+        self.brdf = D.Mixture([self.lobe, D.UniformBox([(0, 1), (0, 1)])],
+                              [self.k_s / (self.k_s + self.k_d), self.k_d / (self.k_s + self.k_d)])
+        areas = np.array([(x[1] - x[0]) * (y[1] - y[0]) for x, y, _ in self.lights])
+        powers = areas * np.array([L for *_, L in self.lights])
+        self.light = D.Mixture([D.UniformBox([x, y]) for x, y, _ in self.lights], powers)
+
+    def rho(self, x):
+        return self.k_s * self.lobe.pdf(x) + self.k_d
+
+    def radiance(self, x):
+        out = np.zeros(x.shape[:-1])
+        for (x0, x1), (y0, y1), L in self.lights:
+            inside = (x[..., 0] >= x0) & (x[..., 0] <= x1) & (x[..., 1] >= y0) & (x[..., 1] <= y1)
+            out = out + L * inside
+        return out
+
+    def __call__(self, x):
+        return self.radiance(x) * self.rho(x)
+
+    def _gauss_mass(self, lo, hi, c, scale):
+        return special.ndtr((hi - c) / scale) - special.ndtr((lo - c) / scale)
+
+    def integrals(self) -> tuple[float, float]:
+        """(int f, int f^2) in closed form (Gaussian integrals over rectangles)."""
+        s = self.sigma
+        z = [self._gauss_mass(0, 1, c, s) for c in self.center]        # truncation masses
+        total, total2 = 0.0, 0.0
+        for (x0, x1), (y0, y1), L in self.lights:
+            area = (x1 - x0) * (y1 - y0)
+            g = np.prod([self._gauss_mass(a, b, c, s) / zi
+                         for (a, b), c, zi in zip([(x0, x1), (y0, y1)], self.center, z)])
+            # int g^2: phi_s(t)^2 = phi_{s/sqrt2}(t) / (2 s sqrt(pi))
+            g2 = np.prod([self._gauss_mass(a, b, c, s / np.sqrt(2)) / (2 * s * np.sqrt(np.pi) * zi**2)
+                          for (a, b), c, zi in zip([(x0, x1), (y0, y1)], self.center, z)])
+            total += L * (self.k_s * g + self.k_d * area)
+            total2 += L * L * (self.k_s**2 * g2 + 2 * self.k_s * self.k_d * g + self.k_d**2 * area)
+        return float(total), float(total2)
+
+
+def _glossy_light() -> Integrand:
+    toy = GlossyLight()
+    exact, f2 = toy.integrals()
+    return Integrand(toy, [(0, 1), (0, 1)], exact, "glossy-light", f2=f2,
+                     techniques={"brdf": toy.brdf, "light": toy.light})
+
+
+def _cos_hemisphere() -> Integrand:
+    return Integrand(lambda w: np.clip(w[..., 2], 0, None), "hemisphere", np.pi, "cos-hemisphere",
+                     f2=2 * np.pi / 3, theory={"var:uniform": np.pi**2 / 3, "var:cosine": 0.0},
+                     techniques={"uniform": D.UniformHemisphere(), "cosine": D.CosineHemisphere()})
+
+
+def _cosn_hemisphere(n: int = 8) -> Integrand:
+    exact = 2 * np.pi / (n + 1)
+    return Integrand(lambda w: np.clip(w[..., 2], 0, None) ** n, "hemisphere", exact, f"cos{n}-hemisphere",
+                     f2=2 * np.pi / (2 * n + 1),
+                     theory={"var:uniform": 2 * np.pi * 2 * np.pi / (2 * n + 1) - exact**2,
+                             "var:cosine": np.pi**2 / n - exact**2, "var:phong": 0.0},
+                     techniques={"uniform": D.UniformHemisphere(), "cosine": D.CosineHemisphere(),
+                                 "phong": D.PhongLobe(n)})
+
+
+CATALOGUE = {
+    "sin": _sin,
+    "step-x2": _step_x2,
+    "exp": _exp,
+    "gauss-bump": _gauss_bump,
+    "disk-indicator": _disk_indicator,
+    "smooth-2d": _smooth_2d,
+    "glossy-light": _glossy_light,
+    "cos-hemisphere": _cos_hemisphere,
+    "cos8-hemisphere": _cosn_hemisphere,
+}
+
+
+def names() -> list[str]:
+    """Names of the catalogue integrands."""
+    return list(CATALOGUE)
+
+
+def get(name: str) -> Integrand:
+    """A fresh catalogue integrand by name (``ValueError`` listing the names if unknown)."""
+    if name not in CATALOGUE:
+        raise ValueError(f"unknown integrand {name!r}; choose one of {', '.join(CATALOGUE)}")
+    return CATALOGUE[name]()
