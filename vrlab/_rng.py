@@ -1,6 +1,6 @@
 """One place where user-supplied randomness is normalised.
 
-``rng`` may be ``None`` (fresh OS entropy), an int seed, a ``SeedSequence``, a
+``rng`` may be ``None`` (fresh OS entropy), an int seed (or a list of them), a ``SeedSequence``, a
 ``BitGenerator`` or a ``Generator``; the semantics are those of
 ``numpy.random.default_rng``.  Independent streams for work units come from
 ``SeedSequence.spawn`` (never from re-seeding with consecutive integers).
@@ -22,6 +22,8 @@ def as_generator(rng: RNGLike = None) -> np.random.Generator:
         if isinstance(rng, (int, np.integer)) and rng < 0:
             raise ValueError(f"rng: a seed must be non-negative, got {rng}")
         return np.random.default_rng(rng)
+    if isinstance(rng, (list, tuple)) and rng and all(isinstance(k, (int, np.integer)) and k >= 0 for k in rng):
+        return np.random.default_rng(list(rng))  # a sequence of ints is SeedSequence entropy
     raise TypeError(
         "rng: expected None, an int seed, a numpy SeedSequence, BitGenerator or Generator, "
         f"got {type(rng).__name__}"
