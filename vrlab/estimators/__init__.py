@@ -1,5 +1,29 @@
-"""Estimators: objects holding settings that turn uniforms into an ``Estimate``."""
-from .base import BiasWarning, Estimator, point_engine, support_probe, uniform_blocks
-from .importance import MonteCarlo
+"""Estimators: objects holding settings that turn uniforms into an ``Estimate``.
 
-__all__ = ["BiasWarning", "Estimator", "MonteCarlo", "point_engine", "support_probe", "uniform_blocks"]
+=======================  ================================================  ====================
+estimator                technique                                         module
+=======================  ================================================  ====================
+``MonteCarlo``           importance sampling (uniform by default)          ``importance``
+``Antithetic``           pairs u, 1 - u                                    ``antithetic``
+``ControlVariate``       f - alpha (h - H), alpha fixed or regressed       ``control``
+``DefensiveMixture``     mixture IS + components as controls (Owen-Zhou)   ``control``
+``CRNDifference``        int f_a - int f_b with common random numbers      ``crn``
+``Stratified``           strata in u, proportional / Neyman allocation     ``stratified``
+``RQMC``                 replicated randomised QMC                         ``rqmc``
+``MetropolisHastings``   MH chains with small and large steps              ``metropolis``
+=======================  ================================================  ====================
+"""
+from .antithetic import Antithetic
+from .base import BiasWarning, Estimator, point_engine, support_probe, uniform_blocks
+from .control import ControlVariate, DefensiveMixture
+from .crn import CRNDifference, crn_difference
+from .importance import MonteCarlo
+from .metropolis import MetropolisHastings
+from .rqmc import RQMC
+from .stratified import Stratified
+
+__all__ = [
+    "Antithetic", "BiasWarning", "CRNDifference", "ControlVariate", "DefensiveMixture", "Estimator",
+    "MetropolisHastings", "MonteCarlo", "RQMC", "Stratified", "crn_difference", "point_engine",
+    "support_probe", "uniform_blocks",
+]
