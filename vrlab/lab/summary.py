@@ -1,0 +1,159 @@
+"""Tables from a lab run: accuracy per sample count, convergence slopes, equal-time efficiency.
+
+With R repetitions F_1..F_R of an estimator of I at cost n (integrand evaluations):
+
+* bias = mean(F) - I;  RMSE = sqrt(mean((F - I)^2));  variance = sample variance of F (ddof 1);
+* z_r = (F_r - I) / stderr_r should be about N(0, 1): ``z_std`` near 1 means the reported
+  standard errors are calibrated, ``coverage`` is the share of 95% normal intervals
+  F_r +- 1.96 stderr_r that contain I (0.95 if calibrated);
+* efficiency = 1 / (variance x seconds) (Hammersley & Handscomb 1964, 5.2; Owen, *Monte
+  Carlo theory, methods and examples*, 8.2: "relative efficiency" at equal cost).
+
+Theoretical RMSE slopes in n (log-log), used beside the fitted ones:
+
+* i.i.d. Monte Carlo and its unbiased reweightings (IS, MIS, antithetic, control variates,
+  RIS, RQMC over a fixed number of strata...): -1/2 (central limit theorem);
+* jittered (one point per cell of a grid in d dims) on smooth f: -1/2 - 1/d; with
+  discontinuities along smooth boundaries: -1/2 - 1/(2d) (Mitchell 1996, "Consequences of
+  stratified sampling in graphics"; Owen, ch. 10);
+* Latin hypercube: -1/2 (only the additive part is removed; Stein 1987), -3/2 in 1D where it
+  is jittered;
+* randomized QMC (scrambled Sobol', scrambled Halton) on smooth f: about -1
+  (Koksma-Hlawka, discrepancy O(n^-1 log^d n); Owen 1997 shows -3/2 for scrambled nets at
+  n = b^m on very smooth f); on discontinuous f: -1/2 - 1/(4d - 2) (He & Wang 2015,
+  "On the convergence rate of randomized quasi-Monte Carlo for discontinuous functions").
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+KEYS = ["estimator", "integrand", "n"]
+_Z95 = float(stats.norm.ppf(0.975))
+_CARRY = ["points", "class", "dim_u", "smooth", "strata"]
+
+
+def _group(df: pd.DataFrame, keys: list[str]):
+    return df.groupby(keys, sort=False, dropna=False)
+
+
+def summarize(df: pd.DataFrame) -> pd.DataFrame:
+    """Per (estimator, integrand, n): ``reps, mean, exact, bias, rmse, rel_rmse, variance,
+    mean_stderr, z_std, coverage, seconds, efficiency`` (formulas in the module docstring)."""
+    missing = [c for c in KEYS + ["value", "stderr", "exact", "seconds"] if c not in df]
+    if missing:
+        raise ValueError(f"df: missing columns {missing} (expected a vrlab.lab.run DataFrame)")
+    d = df.copy()
+    d["error"] = d["value"] - d["exact"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = d["error"] / d["stderr"]
+    z = z.where(~((d["error"] == 0) & (d["stderr"] == 0)), 0.0)   # exact estimate, zero stderr
+    d["_z"] = z.where(np.isfinite(z))
+    d["_cover"] = (d["error"].abs() <= _Z95 * d["stderr"]).astype(float).where(d["exact"].notna())
+    d["_sq"] = d["error"] ** 2
+    g = _group(d, KEYS)
+    out = pd.DataFrame({
+        "reps": g["value"].size(),
+        "mean": g["value"].mean(),
+        "exact": g["exact"].first(),
+        "rmse": np.sqrt(g["_sq"].mean()),
+        "variance": g["value"].var(ddof=1),
+        "mean_stderr": g["stderr"].mean(),
+        "z_std": g["_z"].std(ddof=1),
+        "coverage": g["_cover"].mean(),
+        "seconds": g["seconds"].mean(),
+    })
+    out.insert(3, "bias", out["mean"] - out["exact"])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out.insert(out.columns.get_loc("rmse") + 1, "rel_rmse", out["rmse"] / out["exact"].abs())
+        out["efficiency"] = 1.0 / (out["variance"] * out["seconds"])
+    carry = [c for c in _CARRY if c in d]
+    if carry:
+        out = out.join(g[carry].first())
+    return out.reset_index()
+
+
+def theoretical_slope(cls: str, points: str, dim_u: int, smooth: bool = True,
+                      fixed_strata: bool = False) -> tuple[float, str]:
+    """Theoretical log-log slope of RMSE in n and its source (see the module docstring).
+
+    ``cls``: estimator class name; ``points``: point-set name; ``dim_u``: uniforms per
+    sample; ``smooth``: f without discontinuities; ``fixed_strata``: a ``Stratified``
+    estimator with a fixed grid (otherwise its strata grow with n, like jittered).
+    """
+    d = max(int(dim_u), 1) if dim_u is not None and dim_u > 0 else None
+    pts = (points or "independent").lower()
+    if cls == "Stratified" and not fixed_strata and d is not None:
+        pts = "stratified"   # about n/2 strata: the jittered rate
+    if cls == "RQMC":
+        if d is None:
+            return -1.0, "RQMC, smooth f (Koksma-Hlawka)"
+        if smooth:
+            return -1.0, "RQMC on smooth f: ~ -1 (Koksma-Hlawka; -3/2 for Owen-scrambled nets, Owen 1997)"
+        return -0.5 - 1.0 / (4 * d - 2), "RQMC, discontinuous f: -1/2 - 1/(4d-2) (He & Wang 2015)"
+    if pts in ("stratified", "jittered") and d is not None:
+        if smooth:
+            return -0.5 - 1.0 / d, "jittered, smooth f: -1/2 - 1/d (Owen ch. 10)"
+        return -0.5 - 0.5 / d, "jittered, discontinuous f: -1/2 - 1/(2d) (Mitchell 1996)"
+    if pts in ("lhs", "latinhypercube") and d == 1:
+        return (-1.5, "LHS in 1D = jittered, smooth f") if smooth else (-1.0, "LHS in 1D = jittered, discontinuous f")
+    if pts in ("lhs", "latinhypercube"):
+        return -0.5, "LHS: -1/2, smaller constant (Stein 1987)"
+    if pts in ("halton", "hammersley", "sobol"):
+        return -1.0, "QMC points, smooth f: ~ -1 (Koksma-Hlawka)"
+    return -0.5, "Monte Carlo: -1/2 (CLT)"
+
+
+def fit_slopes(df: pd.DataFrame) -> pd.DataFrame:
+    """Least-squares slope of log RMSE on log n per (estimator, integrand), with the theoretical slope.
+
+    Accepts a run DataFrame (summarized first) or a ``summarize`` table.  Columns:
+    ``estimator, integrand, slope, slope_se, intercept, theory, theory_note, n_min, n_max, points_used``.
+    """
+    s = df if "rmse" in df else summarize(df)
+    rows = []
+    for (est, integ), g in _group(s, ["estimator", "integrand"]):
+        g = g[(g["rmse"] > 0) & np.isfinite(g["rmse"])].sort_values("n")
+        x, y = np.log(g["n"].to_numpy(float)), np.log(g["rmse"].to_numpy(float))
+        slope = intercept = se = np.nan
+        if len(x) >= 2 and np.ptp(x) > 0:
+            res = stats.linregress(x, y)
+            slope, intercept = float(res.slope), float(res.intercept)
+            se = float(res.stderr) if len(x) >= 3 else np.nan
+        first = g.iloc[0] if len(g) else s[(s["estimator"] == est) & (s["integrand"] == integ)].iloc[0]
+        strata = first.get("strata", None)
+        theory, note = theoretical_slope(first.get("class", ""), first.get("points", "independent"),
+                                         first.get("dim_u", -1), bool(first.get("smooth", True)),
+                                         fixed_strata=strata is not None and not pd.isna(strata))
+        rows.append({"estimator": est, "integrand": integ, "slope": slope, "slope_se": se,
+                     "intercept": intercept, "theory": theory, "theory_note": note,
+                     "n_min": int(g["n"].min()) if len(g) else np.nan,
+                     "n_max": int(g["n"].max()) if len(g) else np.nan, "points_used": len(g)})
+    return pd.DataFrame(rows)
+
+
+def equal_time(df: pd.DataFrame, reference: str | None = None) -> pd.DataFrame:
+    """Compare estimators at equal time: ``var_x_time`` = variance x seconds per (integrand, n).
+
+    ``relative_efficiency`` = var_x_time(reference) / var_x_time(estimator): how many times
+    less time the estimator needs for the reference's variance (reference: ``"mc"`` if
+    present, else the first estimator).  ``relative_variance`` is the equal-n ratio.
+    """
+    s = df if "rmse" in df else summarize(df)
+    if reference is None:
+        reference = "mc" if (s["estimator"] == "mc").any() else s["estimator"].iloc[0]
+    elif not (s["estimator"] == reference).any():
+        raise ValueError(f"reference: no estimator {reference!r}; have {', '.join(s['estimator'].unique())}")
+    t = s[["integrand", "n", "estimator", "variance", "seconds", "efficiency"]].copy()
+    t["var_x_time"] = t["variance"] * t["seconds"]
+    ref = t[t["estimator"] == reference].set_index(["integrand", "n"])
+    idx = pd.MultiIndex.from_frame(t[["integrand", "n"]])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t["relative_variance"] = ref["variance"].reindex(idx).to_numpy() / t["variance"].to_numpy()
+        t["relative_efficiency"] = ref["var_x_time"].reindex(idx).to_numpy() / t["var_x_time"].to_numpy()
+    t["reference"] = reference
+    order = {name: i for i, name in enumerate(dict.fromkeys(t["integrand"]))}   # keep the run's order
+    t["_o"] = t["integrand"].map(order)
+    t = t.sort_values(["_o", "n", "relative_efficiency"], ascending=[True, True, False], kind="stable")
+    return t.drop(columns="_o").reset_index(drop=True)
