@@ -1,9 +1,16 @@
 """vrlab: Monte Carlo estimators and variance reduction, as taught in rendering courses.
 
 Layers: ``vrlab.points`` (uniforms), ``vrlab.distributions`` (warps with pdfs and
-discrete sampling), ``vrlab.testing`` (chi-square harness).
+discrete sampling), ``vrlab.integrands`` (integrands with closed forms),
+``vrlab.estimators`` (variance-reduction techniques), ``vrlab.lab`` (experiments),
+``vrlab.testing`` (chi-square harness).  Every estimate is a deterministic function of
+uniforms ``u``: randomness enters only through point sets seeded by ``rng``.
 """
-from . import distributions, testing
+from . import distributions, estimators, integrands, points, testing
+from .distributions import AliasTable, CDFTable
+from .estimate import Estimate, Moments
+from .integrands import Integrand
 
 __version__ = "0.1.0"
-__all__ = ["distributions", "testing", "__version__"]
+__all__ = ["AliasTable", "CDFTable", "Estimate", "Integrand", "Moments", "distributions", "estimators",
+           "integrands", "points", "testing", "__version__"]

@@ -4,6 +4,7 @@ Every distribution has ``dim_u``, ``sample(u)``, ``pdf(x)``, a ``measure`` and,
 where the warp is a bijection, ``invert(x)``.
 """
 from .base import Distribution
+from .discrete import AliasTable, CDFTable
 from .frames import Oriented, orthonormal_basis, to_local, to_world
 from .interval import Exponential, LinearInterval, Product, TruncatedNormal, UniformBox, UniformInterval
 from .mixture import Mixture
@@ -14,7 +15,7 @@ from .surfaces import BoxSurface, EllipsoidSurface, RectangleSurface, SphereSurf
 from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 
 __all__ = [
-    "Distribution", "Oriented", "orthonormal_basis", "to_local", "to_world",
+    "AliasTable", "CDFTable", "Distribution", "Oriented", "orthonormal_basis", "to_local", "to_world",
     "Exponential", "LinearInterval", "Product", "TruncatedNormal", "UniformBox", "UniformInterval",
     "Mixture", "Disk", "Rectangle", "Triangle", "concentric_disk",
     "GGX", "CosineHemisphere", "PhongLobe", "UniformCone", "UniformHemisphere", "UniformSphere",
