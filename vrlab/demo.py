@@ -67,7 +67,7 @@ def _panel(ax, name, dist, x, gof):
         w = np.stack([np.sqrt(1 - z**2), np.zeros_like(z), z], -1)
         ax.plot(z, 2 * np.pi * dist.pdf(w), "k", lw=1.5, label="2 pi p(w)")
         ax.set_xlabel("cos theta")
-    ax.set_title(f"{name}\nchi2 p = {gof.pvalue:.2f}", fontsize=8)
+    ax.set_title(f"{name}\nchi2 p = {gof.pvalue:.3f}", fontsize=8)
     ax.tick_params(labelsize=6)
 
 
@@ -88,7 +88,9 @@ def warp_figure(out: Path, seed: int, n: int) -> pd.DataFrame:
         _panel(ax, name, dist, x, gof)
     for ax in axes.ravel()[len(cases):]:
         ax.axis("off")
-    fig.suptitle("vrlab warps: samples (histogram / scatter) against the pdf", fontsize=11)
+    level = T.sidak_threshold(0.01, len(cases))
+    fig.suptitle("vrlab warps: samples (histogram / scatter) against the pdf; "
+                 f"reject a warp if p < {level:.1e} (1% family-wise over {len(cases)} tests)", fontsize=11)
     fig.tight_layout()
     fig.savefig(out / "warps.png", dpi=110)
     plt.close(fig)

@@ -11,6 +11,10 @@ estimator                technique                                         modul
 ``Stratified``           strata in u, proportional / Neyman allocation     ``stratified``
 ``RQMC``                 replicated randomised QMC                         ``rqmc``
 ``MetropolisHastings``   MH chains with small and large steps              ``metropolis``
+``MIS``                  multi-sample MIS (balance, power, max, cutoff,    ``mis``
+                         optimal)
+``OneSampleMIS``         one technique per sample (mixture for balance)    ``onesample``
+``RIS``                  resampled importance sampling, reservoirs         ``ris``
 =======================  ================================================  ====================
 """
 from .antithetic import Antithetic
@@ -19,10 +23,14 @@ from .control import ControlVariate, DefensiveMixture
 from .crn import CRNDifference, crn_difference
 from .importance import MonteCarlo
 from .metropolis import MetropolisHastings
+from .mis import HEURISTICS, MIS, mis_weights
+from .onesample import OneSampleMIS
+from .ris import RIS, Reservoir
 from .rqmc import RQMC
 from .stratified import Stratified
 
 __all__ = [
+    "HEURISTICS", "MIS", "OneSampleMIS", "RIS", "Reservoir", "mis_weights",
     "Antithetic", "BiasWarning", "CRNDifference", "ControlVariate", "DefensiveMixture", "Estimator",
     "MetropolisHastings", "MonteCarlo", "RQMC", "Stratified", "crn_difference", "point_engine",
     "support_probe", "uniform_blocks",

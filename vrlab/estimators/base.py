@@ -76,6 +76,21 @@ def uniform_blocks(points: Any, d: int, m: int, rng: RNGLike, chunk: int = DEFAU
         done += k
 
 
+STDERR_NOTE = ("stderr uses the i.i.d. formula but the points are not independent (stratified/QMC): "
+               "it is not a valid error bar (usually far too large); use RQMC replicates for one")
+
+
+def independent_points(points: Any) -> bool:
+    """True when ``points`` gives i.i.d. uniforms (None, "independent", or an Independent engine)."""
+    from ..points import Independent
+
+    if points is None or isinstance(points, np.ndarray):
+        return True  # arrays are the caller's uniforms: assumed independent, as documented
+    if isinstance(points, str):
+        return points.lower() in ("independent", "iid", "random")
+    return points is Independent or isinstance(points, Independent)
+
+
 class Estimator:
     """Base class.  Subclasses set ``evals_per_unit`` and implement ``dim_u`` and
     ``unit_values``; estimators that are not averages of i.i.d. units override ``estimate``."""
@@ -128,7 +143,9 @@ class Estimator:
         mom = Moments()
         for u in uniform_blocks(points, self.dim_u(integrand), m, gen, chunk):
             mom.add(self.unit_values(integrand, u))
-        return Estimate.from_moments(mom, mom.count * self.evals_per_unit, time.perf_counter() - t0, self.label)
+        extra = {} if independent_points(points) else {"stderr_note": STDERR_NOTE}
+        return Estimate.from_moments(mom, mom.count * self.evals_per_unit, time.perf_counter() - t0, self.label,
+                                     **extra)
 
 
 def check_n(n: Any) -> int:

@@ -258,7 +258,7 @@ for _short, _h in _HEURISTICS.items():
 def _onesample(integrand, arg):
     name = "onesample" + (f":{arg}" if arg else "")
     dists = _techniques(integrand, arg, name)
-    return _probed(_cls("mis", "OneSampleMIS", name), integrand, dists, dists), None
+    return _probed(_cls("onesample", "OneSampleMIS", name), integrand, dists, dists), None
 
 
 @register("defensive", f"DefensiveMixture(techniques, defensive={DEFENSIVE_ALPHA}): mixture with uniform, "

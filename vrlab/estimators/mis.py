@@ -1,0 +1,409 @@
+"""Multiple importance sampling: Veach's multi-sample and one-sample estimators.
+
+Multi-sample MIS (Veach & Guibas 1995; Veach 1997, ch. 9, eq. 9.3): technique i
+draws n_i samples X_ij ~ p_i and
+
+    F = sum_i (1/n_i) sum_j w_i(X_ij) f(X_ij) / p_i(X_ij),
+
+unbiased when sum_i w_i(x) = 1 wherever f(x) != 0 and w_i = 0 wherever p_i = 0.
+With q_i(x) = n_i p_i(x) the heuristics are
+
+* ``balance``:  w_i = q_i / sum_k q_k  (then w_i f / p_i = n_i f / sum_k q_k);
+* ``power``:    w_i = q_i^beta / sum_k q_k^beta  (beta = 2: Veach's power heuristic);
+* ``maximum``:  w_i = 1 for the technique with the largest q_i (ties split equally);
+* ``cutoff``:   keep the techniques with q_k >= alpha max_l q_l, balance among them;
+* ``optimal``:  Kondapaneni, Vévoda, Grittmann, Skřivan, Slusallek & Křivánek (2019),
+  "Optimal Multiple Importance Sampling", ACM TOG 38(4).  With c_k = n_k / N and
+  q(x) = sum_k c_k p_k(x), the variance-minimising weights give the estimator
+
+      F_o = sum_k a_k + (1/N) sum_{i,j} (f - sum_k a_k p_k)(X_ij) / q(X_ij),
+
+  where ``a`` solves A a = b, A_ik = int p_i p_k / q, b_i = int f p_i / q.  A and b
+  are estimated from the same samples (then the correction term is zero and
+  F_o = sum a exactly; the estimator is consistent, with an O(1/N) bias), or, with
+  ``optimal_pilot = t > 0``, from a separate pilot of t N samples (then F_o is
+  exactly unbiased for the remaining samples).  Its weights may be negative.
+  Variance: (1/N) int (f - a.p)^2 / q, never above the balance heuristic's.
+
+Every heuristic also accepts a callable ``heuristic(q) -> w`` (arrays (..., K)).
+
+One-sample MIS lives in ``onesample.py``.
+"""
+from __future__ import annotations
+
+import time
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from .._rng import RNGLike, as_generator
+from ..estimate import Estimate, Moments
+from .base import DEFAULT_CHUNK, Estimator, check_n, point_engine, support_probe
+
+HEURISTICS = ("balance", "power", "maximum", "cutoff", "optimal")
+
+
+# ----------------------------------------------------------------------------------------
+# weights
+# ----------------------------------------------------------------------------------------
+def _check_heuristic(heuristic: Any, allowed: Sequence[str]) -> None:
+    if callable(heuristic):
+        return
+    if not isinstance(heuristic, str) or heuristic not in allowed:
+        raise ValueError(f"heuristic: unknown {heuristic!r}; allowed: {', '.join(allowed)} "
+                         "or a callable q -> w")
+
+
+def _check_beta_alpha(beta: float, alpha: float) -> tuple[float, float]:
+    beta, alpha = float(beta), float(alpha)
+    if not np.isfinite(beta) or beta <= 0:
+        raise ValueError(f"beta must be a finite number > 0, got {beta}")
+    if not 0.0 <= alpha <= 1.0:
+        raise ValueError(f"alpha (the cutoff) must be in [0, 1], got {alpha}")
+    return beta, alpha
+
+
+def mis_weights(q: np.ndarray, heuristic: str | Callable = "balance", *, beta: float = 2.0,
+                alpha: float = 0.1) -> np.ndarray:
+    """MIS weights w (..., K) from q_k = n_k p_k(x) (..., K) (Veach 1997, 9.2).
+
+    ``balance``, ``power`` (exponent ``beta``), ``maximum`` (ties split equally) and
+    ``cutoff`` (techniques with q_k >= ``alpha`` max q, balanced among themselves), or
+    a callable ``q -> w``.  Where every q_k is 0 all weights are 0.
+    """
+    _check_heuristic(heuristic, HEURISTICS[:4])
+    q = np.asarray(q, dtype=float)
+    if callable(heuristic):
+        return np.broadcast_to(np.asarray(heuristic(q), dtype=float), q.shape)
+    beta, alpha = _check_beta_alpha(beta, alpha)
+    if heuristic == "balance":
+        s = q
+    else:
+        mx = q.max(-1, keepdims=True)
+        if heuristic == "power":
+            r = np.divide(q, mx, out=np.zeros_like(q), where=mx > 0)  # scaled: no overflow
+            s = r**beta
+        elif heuristic == "maximum":
+            s = ((q >= mx) & (mx > 0)).astype(float)
+        else:  # cutoff
+            s = np.where(q >= alpha * mx, q, 0.0)
+    total = s.sum(-1, keepdims=True)
+    return np.divide(s, total, out=np.zeros_like(s), where=total > 0)
+
+
+def split_counts(n: int, fractions: np.ndarray, minimum: int = 2) -> np.ndarray:
+    """Sample counts n_i: n c_i rounded (largest remainder) so that sum n_i = n.
+
+    Every technique with c_i > 0 gets at least ``minimum`` samples (2: its variance
+    needs two); techniques with c_i = 0 get none.  ``ValueError`` if n is too small.
+    """
+    c = np.asarray(fractions, float) / np.sum(fractions)
+    active = c > 0
+    if n < minimum * active.sum():
+        raise ValueError(f"n: {int(active.sum())} techniques need n >= {minimum * int(active.sum())} "
+                         f"samples ({minimum} each), got {n}")
+    ideal = n * c
+    counts = np.where(active, np.maximum(np.floor(ideal), minimum), 0).astype(np.int64)
+    while counts.sum() > n:  # at most K steps: take from the most over-served
+        over = np.where(counts > minimum, counts - ideal, -np.inf)
+        counts[np.argmax(over)] -= 1
+    while counts.sum() < n:  # largest remainder
+        under = np.where(active, ideal - counts, -np.inf)
+        counts[np.argmax(under)] += 1
+    return counts
+
+
+def _check_fractions(fractions: Any, k: int, name: str) -> np.ndarray:
+    if fractions is None:
+        return np.full(k, 1.0 / k)
+    try:
+        c = np.asarray(fractions, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected {k} numbers, got {fractions!r}") from None
+    if c.ndim != 1 or len(c) != k:
+        raise ValueError(f"{name}: expected {k} values (one per distribution), got shape {c.shape}")
+    if not np.all(np.isfinite(c)):
+        raise ValueError(f"{name}: values must be finite, got {c.tolist()}")
+    if np.any(c < 0):
+        raise ValueError(f"{name}: values must be >= 0, got {c.tolist()}")
+    if not c.sum() > 0:
+        raise ValueError(f"{name}: all values are zero (no technique would be sampled)")
+    return c / c.sum()
+
+
+def _check_distributions(distributions: Any) -> list:
+    dists = list(distributions) if isinstance(distributions, (list, tuple)) else None
+    if not dists:
+        raise ValueError("distributions: expected a non-empty list of distributions")
+    for d in dists:
+        for attr in ("dim_u", "sample", "pdf"):
+            if not hasattr(d, attr):
+                raise TypeError(f"distributions: {d!r} has no {attr!r} (needs dim_u, sample, pdf)")
+    return dists
+
+
+def _check_dims(dists: list, integrand) -> None:
+    dims = {getattr(d, "dim_x", None) for d in dists} - {None}
+    if len(dims) > 1:
+        raise ValueError(f"distributions: points of different dimensions {sorted(dims)}")
+    if dims and dims.pop() != integrand.dim:
+        raise ValueError(f"distributions: points of dimension {[getattr(d, 'dim_x', None) for d in dists]}, "
+                         f"but the integrand's domain has dimension {integrand.dim}")
+
+
+def _stack_pdfs(dists: list, x: np.ndarray) -> np.ndarray:
+    """p_k(x) for every technique, broadcast and stacked on a last axis (..., K)."""
+    ps = np.broadcast_arrays(*[np.asarray(d.pdf(x), dtype=float) for d in dists])
+    return np.stack(ps, -1)
+
+
+def _safe_div(a, b):
+    a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+    return np.divide(a, b, out=np.zeros(a.shape), where=b > 0)
+
+
+# ----------------------------------------------------------------------------------------
+# uniforms for several techniques
+# ----------------------------------------------------------------------------------------
+def _segments(points: Any, dims: list[int], plan: list[tuple[int, int]], gen: np.random.Generator,
+              chunk: int):
+    """Yield ``(segment, technique, u)`` blocks for ``plan = [(technique, count), ...]``.
+
+    * ``points`` an array ``(*batch, n, max dim_u)``: consecutive rows per segment,
+      the first ``dim_u`` columns;
+    * an engine instance (``random``): one engine of dimension max dim_u, consecutive
+      rows per segment;
+    * None, a class or a name: one fresh engine per segment with that technique's
+      ``dim_u``, all seeded from the same generator (independent streams).
+    """
+    dmax = max(dims[i] for i, _ in plan)
+    if isinstance(points, np.ndarray):
+        total = sum(c for _, c in plan)
+        if points.ndim < 2 or points.shape[-2] != total or points.shape[-1] < dmax:
+            raise ValueError(f"points: an array of uniforms must have shape (*batch, {total}, >= {dmax}), "
+                             f"got {points.shape}")
+        start = 0
+        for s, (i, c) in enumerate(plan):
+            yield s, i, points[..., start:start + c, : dims[i]]
+            start += c
+        return
+    shared = point_engine(points, dmax, gen) if callable(getattr(points, "random", None)) else None
+    for s, (i, c) in enumerate(plan):
+        engine = shared if shared is not None else point_engine(points, dims[i], gen)
+        step = chunk if getattr(engine, "extensible", True) else c
+        done = 0
+        while done < c:
+            k = min(step, c - done)
+            u = np.asarray(engine.random(k), dtype=float)
+            yield s, i, u[..., : dims[i]]
+            done += k
+
+
+class _CoMoments:
+    """Running count, mean vector and centred cross-product matrix of vectors (*batch, m, D)
+    (Chan, Golub & LeVeque's pairwise update, as ``vrlab.estimate.Moments`` but for covariances)."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.mean: Any = 0.0
+        self.m2: Any = 0.0
+
+    def add(self, v: np.ndarray) -> None:
+        m = v.shape[-2]
+        if m == 0:
+            return
+        mean_b = v.mean(-2)
+        dev = v - mean_b[..., None, :]
+        m2_b = np.swapaxes(dev, -1, -2) @ dev
+        if self.count == 0:
+            self.count, self.mean, self.m2 = m, mean_b, m2_b
+            return
+        n = self.count + m
+        delta = mean_b - self.mean
+        self.mean = self.mean + delta * (m / n)
+        self.m2 = self.m2 + m2_b + delta[..., :, None] * delta[..., None, :] * (self.count * m / n)
+        self.count = n
+
+    def second(self) -> np.ndarray:
+        """Sum over samples of v v^T (uncentred)."""
+        return self.m2 + self.count * self.mean[..., :, None] * self.mean[..., None, :]
+
+
+def _solve_psd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Batched a = A^+ b for symmetric positive semi-definite A (pseudo-inverse: identical
+    or linearly dependent techniques make A singular)."""
+    A = 0.5 * (A + np.swapaxes(A, -1, -2))
+    A, b = np.broadcast_arrays(A, b[..., None])
+    return (np.linalg.pinv(A, rcond=1e-12, hermitian=True) @ b)[..., 0]
+
+
+# ----------------------------------------------------------------------------------------
+# multi-sample MIS
+# ----------------------------------------------------------------------------------------
+class MIS(Estimator):
+    """Veach's multi-sample MIS estimator (see the module docstring for the formulas).
+
+    ``fractions`` c_i split the n evaluations: n_i = ``split_counts(n, c)`` (largest
+    remainder, >= 2 for each c_i > 0; c_i = 0 gives n_i = 0 and weight 0, and the other
+    techniques must then cover the support).  ``heuristic``: one of ``HEURISTICS`` or a
+    callable ``q -> w``; ``beta`` (power), ``alpha`` (cutoff), ``optimal_pilot`` (share
+    of n used to fit the optimal weights' coefficients; 0: same samples).
+
+    The techniques' sample sets are independent, so Var[F] = sum_i Var_i[w_i f / p_i] / n_i;
+    ``estimate`` reports that (per technique) in ``extra["variance_contributions"]``
+    (last axis: technique), with ``extra["counts"]``; for ``optimal`` the per-technique
+    residual variances of the regression form (scaled by N / (N - K) for the K fitted
+    coefficients) and ``extra["alpha"]``.  ``Estimate.variance`` is N Var[F] (per-sample
+    equivalent) and ``n`` = N (with a pilot: the main pass's N; ``n_evals`` counts both).
+    Works batched (integrand values (*batch, n),
+    distributions broadcasting over leading axes, or uniforms (*batch, n, d)).
+    """
+
+    def __init__(self, distributions: Sequence, fractions: Sequence[float] | None = None,
+                 heuristic: str | Callable = "balance", *, beta: float = 2.0, alpha: float = 0.1,
+                 optimal_pilot: float = 0.0, probe: bool = True):
+        self.distributions = _check_distributions(distributions)
+        self.fractions = _check_fractions(fractions, len(self.distributions), "fractions")
+        _check_heuristic(heuristic, HEURISTICS)
+        self.heuristic = heuristic
+        self.beta, self.alpha = _check_beta_alpha(beta, alpha)
+        pilot = float(optimal_pilot)
+        if not 0.0 <= pilot < 1.0:
+            raise ValueError(f"optimal_pilot must be in [0, 1), got {optimal_pilot}")
+        if pilot > 0 and heuristic != "optimal":
+            raise ValueError("optimal_pilot: only used with heuristic='optimal'")
+        self.optimal_pilot = pilot
+        self.probe = probe
+
+    @property
+    def label(self) -> str:
+        name = self.heuristic if isinstance(self.heuristic, str) else getattr(self.heuristic, "__name__", "custom")
+        return f"MIS[{name}]"
+
+    def counts(self, n: int) -> np.ndarray:
+        """Samples per technique for ``n`` evaluations (without an optimal pilot)."""
+        return split_counts(check_n(n), self.fractions)
+
+    def check(self, integrand) -> None:
+        _check_dims(self.distributions, integrand)
+        active = [d for d, c in zip(self.distributions, self.fractions) if c > 0]
+        if self.probe and integrand.dim <= 3:
+            support_probe(integrand, active, label=f"{self.label} (techniques with samples)")
+
+    def dim_u(self, integrand=None) -> int:
+        """Uniforms per row of an array ``points``: the largest technique's ``dim_u``."""
+        return max(int(d.dim_u) for d in self.distributions)
+
+    def weights(self, x: np.ndarray, counts: np.ndarray) -> np.ndarray:
+        """w_k(x) (..., K) of the non-optimal heuristics for sample counts ``counts``."""
+        return mis_weights(_stack_pdfs(self.distributions, x) * counts, self.heuristic,
+                           beta=self.beta, alpha=self.alpha)
+
+    def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
+                 chunk: int = DEFAULT_CHUNK) -> Estimate:
+        """Estimate ``integrand``'s integral with ``n`` evaluations split among the techniques.
+
+        ``points``: None, a point-set class or name (one engine per technique, seeded
+        from ``rng``), an engine instance of dimension ``dim_u()`` (consecutive rows per
+        technique), or an array ``(*batch, n, dim_u())`` (consecutive row blocks per
+        technique: the optimal pilot first, then technique 0, 1, ...).
+        """
+        self.check(integrand)
+        n = check_n(n)
+        gen = as_generator(rng)
+        t0 = time.perf_counter()
+        K = len(self.distributions)
+        dims = [int(d.dim_u) for d in self.distributions]
+        n_pilot = 0
+        if self.heuristic == "optimal" and self.optimal_pilot > 0:  # >= 2 per technique
+            n_pilot = max(int(round(self.optimal_pilot * n)), 2 * int(np.sum(self.fractions > 0)))
+        pilot_counts = split_counts(n_pilot, self.fractions) if n_pilot else np.zeros(K, np.int64)
+        counts = split_counts(n - int(pilot_counts.sum()), self.fractions)
+        plan = [(i, int(c)) for i, c in enumerate(pilot_counts) if c > 0]
+        n_pilot_segments = len(plan)
+        plan += [(i, int(c)) for i, c in enumerate(counts) if c > 0]
+        blocks = _segments(points, dims, plan, gen, chunk)
+        if self.heuristic == "optimal":
+            value, contrib, extra = self._optimal(integrand, blocks, n_pilot_segments, pilot_counts, counts)
+        else:
+            value, contrib, extra = self._weighted(integrand, blocks, counts)
+        N = int(counts.sum())
+        var_f = contrib.sum(-1)
+        scalar = (lambda a: float(a) if np.ndim(a) == 0 else np.asarray(a))
+        return Estimate(scalar(value), scalar(np.sqrt(var_f)), N, n, time.perf_counter() - t0,
+                        scalar(N * var_f), self.label,
+                        {"counts": counts.tolist(), "pilot_counts": pilot_counts.tolist(),
+                         "variance_contributions": contrib, **extra})
+
+    # -- the heuristics with explicit weights ------------------------------------------
+    def _weighted(self, integrand, blocks, counts):
+        K = len(self.distributions)
+        moments = [Moments() for _ in range(K)]
+        for _, i, u in blocks:
+            dist = self.distributions[i]
+            x = dist.sample(u)
+            P = _stack_pdfs(self.distributions, x)
+            w = mis_weights(P * counts, self.heuristic, beta=self.beta, alpha=self.alpha)
+            f = integrand(x)
+            moments[i].add(_safe_div(w[..., i], P[..., i]) * f)
+        return self._combine(moments, counts)
+
+    @staticmethod
+    def _combine(moments: list, counts: np.ndarray):
+        means, contrib = [], []
+        for mom, c in zip(moments, counts):
+            if c > 0:
+                means.append(np.asarray(mom.mean, float))
+                contrib.append(np.asarray(mom.variance, float) / c)
+            else:
+                means.append(np.asarray(0.0))
+                contrib.append(np.asarray(0.0))
+        shape = np.broadcast_shapes(*[np.shape(m) for m in means + contrib])
+        value = sum(np.broadcast_to(m, shape) for m in means)
+        return value, np.stack([np.broadcast_to(v, shape) for v in contrib], -1), {}
+
+    # -- optimal MIS (Kondapaneni et al. 2019) ------------------------------------------
+    def _optimal(self, integrand, blocks, n_pilot_segments, pilot_counts, counts):
+        active = np.flatnonzero(counts > 0)
+        dists = [self.distributions[i] for i in active]
+        c_main = counts[active] / counts.sum()
+        c_pilot = pilot_counts[active] / max(pilot_counts.sum(), 1)
+        Ka = len(active)
+        comoments = {int(i): _CoMoments() for i in active}
+        G, h, n_fit, pilot = 0.0, 0.0, 0, n_pilot_segments > 0
+        for s, i, u in blocks:
+            x = self.distributions[i].sample(u)
+            P = _stack_pdfs(dists, x)                           # (..., m, Ka)
+            q = P @ c_main                                      # mixture density of the main pass
+            f = integrand(x)
+            z = _safe_div(P, q[..., None])                      # p_k / q
+            y = _safe_div(f, q)                                 # f / q
+            if s < n_pilot_segments:                            # pilot: importance weights q / q_pilot
+                r = _safe_div(q, P @ c_pilot)
+                G = G + np.swapaxes(z * r[..., None], -1, -2) @ z
+                h = h + np.sum((y * r)[..., None] * z, -2)
+                n_fit += u.shape[-2]
+            else:
+                y, z = np.broadcast_arrays(y[..., None], z)
+                comoments[int(i)].add(np.concatenate([y[..., :1], z], -1))
+        N = int(counts.sum())
+        if not pilot:  # fit on the main samples: pooled uncentred sums
+            S = sum(cm.second() for cm in comoments.values())
+            G, h, n_fit = S[..., 1:, 1:], S[..., 0, 1:], N
+        a = _solve_psd(G / n_fit, h / n_fit)                    # (..., Ka)
+        beta = np.concatenate([np.ones(a.shape[:-1] + (1,)), -a], -1)
+        means, contrib = [], []
+        dof = 1.0 if pilot else N / max(N - Ka, 1)
+        for k, i in enumerate(active):
+            cm = comoments[int(i)]
+            mean_r = np.sum(beta * cm.mean, -1)
+            var_r = np.einsum("...i,...ij,...j->...", beta, cm.m2, beta) / (cm.count - 1)
+            means.append(c_main[k] * mean_r)
+            contrib.append(np.maximum(var_r, 0.0) * dof * c_main[k] ** 2 / cm.count)
+        shape = np.broadcast_shapes(a.shape[:-1], *[np.shape(m) for m in means + contrib])
+        value = np.broadcast_to(a.sum(-1), shape) + sum(np.broadcast_to(m, shape) for m in means)
+        full = np.zeros(shape + (len(counts),))
+        full[..., active] = np.stack([np.broadcast_to(v, shape) for v in contrib], -1)
+        alpha_full = np.zeros(shape + (len(counts),))
+        alpha_full[..., active] = np.broadcast_to(a, shape + (Ka,))
+        return value, full, {"alpha": alpha_full}

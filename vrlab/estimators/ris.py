@@ -1,0 +1,212 @@
+"""Resampled importance sampling (Talbot, Cline & Egbert 2005, "Importance Resampling
+for Global Illumination", EGSR; the RIS section of the CT5202 lecture notes).
+
+For each output sample draw m candidates Y_1..Y_m ~ p (the ``source``, easy to
+sample), give them resampling weights w_j = p̂(Y_j) / p(Y_j) with an unnormalised
+``target`` p̂ (ideally close to |f|, e.g. the unshadowed contribution), select one,
+Y = Y_J, with probability w_J / sum_j w_j, and use
+
+    F = f(Y) W,   W = (1 / p̂(Y)) (1/m) sum_j w_j   (the "unbiased contribution weight").
+
+Unbiased when p > 0 wherever p̂ > 0 and p̂ > 0 wherever f != 0.  As m grows Y is
+distributed more and more like p̂ / int p̂; with m = 1 it is plain IS from p.
+If p̂ = k f exactly (f > 0), F = (1/m) sum_j f(Y_j) / p(Y_j): IS with m samples,
+Var = Var_p[f/p] / m per output sample.
+
+Selection uses weighted reservoir sampling (Chao 1982), the streaming form ReSTIR
+builds on (Bitterli et al. 2020): a ``Reservoir`` keeps one sample, the running sum
+of weights and the number of candidates seen; candidate j replaces the kept sample
+with probability w_j / (w_sum after adding w_j), one uniform per candidate, so the
+result is a deterministic function of the uniforms.  Two reservoirs over disjoint
+candidate sets merge into one over the union (``Reservoir.merge``).
+
+Cost convention: ``n`` counts evaluations of f, one per output sample.  The m
+candidate evaluations of p̂ (and draws/pdfs of p) per output sample are counted
+separately in ``Estimate.extra["target_evals"]`` (= n m), so comparisons at total
+cost can add them with their own price.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+
+from .._rng import RNGLike
+from ..estimate import Estimate
+from .base import DEFAULT_CHUNK, Estimator, support_probe
+
+
+class Reservoir:
+    """A batch of weighted reservoirs (one per leading index).
+
+    ``y`` (*shape, k): kept sample; ``w_sum`` (*shape): sum of the resampling weights
+    seen; ``M`` (*shape): number of candidates seen; ``target`` (*shape): p̂(y).
+    Methods return new reservoirs (the arrays are not modified).
+    """
+
+    def __init__(self, y: np.ndarray, w_sum: np.ndarray, M: np.ndarray, target: np.ndarray):
+        self.y = np.asarray(y, dtype=float)
+        self.w_sum = np.asarray(w_sum, dtype=float)
+        self.M = np.asarray(M, dtype=float)
+        self.target = np.asarray(target, dtype=float)
+
+    @classmethod
+    def empty(cls, shape: tuple = (), dim_x: int = 1) -> "Reservoir":
+        """Reservoirs that have seen nothing (W = 0)."""
+        shape = tuple(int(s) for s in shape) if isinstance(shape, (tuple, list)) else (int(shape),)
+        return cls(np.zeros(shape + (dim_x,)), np.zeros(shape), np.zeros(shape), np.zeros(shape))
+
+    @property
+    def shape(self) -> tuple:
+        return self.w_sum.shape
+
+    @property
+    def W(self) -> np.ndarray:
+        """Unbiased contribution weight w_sum / (M p̂(y)) (0 for an empty reservoir)."""
+        den = self.M * self.target
+        return np.divide(self.w_sum, den, out=np.zeros(np.broadcast_shapes(self.w_sum.shape, den.shape)),
+                         where=den > 0)
+
+    def _stream(self, x, weights, u, target, count) -> "Reservoir":
+        """Process candidates (*s, m, k) with weights/uniforms/targets (*s, m) in order."""
+        x, weights, u, target = (np.asarray(a, dtype=float) for a in (x, weights, u, target))
+        if np.any(weights < 0) or np.any(np.isnan(weights)):
+            raise ValueError("weights: resampling weights must be >= 0 and not NaN (check the target)")
+        shape = np.broadcast_shapes(self.shape + (1,), weights.shape, u.shape, target.shape, x.shape[:-1])
+        m = shape[-1]
+        lead = shape[:-1]
+        # running sums in the sequential order: ((w_sum + w_1) + w_2) + ...
+        w = np.broadcast_to(weights, shape)
+        cum = np.cumsum(np.concatenate([np.broadcast_to(self.w_sum, lead)[..., None], w], -1), -1)[..., 1:]
+        accept = np.broadcast_to(u, shape) * cum < w          # u_j < w_j / cum_j
+        any_acc = accept.any(-1)
+        last = (m - 1 - np.argmax(accept[..., ::-1], -1))[..., None]
+        xb = np.broadcast_to(x, shape + x.shape[-1:])
+        y_new = np.take_along_axis(xb, last[..., None], -2)[..., 0, :]
+        t_new = np.take_along_axis(np.broadcast_to(target, shape), last, -1)[..., 0]
+        y = np.where(any_acc[..., None], y_new, np.broadcast_to(self.y, lead + self.y.shape[-1:]))
+        t = np.where(any_acc, t_new, np.broadcast_to(self.target, lead))
+        M = np.broadcast_to(self.M, lead) + np.sum(np.broadcast_to(count, shape), -1)
+        return Reservoir(y, cum[..., -1], M, t)
+
+    def update(self, x: np.ndarray, weights: np.ndarray, u: np.ndarray, target: np.ndarray) -> "Reservoir":
+        """Stream candidates ``x`` (*shape, m, k) with resampling weights, one uniform
+        each and their target values p̂(x) (all (*shape, m)).  Candidate j is kept with
+        probability w_j / (w_sum + w_1 + ... + w_j), replacing any earlier choice."""
+        return self._stream(x, weights, u, target, 1.0)
+
+    def merge(self, other: "Reservoir", u: np.ndarray, target_at_other: np.ndarray | None = None
+              ) -> "Reservoir":
+        """Combine with ``other`` (disjoint candidates): keep other's sample with probability
+        w_other / (w_sum + w_other), sum the weights and the counts M.
+
+        ``w_other`` = other.w_sum (same target).  For reuse across different targets
+        (ReSTIR), pass ``target_at_other`` = this reservoir's p̂ at other.y: then
+        w_other = p̂(other.y) W_other M_other (Bitterli et al. 2020, Alg. 4, their biased
+        combination unless the supports agree).
+        """
+        if target_at_other is None:
+            w_other, t_other = other.w_sum, other.target
+        else:
+            t_other = np.asarray(target_at_other, dtype=float)
+            w_other = t_other * other.W * other.M
+        return self._stream(other.y[..., None, :], np.asarray(w_other)[..., None], np.asarray(u)[..., None],
+                            np.asarray(t_other)[..., None], np.asarray(other.M)[..., None])
+
+
+class RIS(Estimator):
+    """Resampled importance sampling with ``m`` candidates from ``source`` per output sample,
+    resampled towards the unnormalised ``target`` p̂ (callable, points (..., k) -> (...)).
+
+    Uniforms per output sample: ``dim_u = m (source.dim_u + 1)``: columns
+    ``[j d, (j + 1) d)`` make candidate j (d = source.dim_u), the last m columns are the
+    reservoir's selection uniforms.  Candidates travel on the sample axis while they are
+    drawn, so a source or target that broadcasts over leading batch axes (per-pixel
+    frames, ``(*batch, n, k)``) works unchanged.  ``chunk`` in ``estimate`` counts
+    candidates: a block holds max(1, chunk // m) output samples.
+    """
+
+    evals_per_unit = 1
+
+    def __init__(self, source, target: Callable[[np.ndarray], np.ndarray], m: int, *, probe: bool = True):
+        for attr in ("dim_u", "sample", "pdf"):
+            if not hasattr(source, attr):
+                raise TypeError(f"source: {source!r} has no {attr!r} (needs dim_u, sample, pdf)")
+        if not callable(target):
+            raise TypeError(f"target must be callable (points -> unnormalised density), got {type(target).__name__}")
+        if isinstance(m, (bool, np.bool_)) or not isinstance(m, (int, np.integer)) or m < 1:
+            raise ValueError(f"m (candidates per sample) must be an integer >= 1, got {m!r}")
+        self.source = source
+        self.target = target
+        self.m = int(m)
+        self.probe = probe
+
+    @property
+    def label(self) -> str:
+        return f"RIS[m={self.m}]"
+
+    def check(self, integrand) -> None:
+        dx = getattr(self.source, "dim_x", None)
+        if dx is not None and dx != integrand.dim:
+            raise ValueError(f"source: points of dimension {dx}, but the integrand's domain has dimension "
+                             f"{integrand.dim}")
+        if self.probe and integrand.dim <= 3:
+            support_probe(integrand, [_Support(self.source, self.target)],
+                          label=f"{self.label} (source pdf x target)")
+
+    def dim_u(self, integrand=None) -> int:
+        return self.m * (int(self.source.dim_u) + 1)
+
+    def reservoirs(self, u: np.ndarray) -> Reservoir:
+        """The reservoirs (*batch, n) after streaming the m candidates of each output sample
+        from uniforms ``u`` (*batch, n, dim_u)."""
+        u = np.asarray(u, dtype=float)
+        m, d = self.m, int(self.source.dim_u)
+        if u.ndim < 2 or u.shape[-1] != m * (d + 1):
+            raise ValueError(f"u: expected shape (..., n, {m * (d + 1)}), got {u.shape}")
+        lead, n = u.shape[:-2], u.shape[-2]
+        cand = u[..., : m * d].reshape(lead + (n * m, d))      # candidates on the sample axis
+        x = np.asarray(self.source.sample(cand), dtype=float)
+        p = np.asarray(self.source.pdf(x), dtype=float)
+        t = np.asarray(self.target(x), dtype=float)
+        if np.any(t < 0) or np.any(np.isnan(t)):
+            raise ValueError("target: the unnormalised target density must be >= 0 and not NaN")
+        w = np.divide(t, p, out=np.zeros(np.broadcast_shapes(t.shape, p.shape)), where=p > 0)
+
+        def split(a, tail=()):  # (..., n m, *tail) -> (..., n, m, *tail)
+            return a.reshape(a.shape[: a.ndim - 1 - len(tail)] + (n, m) + tail)
+
+        empty = Reservoir.empty((), x.shape[-1])
+        return empty.update(split(x, (x.shape[-1],)), split(w), u[..., m * d:], split(t))
+
+    def unit_values(self, integrand, u):
+        res = self.reservoirs(u)
+        f = integrand(res.y)
+        W = res.W
+        return np.where(W > 0, f * W, 0.0)
+
+    def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
+                 chunk: int = DEFAULT_CHUNK) -> Estimate:
+        """As ``Estimator.estimate`` (n output samples = n evaluations of f); also reports
+        ``extra["target_evals"]`` = n m and ``extra["candidates"]`` = m."""
+        est = super().estimate(integrand, n, rng=rng, points=points, chunk=max(1, chunk // self.m))
+        est.method = self.label
+        est.extra.update(target_evals=est.n * self.m, candidates=self.m)
+        return est
+
+
+class _Support:
+    """Positive exactly where source pdf and target both are (for ``support_probe``)."""
+
+    dim_u = 0
+
+    def __init__(self, source, target):
+        self.source, self.target = source, target
+
+    def sample(self, u):  # pragma: no cover - never sampled
+        raise NotImplementedError
+
+    def pdf(self, x):
+        p = np.asarray(self.source.pdf(x), dtype=float)
+        t = np.asarray(self.target(x), dtype=float)
+        return np.where(p > 0, t, 0.0)
