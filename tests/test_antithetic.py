@@ -12,28 +12,11 @@ from vrlab.distributions import UniformBox
 from vrlab.estimators import MonteCarlo
 from vrlab.estimators.antithetic import Antithetic, reflect
 from vrlab.integrands import Integrand
+from vrlab.testing.stats import std_band, u_nodes
 
 R = 200                      # replicates for calibration
 N = 4000                     # evaluations per estimate (2000 pairs)
 ALPHA = 1e-3                 # per-check false-alarm rate (several checks per integrand)
-
-
-def std_band(r: int, alpha: float = ALPHA) -> tuple[float, float]:
-    """Band for the sample std of r standard normal values (chi-square with r - 1 dof)."""
-    q = stats.chi2.ppf([alpha / 2, 1 - alpha / 2], r - 1) / (r - 1)
-    return float(np.sqrt(q[0])), float(np.sqrt(q[1]))
-
-
-def u_nodes(d: int, cells: int = 96, quad: int = 6) -> tuple[np.ndarray, np.ndarray]:
-    """Composite Gauss-Legendre nodes (N, d) and weights (N,) on [0, 1]^d (d = 1, 2)."""
-    g, w = np.polynomial.legendre.leggauss(quad)
-    cells = cells * 8 if d == 1 else cells
-    x = ((g[None, :] + 1) / 2 + np.arange(cells)[:, None]).ravel() / cells
-    wx = np.tile(w / 2, cells) / cells
-    if d == 1:
-        return x[:, None], wx
-    xx, yy = np.meshgrid(x, x, indexing="ij")
-    return np.stack([xx.ravel(), yy.ravel()], -1), np.outer(wx, wx).ravel()
 
 
 def u_moments(fn, d: int) -> tuple[float, float]:

@@ -16,27 +16,11 @@ from vrlab.distributions import TruncatedNormal
 from vrlab.estimators import MonteCarlo
 from vrlab.estimators.control import CoMoments, ControlVariate, DefensiveMixture
 from vrlab.integrands import Integrand
+from vrlab.testing.stats import std_band, u_nodes
 
 R = 200
 N = 4000
 ALPHA = 1e-3
-
-
-def std_band(r: int, alpha: float = ALPHA) -> tuple[float, float]:
-    q = stats.chi2.ppf([alpha / 2, 1 - alpha / 2], r - 1) / (r - 1)
-    return float(np.sqrt(q[0])), float(np.sqrt(q[1]))
-
-
-def u_nodes(d: int, cells: int = 96, quad: int = 6):
-    """Composite Gauss-Legendre nodes (N, d) and weights on [0, 1]^d (d = 1, 2)."""
-    g, w = np.polynomial.legendre.leggauss(quad)
-    cells = cells * 8 if d == 1 else cells
-    x = ((g[None, :] + 1) / 2 + np.arange(cells)[:, None]).ravel() / cells
-    wx = np.tile(w / 2, cells) / cells
-    if d == 1:
-        return x[:, None], wx
-    xx, yy = np.meshgrid(x, x, indexing="ij")
-    return np.stack([xx.ravel(), yy.ravel()], -1), np.outer(wx, wx).ravel()
 
 
 def control_for(integrand):

@@ -13,27 +13,12 @@ from vrlab.estimators.antithetic import Antithetic
 from vrlab.estimators.control import ControlVariate
 from vrlab.estimators.crn import CRNDifference, crn_difference
 from vrlab.integrands import Integrand
+from vrlab.testing.stats import std_band, u_nodes
 
 R = 200
 N = 4000
 ALPHA = 1e-3
 E = np.e
-
-
-def std_band(r: int, alpha: float = ALPHA) -> tuple[float, float]:
-    q = stats.chi2.ppf([alpha / 2, 1 - alpha / 2], r - 1) / (r - 1)
-    return float(np.sqrt(q[0])), float(np.sqrt(q[1]))
-
-
-def u_nodes(d: int, cells: int = 96, quad: int = 6):
-    g, w = np.polynomial.legendre.leggauss(quad)
-    cells = cells * 8 if d == 1 else cells
-    x = ((g[None, :] + 1) / 2 + np.arange(cells)[:, None]).ravel() / cells
-    wx = np.tile(w / 2, cells) / cells
-    if d == 1:
-        return x[:, None], wx
-    xx, yy = np.meshgrid(x, x, indexing="ij")
-    return np.stack([xx.ravel(), yy.ravel()], -1), np.outer(wx, wx).ravel()
 
 
 def partner(it: Integrand) -> Integrand:

@@ -13,14 +13,10 @@ import vrlab.points as P
 from vrlab.estimators import MonteCarlo
 from vrlab.estimators.stratified import Stratified, allocate, default_grid
 from vrlab.integrands import Integrand
+from vrlab.testing.stats import std_band
 
 R = 200
 ALPHA = 1e-3
-
-
-def std_band(r: int, alpha: float = ALPHA) -> tuple[float, float]:
-    q = stats.chi2.ppf([alpha / 2, 1 - alpha / 2], r - 1) / (r - 1)
-    return float(np.sqrt(q[0])), float(np.sqrt(q[1]))
 
 
 def strata_moments(integrand, grid, distribution=None, quad: int = 8, sub: int = 4):

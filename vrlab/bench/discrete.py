@@ -12,12 +12,11 @@ trouble for large tables).
 """
 from __future__ import annotations
 
-import gc
-import time
 import warnings
-from collections.abc import Callable
 
 import numpy as np
+
+from .timing import race as _race
 
 from ..distributions.discrete import AliasTable, CDFTable
 
@@ -28,26 +27,6 @@ def _sci(x: int) -> str:
     """10**7 -> "1e7"."""
     e = round(float(np.log10(x)))
     return f"1e{e}" if 10**e == x else str(x)
-
-
-def _race(fns: dict[str, Callable[[], object]], repeat: int) -> dict[str, float]:
-    """Best wall time of ``repeat`` calls of each function.  The methods take turns
-    (round robin, garbage collector paused), so a load spike on a shared machine
-    hits them alike instead of one method's whole series."""
-    best = dict.fromkeys(fns, np.inf)
-    gc.collect()
-    was_enabled = gc.isenabled()
-    gc.disable()
-    try:
-        for _ in range(repeat):
-            for name, fn in fns.items():
-                t0 = time.perf_counter()
-                fn()
-                best[name] = min(best[name], time.perf_counter() - t0)
-    finally:
-        if was_enabled:
-            gc.enable()
-    return best
 
 
 def _rows(task: str, n: int, times: dict[str, float], notes: dict[str, str]) -> list[dict]:

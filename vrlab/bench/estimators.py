@@ -21,33 +21,15 @@ Each time is the best of ``repeat`` runs, methods taking turns, garbage collecto
 """
 from __future__ import annotations
 
-import gc
 import json
 import subprocess
 import sys
-import time
-from collections.abc import Callable
 
 import numpy as np
 
+from .timing import race as _race
+
 TARGET = 1.3
-
-
-def _race(fns: dict[str, Callable[[], object]], repeat: int) -> dict[str, float]:
-    best = dict.fromkeys(fns, np.inf)
-    gc.collect()
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        for _ in range(repeat):
-            for name, fn in fns.items():
-                t0 = time.perf_counter()
-                fn()
-                best[name] = min(best[name], time.perf_counter() - t0)
-    finally:
-        if enabled:
-            gc.enable()
-    return best
 
 
 def _rows(task: str, n: int, times: dict[str, float], ours: str, bare: str, note: str = "") -> list[dict]:

@@ -342,6 +342,13 @@ class MIS(Estimator):
         for _, i, u in blocks:
             dist = self.distributions[i]
             x = dist.sample(u)
+            if self.heuristic == "balance":  # w_i f / p_i = n_i f / sum_k n_k p_k: no stacked weights
+                q = 0.0
+                for k, d in enumerate(self.distributions):
+                    if counts[k]:
+                        q = q + counts[k] * np.asarray(d.pdf(x), dtype=float)
+                moments[i].add(_safe_div(counts[i] * integrand(x), q))
+                continue
             P = _stack_pdfs(self.distributions, x)
             w = mis_weights(P * counts, self.heuristic, beta=self.beta, alpha=self.alpha)
             f = integrand(x)
