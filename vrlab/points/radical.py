@@ -209,6 +209,27 @@ def _identity_digits(b: int) -> _Digits:
     return _Digits(b)
 
 
+@functools.cache
+def _digit_factors(b: int) -> tuple[float, ...]:
+    """f_0 = 1/b, f_(j+1) = f_j / b (repeated division, as in SciPy), enough for int64."""
+    f = [1.0 / b]
+    while len(f) < 64:
+        f.append(f[-1] / b)
+    return tuple(f)
+
+
+@functools.cache
+def _lsd_table(b: int, k: int) -> np.ndarray:
+    """Radical inverse of every r < b^k, summed from the least significant digit."""
+    f = _digit_factors(b)
+    q = np.arange(b ** k, dtype=np.int64)
+    out = np.zeros(q.shape)
+    for j in range(k):
+        q, digit = np.divmod(q, b)
+        out += f[j] * digit
+    return out
+
+
 def radical_inverse(i: ArrayLike, base: int = 2) -> np.ndarray:
     """Vectorised radical inverse ``phi_b(i) = sum_k d_k b^{-k-1}`` where ``i = sum_k d_k b^k``.
 
@@ -227,7 +248,16 @@ def radical_inverse(i: ArrayLike, base: int = 2) -> np.ndarray:
     if arr.dtype == np.uint64 and arr.size and arr.max() > np.iinfo(np.int64).max:
         raise ValueError("i must be < 2**63")
     flat = arr.astype(np.int64, copy=False).ravel()
+    # summed from the least significant digit, as Halton's points (and SciPy's) are
+    k = _digits_per_group(base)
+    q, low = np.divmod(flat, base ** k)
+    out = _lsd_table(base, k)[low]
+    f, j = _digit_factors(base), k
+    while q.size and q.max() > 0:
+        q, digit = np.divmod(q, base)
+        out += f[j] * digit
+        j += 1
     # clamp: for i >= 2^53 the exact value 1 - b^-m can round up to 1.0
-    return clamp_open(_identity_digits(base).gather(flat)).reshape(arr.shape)
+    return clamp_open(out).reshape(arr.shape)
 
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import clamp_open
-from .radical import _TABLE_LIMIT, _Digits, _digits_per_group, _identity_digits  # noqa: F401
+from .radical import _TABLE_LIMIT, _Digits, _digit_factors, _digits_per_group, _identity_digits, _lsd_table  # noqa: F401
 
 _OWEN_INDEX_LIMIT = 1 << 32
 ScrambleArg = bool | str
@@ -48,11 +48,35 @@ def _mix64(x: np.ndarray) -> np.ndarray:
 
 
 class _PlainDim:
+    """Unscrambled radical inverse, summed from the least significant digit:
+    ``((d_0 f_0 + d_1 f_1) + d_2 f_2) + ...`` with ``f_0 = 1/b``, ``f_(k+1) = f_k / b``.
+
+    This is the floating-point operation order of ``scipy.stats.qmc.Halton(d,
+    scramble=False)``, so the points agree with SciPy's bit for bit.  The first ``k``
+    digits come from a table built in the same order; the higher digits are constant
+    over blocks of ``b^k`` consecutive indices and are added per block.
+    """
+
     def __init__(self, b: int) -> None:
-        self.digits = _identity_digits(b)
+        self.b = b
+        self.k = _digits_per_group(b)
+        self.B = b ** self.k
+        self.f = _digit_factors(b)
+        self.table = _lsd_table(b, self.k)
 
     def fill(self, s: int, n: int, out: np.ndarray) -> None:
-        self.digits.fill_range(s, n, out)
+        if n == 0:
+            return
+        q, low = np.divmod(np.arange(s, s + n, dtype=np.int64), self.B)
+        np.take(self.table, low, out=out)
+        q0 = int(q[0])
+        block = q - q0 if q0 else q                       # block of each index, from 0
+        qq = np.arange(q0, int(q[-1]) + 1, dtype=np.int64)  # one entry per block
+        j = self.k
+        while qq.size and qq.max() > 0:
+            qq, digit = np.divmod(qq, self.b)
+            out += (self.f[j] * digit)[block]
+            j += 1
         if s + n > 1 << 50:  # only huge indices can round up to 1.0
             clamp_open(out)
 
