@@ -12,12 +12,15 @@ exactly once.
 
 Implementation
 --------------
-Digits are handled ``k`` at a time: ``B = b^k <= 2^16`` and a table
-``T[r] = phi_b(r)`` over ``k`` digits (permuted tables for ``scramble=True``)
-give ``phi_b(i) = T[i mod B] + phi'(i // B) / B``.  For a contiguous range of
-indices the low part is the table itself, repeated, and the high part is constant
-over blocks of ``B`` indices, so a whole dimension costs one broadcast addition
-(no integer division per point).  Arbitrary index arrays use divmod per digit group.
+Digits are handled ``k`` at a time, with ``B = b^k <= 2^16`` and tables over ``k`` digits.
+*Unscrambled* (``radical_inverse``, plain Halton/Hammersley): the sum is accumulated from
+the least significant digit, ``((d_0 f_0 + d_1 f_1) + ...)`` with ``f_0 = 1/b`` and
+``f_(j+1) = f_j / b``, which is SciPy's floating-point order, so the points equal
+``scipy.stats.qmc.Halton(d, scramble=False)``'s bit for bit; a table gives the first ``k``
+digits and the higher digits, constant over blocks of ``B`` consecutive indices, are added
+per block.  *Permuted* digits: tables ``T[r]`` of the permuted digit sums give
+``phi(i) = T[i mod B] + phi'(i // B) / B`` (most significant first, exact integer
+tables), one broadcast addition per block for a contiguous range.
 Output arrays are Fortran-ordered (each coordinate contiguous), as in SciPy.
 """
 from __future__ import annotations
