@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import matplotlib
 import numpy as np
 import pandas as pd
 
@@ -44,14 +45,17 @@ def convergence_plot(df: pd.DataFrame, path: str | Path, *, title: str | None = 
         for i, (est, g) in enumerate(part.groupby("estimator", sort=False)):
             g = g.sort_values("n")
             ok = (g["rmse"] > 0) & np.isfinite(g["rmse"])
-            color = f"C{i % 10}"
+            # 20 colours and 5 markers: no two of up to 20 estimators look alike
+            color = matplotlib.colormaps["tab20"](i % 20)
+            marker = "osD^v"[i % 5]
             sl = slopes.loc[(est, name)]
             if not ok.any():
-                ax.plot([], [], "o-", color=color, label=f"{est}  (RMSE = 0)")
+                ax.plot([], [], marker=marker, color=color, label=f"{est}  (RMSE = 0)")
                 continue
             n, r = g["n"][ok].to_numpy(float), g["rmse"][ok].to_numpy(float)
             fitted = f"{sl['slope']:+.2f}" if np.isfinite(sl["slope"]) else "n/a"
-            ax.plot(n, r, "o-", color=color, ms=4, lw=1.4, label=f"{est}  {fitted} ({sl['theory']:+.2f})")
+            ax.plot(n, r, "-", marker=marker, color=color, ms=4, lw=1.4,
+                    label=f"{est}  {fitted} ({sl['theory']:+.2f})")
             ax.plot(n, r[0] * (n / n[0]) ** sl["theory"], "--", color=color, lw=0.9, alpha=0.6)
         ax.set_xscale("log")
         ax.set_yscale("log")
