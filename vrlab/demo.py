@@ -33,7 +33,7 @@ def showcase() -> list[tuple[str, object, object, tuple]]:
         ("piecewise-constant 1D", D.PiecewiseConstant1D([1, 3, 0.5, 0, 2, 4]), T.IntervalChart(0, 1), (48,)),
         ("disk (concentric)", D.Disk(), T.DiskChart(), (16, 24)),
         ("triangle", D.Triangle((0, 0), (1, 0), (0.3, 0.9)), T.TriangleChart((0, 0), (1, 0), (0.3, 0.9)), (16, 16)),
-        ("image luminance 2D", D.PiecewiseConstant2D(img), T.BoxChart([(0, 1), (0, 1)]), (24, 32)),
+        ("image luminance 2D", D.PiecewiseConstant2D(img), T.BoxChart([(0, 1), (0, 1)]), (32, 24)),
         ("uniform sphere", D.UniformSphere(), T.SphereChart(), (20, 30)),
         ("uniform hemisphere", D.UniformHemisphere(), T.HemisphereChart(), (20, 30)),
         ("cosine: inversion", D.CosineHemisphere("inversion"), T.HemisphereChart(), (20, 30)),
@@ -42,6 +42,10 @@ def showcase() -> list[tuple[str, object, object, tuple]]:
         ("Phong n=20", D.PhongLobe(20), T.HemisphereChart(power=2), (30, 24)),
         ("GGX alpha=0.3", D.GGX(0.3), T.HemisphereChart(power=2), (30, 24)),
         ("cone cos=0.8", D.UniformCone(0.8), T.CapChart(0.8), (20, 24)),
+        ("box light (faces by area)", D.BoxSurface((0, 0, 0), (1.0, 0.5, 0.25)),
+         T.box_surface_chart((0, 0, 0), (1.0, 0.5, 0.25)), (24, 8)),
+        ("ellipsoid light (Jacobian pdf)", D.EllipsoidSurface.from_radii((0, 0, 0), (1.0, 0.5, 0.3)),
+         T.EllipsoidChart((0, 0, 0), np.diag([1.0, 0.5, 0.3])), (20, 30)),
     ]
 
 
@@ -60,6 +64,12 @@ def _panel(ax, name, dist, x, gof):
         ax.scatter(x[:1500, 0], x[:1500, 1], s=1.5, c="tab:cyan" if isinstance(dist, D.PiecewiseConstant2D)
                    else "tab:blue")
         ax.set_aspect("equal")
+    elif dist.measure == "area":
+        # a light surface in 3D: points seen from above (x, y), coloured by their area density
+        sc = ax.scatter(x[:3000, 0], x[:3000, 1], c=dist.pdf(x[:3000]), s=1.5, cmap="viridis")
+        ax.figure.colorbar(sc, ax=ax, shrink=0.8).ax.tick_params(labelsize=6)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (colour: area pdf)")
     else:
         # azimuthally symmetric about +z: marginal density of z = cos(theta) is 2 pi p(w(z))
         ax.hist(x[:, 2], bins=60, density=True, alpha=0.6, label="samples")
@@ -84,7 +94,8 @@ def warp_figure(out: Path, seed: int, n: int) -> pd.DataFrame:
         gof = T.chi2_gof(dist, chart, bins, n=n, rng=rng, name=name)
         x = dist.sample(rng.random((min(n, 50_000), dist.dim_u)))
         table.append({"warp": name, "measure": dist.measure, "n": n, "chi2": gof.statistic, "dof": gof.dof,
-                      "p_value": gof.pvalue, "pdf_integral": T.integrate(dist.pdf, chart, 64)})
+                      "p_value": gof.pvalue,
+                      "pdf_integral": T.integrate(dist.pdf, chart, tuple(2 * b for b in bins))})
         _panel(ax, name, dist, x, gof)
     for ax in axes.ravel()[len(cases):]:
         ax.axis("off")
