@@ -43,6 +43,7 @@ import numpy as np
 from .._rng import RNGLike, as_generator
 from ..estimate import Estimate
 from .base import DEFAULT_CHUNK, Estimator, resolve_distribution, support_probe, uniform_blocks
+from .importance import MonteCarlo
 
 
 class CoMoments:
@@ -258,12 +259,10 @@ class ControlVariate(_Regression):
         return np.stack(np.broadcast_arrays(*self._theta_list), -1)
 
     def check(self, integrand) -> None:
-        dist = resolve_distribution(self.distribution, integrand)
-        if self.probe and self.distribution is not None and integrand.dim <= 3:
-            support_probe(integrand, [dist], label=repr(dist))
+        MonteCarlo(self.distribution, probe=self.probe).check(integrand)  # same sampling, same checks
 
     def dim_u(self, integrand) -> int:
-        return int(resolve_distribution(self.distribution, integrand).dim_u)
+        return MonteCarlo(self.distribution).dim_u(integrand)
 
     def _columns(self, integrand, u):
         dist = resolve_distribution(self.distribution, integrand)
