@@ -1,0 +1,318 @@
+"""Tests for vrlab.render: Mitsuba 3 XML subset parser and transforms."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vrlab.render import (SceneError, Sensor, builtin_scene_path, list_builtin_scenes, load_scene,
+                          transforms as tf)
+
+BUILTINS = ("box_ellipsoid", "cornell_box", "furnace", "many_lights", "veach_mis")
+
+SENSOR = """
+  <sensor type="perspective">
+    <float name="fov" value="45"/>
+    <sampler type="independent"><integer name="sample_count" value="8"/></sampler>
+    <film type="hdrfilm">
+      <integer name="width" value="32"/><integer name="height" value="16"/>
+      <rfilter type="box"/>
+    </film>
+  </sensor>"""
+
+
+def scene_xml(body: str, sensor: str = SENSOR, integrator: str = '<integrator type="direct"/>',
+              head: str = '<scene version="3.0.0">') -> str:
+    return f"{head}\n  {integrator}{sensor}\n{body}\n</scene>"
+
+
+SHAPE = '<shape type="rectangle"/>'
+
+
+# ----------------------------------------------------------------------------- builtins
+@pytest.mark.parametrize("name", BUILTINS)
+def test_builtin_scenes_load(name):
+    assert name in list_builtin_scenes()
+    scene = load_scene(builtin_scene_path(name))
+    assert scene.shapes and scene.emitters
+    assert scene.sensor.rfilter == "box"
+    for s in scene.shapes:
+        assert s.to_world.shape == (4, 4) and np.all(np.isfinite(s.to_world))
+
+
+def test_builtin_unknown_name():
+    with pytest.raises(ValueError, match="veach_mis"):
+        builtin_scene_path("nope")
+
+
+def test_many_lights_powers_span_three_orders():
+    scene = load_scene(builtin_scene_path("many_lights"))
+    assert len(scene.emitters) >= 100
+    power = np.array([s.emitter.radiance.mean() * 4 * np.pi ** 2 * s.sphere()[1] ** 2
+                      for s in scene.emitters])
+    assert power.max() / power.min() >= 1e3
+
+
+def test_veach_plates_reflect_lights_to_camera():
+    """The mirror direction of the camera ray at each plate centre hits the light row."""
+    scene = load_scene(builtin_scene_path("veach_mis"))
+    cam = scene.sensor.origin
+    plates = [s for s in scene.shapes if s.type == "rectangle" and s.bsdf.type == "roughconductor"]
+    lights = [s for s in scene.shapes if s.type == "sphere"]
+    assert len(plates) == 4 and len(lights) == 4
+    alphas = [p.bsdf.params["alpha"] for p in plates]
+    assert sorted(alphas) == [0.005, 0.02, 0.05, 0.1]
+    radii = np.array([s.sphere()[1] for s in lights])
+    power = np.array([s.emitter.radiance[0] for s in lights]) * radii ** 2
+    np.testing.assert_allclose(power, power[0], rtol=1e-3)
+    light_y, light_z = lights[0].center[1], lights[0].center[2]
+    for p in plates:
+        corner, e1, e2, n = p.rectangle()
+        c = corner + 0.5 * (e1 + e2)
+        wi = (c - cam) / np.linalg.norm(c - cam)
+        r = wi - 2 * np.dot(wi, n) * n
+        t = (light_z - c[2]) / r[2]
+        assert t > 0
+        assert abs(c[1] + t * r[1] - light_y) < 0.15
+
+
+# ----------------------------------------------------------------------------- transforms
+def test_rotate_z_maps_x_to_y():
+    m = tf.rotate([0, 0, 1], 90)
+    np.testing.assert_allclose(tf.transform_vectors(m, [1, 0, 0]), [0, 1, 0], atol=1e-12)
+    np.testing.assert_allclose(tf.transform_vectors(tf.rotate([1, 0, 0], 90), [0, 1, 0]),
+                               [0, 0, 1], atol=1e-12)
+
+
+def test_composition_order_scale_translate():
+    s, t = tf.scale(2), tf.translate([1, 0, 0])
+    p = np.array([1.0, 0, 0])
+    # Mitsuba: each op left-multiplies: <scale/><translate/> = T @ S
+    np.testing.assert_allclose(tf.transform_points(tf.compose(s, t), p), [3, 0, 0])
+    np.testing.assert_allclose(tf.transform_points(tf.compose(t, s), p), [4, 0, 0])
+    xml = lambda ops: scene_xml(f'<shape type="rectangle"><transform name="to_world">{ops}'
+                                '</transform></shape>')
+    a = load_scene(xml('<scale value="2"/><translate x="1"/>')).shapes[0].to_world
+    b = load_scene(xml('<translate value="1, 0, 0"/><scale value="2, 2, 2"/>')).shapes[0].to_world
+    np.testing.assert_allclose(a, [[2, 0, 0, 1], [0, 2, 0, 0], [0, 0, 2, 0], [0, 0, 0, 1]])
+    np.testing.assert_allclose(b, [[2, 0, 0, 2], [0, 2, 0, 0], [0, 0, 2, 0], [0, 0, 0, 1]])
+    c = load_scene(xml('<translate x="1"/><rotate z="1" angle="90"/>')).shapes[0].to_world
+    np.testing.assert_allclose(c[:3, 3], [0, 1, 0], atol=1e-12)   # R @ T
+
+
+def test_matrix_is_row_major():
+    vals = np.arange(16.0)
+    np.testing.assert_array_equal(tf.matrix(vals), vals.reshape(4, 4))
+    xml = scene_xml('<shape type="rectangle"><transform name="to_world">'
+                    '<matrix value="1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1"/></transform></shape>')
+    np.testing.assert_allclose(load_scene(xml).shapes[0].center, [5, 6, 7])
+
+
+def test_lookat_conventions():
+    o, t, up = np.array([1.0, 2, 3]), np.array([4.0, -1, 0.5]), np.array([0.0, 1, 0])
+    m = tf.look_at(o, t, up)
+    r = m[:3, :3]
+    np.testing.assert_allclose(r.T @ r, np.eye(3), atol=1e-12)
+    assert np.linalg.det(r) == pytest.approx(1.0)
+    d = (t - o) / np.linalg.norm(t - o)
+    np.testing.assert_allclose(tf.transform_vectors(m, [0, 0, 1]), d, atol=1e-12)
+    np.testing.assert_allclose(tf.transform_points(m, [0, 0, 0]), o)
+    # local +x = normalize(cross(up, dir)) ("left"); local +y in the up half-space
+    left = np.cross(up, d) / np.linalg.norm(np.cross(up, d))
+    np.testing.assert_allclose(r[:, 0], left, atol=1e-12)
+    assert r[:, 1] @ up > 0
+    # camera at +z looking at the origin: image-left is world -x
+    m2 = tf.look_at([0, 0, 5], [0, 0, 0], [0, 1, 0])
+    np.testing.assert_allclose(m2[:3, 0], [-1, 0, 0], atol=1e-12)
+    with pytest.raises(ValueError):
+        tf.look_at([0, 0, 0], [0, 1, 0], [0, 2, 0])
+
+
+def test_normals_use_inverse_transpose():
+    m = tf.compose(tf.scale([1, 4, 1]), tf.rotate([0, 0, 1], 30), tf.translate([3, 1, 2]))
+    rng = np.random.default_rng(1)
+    n = rng.normal(size=(20, 3))
+    tangent = np.cross(n, rng.normal(size=(20, 3)))          # tangents orthogonal to n
+    n2, t2 = tf.transform_normals(m, n), tf.transform_vectors(m, tangent)
+    np.testing.assert_allclose(np.sum(n2 * t2, axis=-1), 0, atol=1e-10)
+    assert not np.allclose(np.sum(tf.transform_vectors(m, n) * t2, axis=-1), 0)
+    assert tf.transform_points(m, np.zeros((2, 5, 3))).shape == (2, 5, 3)
+
+
+# ----------------------------------------------------------------------------- parsing
+def test_sensor_integrator_and_defaults():
+    xml = scene_xml(SHAPE, integrator='<integrator type="direct">'
+                    '<integer name="shading_samples" value="3"/>'
+                    '<integer name="bsdf_samples" value="2"/></integrator>')
+    s = load_scene(xml)
+    assert (s.integrator.emitter_samples, s.integrator.bsdf_samples) == (3, 2)
+    assert (s.sensor.width, s.sensor.height, s.sensor.spp) == (32, 16, 8)
+    assert s.sensor.fov == 45 and s.sensor.fov_axis == "x" and s.sensor.fov_x == 45
+    assert s.source == "<string>"
+    np.testing.assert_array_equal(s.sensor.to_world, np.eye(4))
+    # defaults: sampler 4 spp, film 768 x 576
+    sensor = ('<sensor type="perspective"><float name="fov" value="30"/>'
+              '<string name="fov_axis" value="y"/>'
+              '<film type="hdrfilm"><rfilter type="box"/></film></sensor>')
+    s = load_scene(scene_xml(SHAPE, sensor=sensor))
+    assert (s.sensor.width, s.sensor.height, s.sensor.spp) == (768, 576, 4)
+    assert s.sensor.fov_y == pytest.approx(30)
+    assert s.sensor.fov_x > 30
+    # fov_axis conventions (Mitsuba's parse_fov), aspect 4:3
+    base = dict(fov=50.0, to_world=np.eye(4), width=400, height=300, spp=1)
+    fx = Sensor(fov_axis="x", **base)
+    assert fx.fov_x == 50 and fx.fov_y < 50
+    fy = Sensor(fov_axis="y", **base)
+    assert fy.fov_y == pytest.approx(50)
+    assert Sensor(fov_axis="smaller", **base).fov_x == pytest.approx(fy.fov_x)
+    assert Sensor(fov_axis="larger", **base).fov_x == 50
+    fd = Sensor(fov_axis="diagonal", **base)
+    half_w, half_h = np.tan(np.deg2rad(fd.fov_x) / 2), np.tan(np.deg2rad(fd.fov_y) / 2)
+    assert np.hypot(half_w, half_h) == pytest.approx(np.tan(np.deg2rad(25)))
+
+
+def test_default_substitution_and_params():
+    xml = scene_xml('<default name="r" value="0.25"/><default name="w" value="0.3"/>'
+                    '<shape type="sphere"><float name="radius" value="$r"/>'
+                    '<emitter type="area"><rgb name="radiance" value="$w, 1, 2"/></emitter></shape>')
+    s = load_scene(xml)
+    assert s.shapes[0].sphere()[1] == pytest.approx(0.25)
+    np.testing.assert_allclose(s.shapes[0].emitter.radiance, [0.3, 1, 2])
+    s = load_scene(xml, {"r": 2})
+    assert s.shapes[0].sphere()[1] == pytest.approx(2)
+    assert load_scene(builtin_scene_path("cornell_box"), {"res": 8}).sensor.width == 8
+
+
+def test_shapes_geometry_and_refs():
+    body = """
+    <bsdf type="diffuse" id="mat"><rgb name="reflectance" value="0.1, 0.2, 0.3"/></bsdf>
+    <shape type="rectangle"><transform name="to_world"><scale x="2" y="3" z="1"/>
+       <translate z="1"/></transform><ref id="mat"/>
+       <boolean name="flip_normals" value="true"/>
+       <emitter type="area"><float name="radiance" value="5"/></emitter></shape>
+    <shape type="sphere"><point name="center" value="1, 0, 0"/><float name="radius" value="0.5"/>
+       <transform name="to_world"><scale value="2"/><translate y="1"/></transform></shape>
+    <shape type="ellipsoid"><vector name="radii" value="1, 2, 3"/></shape>
+    <shape type="disk"><bsdf type="twosided"><bsdf type="phong">
+       <float name="exponent" value="10"/></bsdf></bsdf></shape>
+    <shape type="cube"/>"""
+    rect, sph, ell, disk, cube = load_scene(scene_xml(body)).shapes
+    np.testing.assert_allclose(rect.bsdf.params["reflectance"], [0.1, 0.2, 0.3])
+    np.testing.assert_allclose(rect.emitter.radiance, [5, 5, 5])
+    corner, e1, e2, n = rect.rectangle()
+    np.testing.assert_allclose(corner, [-2, -3, 1])
+    np.testing.assert_allclose(e1, [4, 0, 0])
+    np.testing.assert_allclose(e2, [0, 6, 0])
+    np.testing.assert_allclose(n, [0, 0, -1])                # flipped
+    c, r = sph.sphere()
+    np.testing.assert_allclose(c, [2, 1, 0])                   # to_world @ T(center) @ S(r)
+    assert r == pytest.approx(1.0)
+    assert sph.bsdf.type == "diffuse" and sph.emitter is None
+    np.testing.assert_allclose(ell.ellipsoid()[1], np.diag([1, 2, 3]))
+    assert disk.bsdf.type == "phong" and disk.bsdf.twosided and disk.bsdf.params["exponent"] == 10
+    tri = cube.triangles()
+    assert tri.shape == (12, 3, 3)
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    assert np.all(np.sum(normals * tri.mean(axis=1), axis=-1) > 0)   # outward winding
+    assert rect.triangles().shape == (2, 3, 3)
+
+
+def test_obj_shape(tmp_path):
+    (tmp_path / "quad.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1 4/1\n")
+    (tmp_path / "scene.xml").write_text(scene_xml(
+        '<shape type="obj"><string name="filename" value="quad.obj"/></shape>'))
+    shape = load_scene(tmp_path / "scene.xml").shapes[0]
+    assert shape.triangles().shape == (2, 3, 3)
+    (tmp_path / "n.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n")
+    (tmp_path / "n.xml").write_text(scene_xml(
+        '<shape type="obj"><string name="filename" value="n.obj"/></shape>'))
+    with pytest.raises(SceneError, match="face_normals"):
+        load_scene(tmp_path / "n.xml")
+
+
+def test_error_has_line_number():
+    xml = scene_xml('<shape type="rectangle"/>\n<shape type="torus"/>')
+    with pytest.raises(SceneError) as info:
+        load_scene(xml)
+    line = xml.splitlines().index('<shape type="torus"/>') + 1
+    assert f"line {line}" in str(info.value)
+    assert "scene/shape" in str(info.value)
+
+
+ROUGH = ('<shape type="rectangle"><bsdf type="roughconductor">{}</bsdf></shape>')
+GOOD_ROUGH = '<boolean name="sample_visible" value="false"/>'
+BAD = {
+    "unknown shape": (scene_xml('<shape type="torus"/>'), ["torus", "rectangle", "ellipsoid"]),
+    "unknown bsdf": (scene_xml('<shape type="cube"><bsdf type="dielectric"/></shape>'),
+                     ["dielectric", "diffuse", "roughconductor", "phong"]),
+    "unknown param": (scene_xml('<shape type="cube"><bsdf type="diffuse">'
+                                '<float name="roughness" value="1"/></bsdf></shape>'),
+                      ["roughness", "reflectance"]),
+    "texture": (scene_xml('<shape type="cube"><bsdf type="diffuse"><texture type="bitmap" '
+                          'name="reflectance"/></bsdf></shape>'), ["texture", "reflectance", "<rgb>"]),
+    "unknown child": (scene_xml('<shape type="cube"><medium type="homogeneous"/></shape>'),
+                      ["medium", "<bsdf>", "<emitter>"]),
+    "point emitter": (scene_xml(SHAPE + '<emitter type="point"/>'), ["point", "area"]),
+    "shape emitter type": (scene_xml('<shape type="cube"><emitter type="spot"/></shape>'),
+                           ["spot", "area"]),
+    "wrong integrator": (scene_xml(SHAPE, integrator='<integrator type="path"/>'),
+                         ["path", "direct"]),
+    "no rfilter": (scene_xml(SHAPE, sensor=SENSOR.replace('<rfilter type="box"/>', '')),
+                   ["film", "box"]),
+    "gaussian": (scene_xml(SHAPE, sensor=SENSOR.replace('"box"', '"gaussian"')),
+                 ["gaussian", "box"]),
+    "fov_axis": (scene_xml(SHAPE, sensor=SENSOR.replace(
+        '<float name="fov" value="45"/>', '<float name="fov" value="45"/>'
+        '<string name="fov_axis" value="z"/>')), ["fov_axis", "diagonal"]),
+    "sample_visible missing": (scene_xml(ROUGH.format('')), ["sample_visible", "false"]),
+    "sample_visible true": (scene_xml(ROUGH.format('<boolean name="sample_visible" value="true"/>')),
+                            ["sample_visible", "false"]),
+    "material": (scene_xml(ROUGH.format(GOOD_ROUGH + '<string name="material" value="Au"/>')),
+                 ["Au", "none"]),
+    "distribution": (scene_xml(ROUGH.format(GOOD_ROUGH + '<string name="distribution" '
+                                            'value="phong"/>')), ["distribution", "ggx"]),
+    "missing type": (scene_xml('<shape/>'), ["shape", "type", "rectangle"]),
+    "camera scale": (scene_xml(SHAPE, sensor=SENSOR.replace(
+        '<sampler', '<transform name="to_world"><scale value="2"/></transform><sampler')),
+        ["to_world", "rigid"]),
+    "bad number": (scene_xml('<shape type="sphere"><float name="radius" value="abc"/></shape>'),
+                   ["float", "radius", "abc"]),
+    "bad rgb": (scene_xml('<shape type="cube"><emitter type="area"><rgb name="radiance" '
+                          'value="1, 2"/></emitter></shape>'), ["rgb", "radiance"]),
+    "unknown ref": (scene_xml('<bsdf type="diffuse" id="a"/><shape type="cube"><ref id="b"/>'
+                              '</shape>'), ["ref", "'b'", "a"]),
+    "undefined var": (scene_xml('<shape type="sphere"><float name="radius" value="$r"/></shape>'),
+                      ["$r", "float"]),
+    "no version": (scene_xml(SHAPE, head="<scene>"), ["scene", "version"]),
+    "old version": (scene_xml(SHAPE, head='<scene version="0.6.0">'), ["0.6.0", "3.x"]),
+    "not xml": ("<scene version='3.0.0'><shape></scene>", ["XML"]),
+    "unknown transform op": (scene_xml('<shape type="cube"><transform name="to_world">'
+                                       '<shear value="1"/></transform></shape>'),
+                             ["shear", "lookat", "matrix"]),
+    "sphere nonuniform": (scene_xml('<shape type="sphere"><transform name="to_world">'
+                                    '<scale x="1" y="2" z="1"/></transform></shape>'),
+                          ["sphere", "ellipsoid"]),
+    "pixel_format": (scene_xml(SHAPE, sensor=SENSOR.replace(
+        '<rfilter', '<string name="pixel_format" value="rgba"/><rfilter')), ["rgba", "rgb"]),
+    "hide_emitters": (scene_xml(SHAPE, integrator='<integrator type="direct"><boolean '
+                                'name="hide_emitters" value="true"/></integrator>'),
+                      ["hide_emitters", "false"]),
+    "top-level junk": (scene_xml(SHAPE + '<include filename="x.xml"/>'), ["include", "<shape>"]),
+    "bad attribute": (scene_xml('<shape type="cube"><transform name="to_world">'
+                                '<translate x="1" w="2"/></transform></shape>'), ["translate", "w"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_errors_name_element_and_supported(case):
+    xml, needles = BAD[case]
+    with pytest.raises(SceneError) as info:
+        load_scene(xml)
+    msg = str(info.value)
+    for needle in needles:
+        assert needle in msg, (case, msg)
+    assert isinstance(info.value, ValueError)
+
+
+def test_missing_file():
+    with pytest.raises(SceneError, match="cannot read"):
+        load_scene("/nonexistent/scene.xml")

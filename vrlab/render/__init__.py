@@ -1,0 +1,12 @@
+"""Scene layer of vrlab's direct-lighting renderer: a Mitsuba 3 XML subset and transforms.
+
+``load_scene(path_or_xml)`` returns plain dataclasses (:class:`Scene`, :class:`Sensor`,
+:class:`Shape`, ...) with NumPy 4x4 ``to_world`` matrices; see :mod:`vrlab.render.scene`
+for the supported subset and :mod:`vrlab.render.transforms` for the conventions.
+"""
+from . import transforms
+from .loader import builtin_scene_path, list_builtin_scenes, load_scene, read_obj
+from .scene import BSDF, AreaEmitter, Integrator, Scene, SceneError, Sensor, Shape
+
+__all__ = ["AreaEmitter", "BSDF", "Integrator", "Scene", "SceneError", "Sensor", "Shape",
+           "builtin_scene_path", "list_builtin_scenes", "load_scene", "read_obj", "transforms"]
