@@ -5,8 +5,9 @@
 for the supported subset and :mod:`vrlab.render.transforms` for the conventions.
 """
 from . import transforms
+from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor
 from .loader import builtin_scene_path, list_builtin_scenes, load_scene, read_obj
 from .scene import BSDF, AreaEmitter, Integrator, Scene, SceneError, Sensor, Shape
 
-__all__ = ["AreaEmitter", "BSDF", "Integrator", "Scene", "SceneError", "Sensor", "Shape",
+__all__ = ["BSDFModel", "Diffuse", "Phong", "RoughConductor", "AreaEmitter", "BSDF", "Integrator", "Scene", "SceneError", "Sensor", "Shape",
            "builtin_scene_path", "list_builtin_scenes", "load_scene", "read_obj", "transforms"]
