@@ -26,7 +26,7 @@ def test_quick_demo_writes_its_outputs(tmp_path, capsys):
     out = capsys.readouterr().out
     summary = json.loads(out[out.rindex("\n{") + 1:])  # the JSON summary comes last
     expected = {"warps.png", "warps_gof.csv", "point_sets.png", "discrepancy.csv", "sampler_speed.csv",
-                "convergence.png", "lab_summary.csv"}
+                "convergence.png", "lab_summary.csv", "veach_mis.png", "veach_mis.csv"}
     assert expected <= set(summary["files"])
     gof = pd.read_csv(tmp_path / "warps_gof.csv")
     # every warp's pdf integrates to 1 and no warp is rejected at the corrected level
@@ -65,3 +65,13 @@ def test_rel_mse_and_srgb():
     assert srgb_encode(np.array([0.0, 0.0031308, 1.0, 2.0])) == pytest.approx([0, 0.04045, 1, 1], abs=1e-5)
     with pytest.raises(ValueError, match="shape"):
         rel_mse(ref, ref[0])
+
+
+def test_render_compare_ranks_strategies_like_veach(tmp_path, capsys):
+    # on the glossy plates, MIS beats both single techniques at equal spp (Veach 1997, fig. 9.2)
+    assert main(["render", "veach_mis", "--spp", "4", "--width", "48", "--height", "36", "--compare",
+                 "-o", str(tmp_path / "cmp.png"), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    err = res["rel_mse"]
+    assert err["mis-power"] < err["light"] < err["bsdf"]
+    assert (tmp_path / "cmp.png").exists()

@@ -189,6 +189,17 @@ def _cmd_render(args: argparse.Namespace) -> int:
     if args.width or args.height:
         scene.sensor = dataclasses.replace(scene.sensor, width=args.width or scene.sensor.width,
                                            height=args.height or scene.sensor.height)
+    if args.compare:
+        from .render.compare import compare, compare_figure
+
+        res = compare(scene, args.compare.split(","), args.spp or scene.sensor.spp, rng=args.seed,
+                      reference=np.load(args.reference) if args.reference else None)
+        out = {"scene": str(path), "spp": res["spp"], "rel_mse": res["rel_mse"], "seconds": res["seconds"]}
+        if args.output:
+            out["figure"] = str(compare_figure(res, args.output, exposure=args.exposure))
+        print(json.dumps(out, indent=2) if args.json else
+              "\n".join(f"{k:12s} relMSE {v:.4g}  {res['seconds'][k]:.2f} s" for k, v in res["rel_mse"].items()))
+        return 0
     t0 = time.perf_counter()
     img, err = render(scene, args.spp, args.strategy, rng=args.seed, pixel_sampler=args.pixel_sampler,
                       light_selection=args.light_selection)
@@ -274,6 +285,9 @@ def build_parser() -> argparse.ArgumentParser:
     rend.add_argument("--stderr-out", help="per-pixel standard error image (.npy, .png or .exr)")
     rend.add_argument("--reference", help="reference .npy: print relMSE = mean((img-ref)^2/(ref^2+0.01))")
     rend.add_argument("--exposure", type=float, default=1.0, help="exposure scale for .png")
+    rend.add_argument("--compare", metavar="S1,S2,...", nargs="?", const="bsdf,light,mis-power",
+                      help="render a grid of strategies at equal spp with relMSE under each panel "
+                           "(default: the Veach figure bsdf,light,mis-power); -o names the figure (.png)")
     rend.add_argument("--json", action="store_true", help="print time, samples/s and errors as JSON")
     rend.set_defaults(func=_cmd_render)
     return parser
