@@ -247,7 +247,7 @@ def test_power_light_selection_and_errors():
     with pytest.raises(ValueError, match="strategy"):
         render(sc, 4, "nope")
     with pytest.raises(ValueError, match="pixel_sampler"):
-        render(sc, 4, "light", pixel_sampler="sobol")
+        render(sc, 4, "light", pixel_sampler="blue-noise")
     with pytest.raises(ValueError, match="light_selection"):
         render(sc, 4, "light", light_selection="x")
     with pytest.raises(ValueError, match="spp"):
@@ -257,3 +257,46 @@ def test_power_light_selection_and_errors():
 def test_render_exported():
     import vrlab.render as r
     assert r.render is render and "render" in r.__all__
+
+
+# -- pixel samplers -------------------------------------------------------------------------------
+from vrlab.render.pixel_samplers import PIXEL_SAMPLERS, PixelSampler  # noqa: E402
+
+
+def test_stratified_pixel_sampler_puts_one_sample_per_stratum():
+    gen = np.random.default_rng(0)
+    u = PixelSampler("stratified", 4, 8, gen, groups=[(0, 1), (2, 3), (5, 6)]).draw(50)
+    assert u.shape == (50, 4, 8) and np.all((u >= 0) & (u < 1))
+    quad = (u[..., 0] * 2).astype(int) * 2 + (u[..., 1] * 2).astype(int)   # the report's 4 sub-pixel strata
+    assert np.all(np.sort(quad, axis=1) == np.arange(4))
+    for k in (4, 7):                                                        # single dimensions: 1D strata
+        assert np.all(np.sort((u[..., k] * 4).astype(int), axis=1) == np.arange(4))
+    # the groups are shuffled independently: sub-pixel stratum and light stratum are not locked together
+    light_stratum = (u[..., 4] * 4).astype(int)
+    assert len({tuple(r) for r in np.stack([quad, light_stratum], -1).reshape(-1, 8)}) > 10
+
+
+def test_qmc_pixel_sampler_is_a_shifted_shared_set():
+    u = PixelSampler("sobol", 8, 8, np.random.default_rng(1), groups=[(0, 1)]).draw(3)
+    d = np.mod(u[1] - u[0], 1.0)                    # the same toroidal shift for every sample
+    np.testing.assert_allclose(d, np.broadcast_to(d[0], d.shape), atol=1e-12)
+
+
+@pytest.mark.parametrize("sampler", [s for s in PIXEL_SAMPLERS if s != "independent"])
+def test_pixel_samplers_are_unbiased_and_reduce_variance(sampler):
+    sc = scene(FLOOR + RECT_LIGHT)
+    exact = exact_image("rectangle", sc)
+    reps = np.array([render(sc, 16, "light", rng=[3, r], pixel_sampler=sampler)[0] for r in range(24)])
+    indep = np.array([render(sc, 16, "light", rng=[3, r])[0] for r in range(24)])
+    mean, se = reps.mean(0), reps.std(0, ddof=1) / np.sqrt(len(reps))
+    z = (mean - exact) / se                                 # replicates give a valid error bar
+    assert np.max(np.abs(z)) < bonferroni_z(z.size) + 1     # t with 23 dof: a little wider than normal
+    assert abs(np.sum(mean - exact) / np.sqrt(np.sum(se**2))) < 4  # pooled over pixels and channels
+    assert reps.var(0).mean() < 0.8 * indep.var(0).mean()  # stratification / QMC lowers the variance
+
+
+def test_stratified_pixel_sampler_does_not_depend_on_chunks():
+    sc = scene(FLOOR + RECT_LIGHT)
+    a = render(sc, 9, "mis-power", rng=5, pixel_sampler="stratified", chunk_pixels=5)[0]
+    b = render(sc, 9, "mis-power", rng=5, pixel_sampler="stratified", chunk_pixels=1000)[0]
+    np.testing.assert_allclose(a, b, rtol=1e-6)

@@ -52,13 +52,13 @@ from ..estimate import Moments
 from ..estimators.mis import mis_weights
 from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor
 from .camera import Camera
+from .pixel_samplers import PIXEL_SAMPLERS, PixelSampler  # noqa: F401  (re-exported for the CLI)
 from .geometry import SceneGeometry
 from .scene import BSDF, Scene, Shape
 
 __all__ = ["STRATEGIES", "DirectLighting", "make_bsdf", "render"]
 
 STRATEGIES = ("cosine", "bsdf", "light", "mis-balance", "mis-power")
-PIXEL_SAMPLERS = ("independent",)
 LIGHT_SELECTIONS = ("uniform", "power")
 DIMS = 8                      # uniforms per pixel sample
 _RAYS_PER_CHUNK = 1 << 16
@@ -284,8 +284,6 @@ def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *,
     pixel after pixel from one stream, so the image does not depend on the block size.
     ``stderr`` is the per-pixel standard error sqrt(s^2 / spp) (NaN when spp = 1).
     """
-    if pixel_sampler not in PIXEL_SAMPLERS:
-        raise ValueError(f"pixel_sampler: unknown {pixel_sampler!r}; allowed: {', '.join(PIXEL_SAMPLERS)}")
     spp = scene.sensor.spp if spp is None else int(spp)
     if spp < 1:
         raise ValueError(f"spp must be >= 1, got {spp}")
@@ -295,6 +293,8 @@ def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *,
         raise ValueError(f"chunk_pixels must be >= 1, got {chunk_pixels}")
     chunk_pixels = int(chunk_pixels)
     gen = as_generator(rng)
+    # uniforms per sample: pixel position (0, 1), direction (2, 3), light choice (4), light point (5, 6)
+    sampler = PixelSampler(pixel_sampler, spp, DIMS, gen, groups=[(0, 1), (2, 3), (5, 6)])
     integrator = DirectLighting(scene, strategy, light_selection)
     height, width = scene.sensor.height, scene.sensor.width
     rows, cols = np.divmod(np.arange(height * width), width)
@@ -303,7 +303,7 @@ def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *,
     stderr = np.zeros((height * width, 3))
     for a in range(0, height * width, chunk_pixels):
         pix = pixels[a:a + chunk_pixels]
-        u = gen.random((len(pix), spp, DIMS))
+        u = sampler.draw(len(pix))
         o, d = integrator.camera.pixel_rays(pix[:, None, :], u[..., :2])
         values = integrator.radiance_of(o.reshape(-1, 3), d.reshape(-1, 3), u.reshape(-1, DIMS))
         mom = Moments().add(np.moveaxis(values.reshape(len(pix), spp, 3), 1, -1))
