@@ -58,7 +58,7 @@ from .scene import BSDF, Scene, Shape
 
 __all__ = ["STRATEGIES", "DirectLighting", "make_bsdf", "render"]
 
-STRATEGIES = ("cosine", "bsdf", "light", "mis-balance", "mis-power")
+STRATEGIES = ("cosine", "bsdf", "light", "mis-balance", "mis-power", "mixture")
 LIGHT_SELECTIONS = ("uniform", "power")
 DIMS = 8                      # uniforms per pixel sample
 _RAYS_PER_CHUNK = 1 << 16
@@ -225,6 +225,8 @@ class DirectLighting:
             return _safe_ratio(f * le, pdf)
         if not self.lights:
             return np.zeros((len(p), 3))
+        if s == "mixture":
+            return self._mixture(bsdf, p, n, wo_l, u)
         f_l, le_l, q_l, wi_l = self._light_sample(bsdf, p, n, wo_l, u[:, 4:7])
         if s == "light":
             return _safe_ratio(f_l * le_l, q_l)
@@ -236,6 +238,21 @@ class DirectLighting:
         w_b = mis_weights(np.stack([q_l_at_b, q_b], -1), heuristic)[:, 1]
         return (w_l[:, None] * _safe_ratio(f_l * le_l, q_l)
                 + w_b[:, None] * _safe_ratio(f_b * le_b, q_b))
+
+    def _mixture(self, bsdf, p, n, wo_l, u):
+        """One-sample mixture (Russian lecture 4): with probability 1/2 a BSDF sample, else a
+        light sample (uniform ``u[:, 7]`` decides); either way divide by the mixture density
+        p(w) = 1/2 p_bsdf(w) + 1/2 sum_j P_j p_j(w) (the balance heuristic, one sample)."""
+        out = np.zeros((len(p), 3))
+        b = np.flatnonzero(u[:, 7] < 0.5)
+        if len(b):
+            f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, p[b], n[b], wo_l[b], u[b, 2:4])
+            out[b] = _safe_ratio(f_b * le_b, 0.5 * q_b + 0.5 * self.light_pdf(p[b], wi_b, hits_b))
+        li = np.flatnonzero(u[:, 7] >= 0.5)
+        if len(li):
+            f_l, le_l, q_l, wi_l = self._light_sample(bsdf, p[li], n[li], wo_l[li], u[li, 4:7])
+            out[li] = _safe_ratio(f_l * le_l, 0.5 * q_l + 0.5 * bsdf.pdf(wo_l[li], wi_l))
+        return out
 
     def _bsdf_sample(self, bsdf, p, n, wo_l, u2, cosine=False):
         if cosine:
