@@ -14,7 +14,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
-SCRIPTS = ["importance_sampling", "control_variates", "discrete_sampling", "metropolis_hastings"]
+SCRIPTS = ["importance_sampling", "control_variates", "discrete_sampling", "metropolis_hastings",
+           "cosine_sampling", "mis", "antithetic_crn", "sampling_patterns"]
 
 
 def _load(name: str):
