@@ -41,6 +41,7 @@ from ..distributions import (
     AliasTable,
     BoxSurface,
     CosineHemisphere,
+    UniformHemisphere,
     EllipsoidSurface,
     RectangleSurface,
     SphereCone,
@@ -58,11 +59,12 @@ from .scene import BSDF, Scene, Shape
 
 __all__ = ["STRATEGIES", "DirectLighting", "make_bsdf", "render"]
 
-STRATEGIES = ("cosine", "bsdf", "light", "mis-balance", "mis-power", "mixture")
+STRATEGIES = ("uniform", "cosine", "bsdf", "light", "mis-balance", "mis-power", "mixture")
 LIGHT_SELECTIONS = ("uniform", "power")
 DIMS = 8                      # uniforms per pixel sample
 _RAYS_PER_CHUNK = 1 << 16
 _COSINE = CosineHemisphere()
+_UNIFORM = UniformHemisphere()
 
 
 def make_bsdf(desc: BSDF) -> BSDFModel:
@@ -220,8 +222,9 @@ class DirectLighting:
             n = np.where((np.sum(wo * n, -1) < 0)[:, None], -n, n)
         wo_l = to_local(wo, n)
         s = self.strategy
-        if s in ("cosine", "bsdf"):
-            f, le, pdf, _, _ = self._bsdf_sample(bsdf, p, n, wo_l, u[:, 2:4], cosine=s == "cosine")
+        if s in ("uniform", "cosine", "bsdf"):
+            warp = {"uniform": _UNIFORM, "cosine": _COSINE}.get(s)
+            f, le, pdf, _, _ = self._bsdf_sample(bsdf, p, n, wo_l, u[:, 2:4], warp=warp)
             return _safe_ratio(f * le, pdf)
         if not self.lights:
             return np.zeros((len(p), 3))
@@ -254,10 +257,10 @@ class DirectLighting:
             out[li] = _safe_ratio(f_l * le_l, 0.5 * q_l + 0.5 * bsdf.pdf(wo_l[li], wi_l))
         return out
 
-    def _bsdf_sample(self, bsdf, p, n, wo_l, u2, cosine=False):
-        if cosine:
-            wi_l = _COSINE.sample(u2)
-            pdf = _COSINE.pdf(wi_l)
+    def _bsdf_sample(self, bsdf, p, n, wo_l, u2, warp=None):
+        if warp is not None:  # a fixed hemisphere warp (uniform or cosine) instead of the BSDF's
+            wi_l = warp.sample(u2)
+            pdf = warp.pdf(wi_l)
         else:
             wi_l = np.asarray(bsdf.distribution(wo_l).sample(u2))
             pdf = bsdf.pdf(wo_l, wi_l)
