@@ -16,7 +16,6 @@ Run ``python experiments/antithetic_crn.py [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -36,6 +35,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from vrlab._rng import spawn  # noqa: E402
 from vrlab.estimators import Antithetic, MonteCarlo, crn_difference  # noqa: E402
 from vrlab.integrands import Integrand, catalogue  # noqa: E402
+from vrlab.lab.experiment import experiment_cli  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "antithetic_crn"
 E = np.e
@@ -167,18 +167,5 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     }
 
 
-def _cli(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--full", action="store_true", help="publication-quality sample counts")
-    ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory")
-    args = ap.parse_args(argv)
-    res = main(args.out, full=args.full)
-    with pd.option_context("display.width", 200):
-        print(res["antithetic"].to_string(index=False))
-        print(res["crn"].to_string(index=False))
-    print("theory:", res["crn_theory"])
-    print("wrote", args.out)
-
-
 if __name__ == "__main__":
-    _cli()
+    experiment_cli(main, DEFAULT_OUT, __doc__)

@@ -23,7 +23,6 @@ Run ``python experiments/control_variates.py [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -44,6 +43,7 @@ from vrlab import Integrand, lab  # noqa: E402
 from vrlab._rng import spawn  # noqa: E402
 from vrlab.estimators import ControlVariate, MonteCarlo  # noqa: E402
 from vrlab.integrands import catalogue  # noqa: E402
+from vrlab.lab.experiment import experiment_cli  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "control_variates"
 S12 = np.sqrt(12.0)
@@ -167,17 +167,5 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
             "slopes": lab.fit_slopes(summary), "files": sorted(p.name for p in out.iterdir())}
 
 
-def _cli(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--full", action="store_true", help="publication-quality sample counts")
-    ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory")
-    args = ap.parse_args(argv)
-    res = main(args.out, full=args.full)
-    print("crossings (measured):", res["crossings"])
-    print("crossings (theory):  ", res["thresholds"])
-    print("e^x:", res["exp"])
-    print("wrote", args.out)
-
-
 if __name__ == "__main__":
-    _cli()
+    experiment_cli(main, DEFAULT_OUT, __doc__)

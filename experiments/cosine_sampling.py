@@ -15,7 +15,6 @@ Run ``python experiments/cosine_sampling.py [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import sys
 import time
@@ -42,6 +41,7 @@ from vrlab.integrands import catalogue  # noqa: E402
 from vrlab.render import builtin_scene_path, load_scene  # noqa: E402
 from vrlab.render.direct import DIMS, DirectLighting  # noqa: E402
 from vrlab.testing import HemisphereChart, chi2_gof, sidak_threshold  # noqa: E402
+from vrlab.lab.experiment import experiment_cli  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "cosine_sampling"
 METHODS = ("inversion", "disk", "sphere-shift")
@@ -107,23 +107,9 @@ def cos_variance(n: int, reps: int, seed: int = 2) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-class _UniformDirect(DirectLighting):
-    """The renderer's ``"cosine"`` strategy with the cosine warp replaced by a uniform hemisphere."""
-
-    _UNIFORM = UniformHemisphere()
-
-    def _bsdf_sample(self, bsdf, p, n, wo_l, u2, cosine=False):
-        from vrlab.distributions import to_world
-        wi_l = self._UNIFORM.sample(u2)
-        pdf = self._UNIFORM.pdf(wi_l)
-        wi = to_world(wi_l, n)
-        hits, le = self.trace(p, n, wi)
-        return bsdf.eval(wo_l, wi_l), le, pdf, wi, hits
-
-
 def render_samples(scene, strategy: str, spp: int, seed: int) -> np.ndarray:
     """Per-pixel, per-sample radiance ``(H, W, spp, 3)`` (same uniforms for every strategy)."""
-    integ = _UniformDirect(scene, "cosine") if strategy == "uniform" else DirectLighting(scene, strategy)
+    integ = DirectLighting(scene, strategy)  # "uniform", "cosine", "mis-power", ...
     h, w = scene.sensor.height, scene.sensor.width
     rows, cols = np.divmod(np.arange(h * w), w)
     pix = np.stack([rows, cols], -1)
@@ -194,17 +180,5 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     }
 
 
-def _cli(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--full", action="store_true", help="publication-quality sample counts")
-    ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory")
-    args = ap.parse_args(argv)
-    res = main(args.out, full=args.full)
-    print(res["gof"].to_string(index=False))
-    print(res["variance"].to_string(index=False))
-    print(res["renders"].to_string(index=False))
-    print("wrote", args.out)
-
-
 if __name__ == "__main__":
-    _cli()
+    experiment_cli(main, DEFAULT_OUT, __doc__)

@@ -13,7 +13,6 @@ Run ``python experiments/discrete_sampling.py [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import warnings
 from pathlib import Path
@@ -35,6 +34,7 @@ from scipy.stats.sampling import DiscreteAliasUrn  # noqa: E402
 
 from vrlab import AliasTable, CDFTable  # noqa: E402
 from vrlab.bench.timing import race  # noqa: E402
+from vrlab.lab.experiment import experiment_cli  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "discrete_sampling"
 EXAMPLE = np.array([1.0, 6.0, 2.0, 0.5, 3.0, 0.0, 1.5, 2.0])   # the small worked example
@@ -168,17 +168,5 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
             "ns_per_draw": s, "files": sorted(p.name for p in out.iterdir())}
 
 
-def _cli(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--full", action="store_true", help="publication-quality sample counts")
-    ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory")
-    args = ap.parse_args(argv)
-    res = main(args.out, full=args.full)
-    print(res["ns_per_draw"].round(1).to_string())
-    print("max relative pmf error of the alias tables:", res["max_rel_pmf_error"])
-    print("chi-square of the example:", {k: v for k, v in res["chisquare"].items() if k != "counts"})
-    print("wrote", args.out)
-
-
 if __name__ == "__main__":
-    _cli()
+    experiment_cli(main, DEFAULT_OUT, __doc__)

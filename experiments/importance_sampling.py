@@ -13,7 +13,6 @@ Run ``python experiments/importance_sampling.py [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -35,6 +34,7 @@ from vrlab._rng import spawn  # noqa: E402
 from vrlab.estimators import MonteCarlo  # noqa: E402
 from vrlab.integrands import catalogue  # noqa: E402
 from vrlab.integrands.theory import mc_variance  # noqa: E402
+from vrlab.lab.experiment import experiment_cli  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "importance_sampling"
 
@@ -154,16 +154,5 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     }
 
 
-def _cli(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--full", action="store_true", help="publication-quality sample counts")
-    ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory")
-    args = ap.parse_args(argv)
-    res = main(args.out, full=args.full)
-    print(res["variances"].to_string(index=False))
-    print("support difference:", res["support"])
-    print("wrote", args.out)
-
-
 if __name__ == "__main__":
-    _cli()
+    experiment_cli(main, DEFAULT_OUT, __doc__)

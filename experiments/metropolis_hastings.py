@@ -15,7 +15,6 @@ Run ``python experiments/metropolis_hastings.py [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -35,6 +34,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from vrlab.distributions.tabulated import PiecewiseConstant2D  # noqa: E402
 from vrlab.estimators import MetropolisHastings  # noqa: E402
 from vrlab.estimators.metropolis import sample_histogram  # noqa: E402
+from vrlab.lab.experiment import experiment_cli  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "metropolis_hastings"
 # (centre x, centre y, radius, brightness); blob 0 is where the chains start
@@ -163,16 +163,5 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
             "n_steps": n_steps, "n_chains": n_chains, "files": sorted(p.name for p in out.iterdir())}
 
 
-def _cli(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--full", action="store_true", help="publication-quality sample counts")
-    ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory")
-    args = ap.parse_args(argv)
-    res = main(args.out, full=args.full)
-    print(res["summary"].to_string(index=False))
-    print(res["tv"].to_string(index=False))
-    print("wrote", args.out)
-
-
 if __name__ == "__main__":
-    _cli()
+    experiment_cli(main, DEFAULT_OUT, __doc__)

@@ -20,7 +20,6 @@ Run ``python experiments/sampling_patterns.py [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import sys
 from pathlib import Path
@@ -44,6 +43,7 @@ from vrlab._rng import spawn  # noqa: E402
 from vrlab.estimators import MonteCarlo  # noqa: E402
 from vrlab.render import builtin_scene_path, load_scene  # noqa: E402
 from vrlab.render.direct import DIMS, DirectLighting  # noqa: E402
+from vrlab.lab.experiment import experiment_cli  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "sampling_patterns"
 
@@ -272,19 +272,5 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     }
 
 
-def _cli(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--full", action="store_true", help="publication-quality sample counts")
-    ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory")
-    args = ap.parse_args(argv)
-    res = main(args.out, full=args.full)
-    with pd.option_context("display.width", 200):
-        print(res["slopes"][["estimator", "integrand", "slope", "slope_se", "theory"]].to_string(index=False))
-        print(res["discrepancy"].pivot(index="n", columns="pattern", values="discrepancy").to_string())
-        print(res["edge"].to_string(index=False))
-        print(res["render"].to_string(index=False))
-    print("wrote", args.out)
-
-
 if __name__ == "__main__":
-    _cli()
+    experiment_cli(main, DEFAULT_OUT, __doc__)
