@@ -17,8 +17,8 @@ import pytest
 from vrlab._rng import as_generator
 from vrlab.distributions.frames import to_local, to_world
 from vrlab.distributions.solid_angle import LightSample, SolidAngleFromArea, SphereCone
-from vrlab.distributions.surfaces import (BoxSurface, EllipsoidSurface, RectangleSurface,
-                                          SphereSurface, Surface)
+from vrlab.distributions.quadrics import EllipsoidSurface, SphereSurface
+from vrlab.distributions.surfaces import BoxSurface, RectangleSurface, Surface
 from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, ParallelogramChart, SphereChart,
                            assert_gof, box_surface_chart, chi2_gof, integrate)
 from vrlab.testing.charts import Chart

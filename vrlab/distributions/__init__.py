@@ -11,7 +11,8 @@ from .mixture import Mixture
 from .planar import Disk, Rectangle, Triangle, concentric_disk
 from .spherical import GGX, CosineHemisphere, PhongLobe, UniformCone, UniformHemisphere, UniformSphere
 from .solid_angle import LightSample, SolidAngleFromArea, SphereCone
-from .surfaces import BoxSurface, EllipsoidSurface, RectangleSurface, SphereSurface, Surface
+from .quadrics import EllipsoidSurface, SphereSurface
+from .surfaces import BoxSurface, RectangleSurface, Surface
 from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 
 __all__ = [

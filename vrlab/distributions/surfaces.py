@@ -24,7 +24,8 @@ triangles" (1995), Pharr, Jakob & Humphreys, PBRT 3rd ed. 14.2.
       p_A(x) = 1 / (4 pi |det M| ||M^-T n_s||),   n_s = M^-1 (x - c) (on the unit sphere).
 
   For M = diag(a, b, c) and n_s = (1, 0, 0) this is 1 / (4 pi b c).
-Directions towards these surfaces (``solid_angle_from``, ``cone_from``) live in
+``EllipsoidSurface`` and ``SphereSurface`` live in ``quadrics.py``.  Directions towards
+these surfaces (``solid_angle_from``, ``cone_from``) live in
 ``solid_angle.py``.
 """
 from __future__ import annotations
@@ -32,13 +33,12 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.special import elliprg
 
-from .base import Distribution, as_points, as_uniforms, positive_float
+from .base import Distribution, as_points, as_uniforms
 from .frames import to_local, to_world  # noqa: F401
 
 if TYPE_CHECKING:
-    from .solid_angle import SolidAngleFromArea, SphereCone
+    from .solid_angle import SolidAngleFromArea
 
 TWO_PI = 2.0 * np.pi
 FOUR_PI = 4.0 * np.pi
@@ -376,114 +376,3 @@ class BoxSurface(Surface):
 
     def _repr_fields(self):
         return {"center": self.center.tolist(), "half_extents": np.round(self.half_extents, 6).tolist()}
-
-
-# ----------------------------------------------------------------------------- ellipsoid / sphere
-
-class EllipsoidSurface(Surface):
-    """x = c + M d with d uniform on the unit sphere (measure: area, not uniform).
-
-    p_A(x) = 1 / (4 pi |det M| ||M^-T n_s||), n_s = M^-1 (x - c): the uniform density
-    1/(4 pi) divided by the area scale of M on the tangent plane (derivation in the
-    module docstring; Russian lecture 4).  ``area`` is exact: 4 pi R_G(a^2 b^2, b^2 c^2,
-    c^2 a^2) with a, b, c the singular values of M and R_G Carlson's symmetric elliptic
-    integral (``scipy.special.elliprg``).  Normals (outward) are normalize(M^-T n_s).
-    ``invert`` gives the u of the unit-sphere point.
-    """
-
-    max_hits = 2
-
-    def __init__(self, center: Any, matrix: Any):
-        self.center = _vector3(center, "center")
-        self.M = _matrix3(matrix, "matrix")
-        self.Minv = np.linalg.inv(self.M)
-        self.abs_det = float(abs(np.linalg.det(self.M)))
-        self.semi_axes = np.linalg.svd(self.M, compute_uv=False)
-        a, b, c = self.semi_axes
-        self.area = float(FOUR_PI * elliprg(a * a * b * b, b * b * c * c, c * c * a * a))
-
-    @classmethod
-    def from_radii(cls, center: Any, radii: Any, rotation: Any = None) -> "EllipsoidSurface":
-        """Ellipsoid with semi-axes ``radii`` along the columns of ``rotation`` (M = R diag(radii))."""
-        r = np.asarray(radii, dtype=float) * np.ones(3)
-        if r.shape != (3,) or not np.all(np.isfinite(r)) or np.any(r <= 0):
-            raise ValueError(f"radii: expected 3 finite numbers > 0 (or one), got {radii!r}")
-        return cls(center, _rotation3(rotation) * r)
-
-    @classmethod
-    def from_matrix(cls, matrix: Any) -> "EllipsoidSurface":
-        """The unit sphere at the origin under an affine 4x4 ``to_world`` ``matrix``."""
-        lin, trans = _affine4(matrix, "matrix")
-        return cls(trans, lin)
-
-    def bounding_sphere(self) -> tuple[np.ndarray, float]:
-        return self.center, float(self.semi_axes[0])
-
-    def _sphere_point(self, x: np.ndarray) -> np.ndarray:
-        return _unit((as_points(x, 3) - self.center) @ self.Minv.T)
-
-    def sample(self, u: np.ndarray) -> np.ndarray:
-        return self.center + _sphere_from_u(as_uniforms(u, 2)) @ self.M.T
-
-    def pdf(self, x: np.ndarray) -> np.ndarray:
-        g = self._sphere_point(x) @ self.Minv       # (M^-T n_s)^T = n_s^T M^-1
-        return 1.0 / (FOUR_PI * self.abs_det * np.linalg.norm(g, axis=-1))
-
-    def invert(self, x: np.ndarray) -> np.ndarray:
-        return _sphere_to_u(self._sphere_point(x))
-
-    def normal(self, x: np.ndarray) -> np.ndarray:
-        return _unit(self._sphere_point(x) @ self.Minv)
-
-    def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
-        o, d = self._rays(origin, direction)
-        return _quadric_hits((o - self.center) @ self.Minv.T, d @ self.Minv.T, self._t_min(t_min))
-
-    intersect.__doc__ = _INTERSECT_DOC
-
-    def _repr_fields(self):
-        return {"center": self.center.tolist(), "matrix": np.round(self.M, 6).tolist()}
-
-
-class SphereSurface(Surface):
-    """Uniform points on the sphere |x - c| = r: z = 1 - 2 u1, phi = 2 pi u2, p = 1/(4 pi r^2).
-
-    ``cone_from(ref)`` gives the (better) uniform-cone direction sampler of PBRT.
-    """
-
-    max_hits = 2
-
-    def __init__(self, center: Any, radius: float):
-        self.center = _vector3(center, "center")
-        self.radius = positive_float(radius, "radius")
-        self.area = FOUR_PI * self.radius**2
-
-    def bounding_sphere(self) -> tuple[np.ndarray, float]:
-        return self.center, self.radius
-
-    def sample(self, u: np.ndarray) -> np.ndarray:
-        return self.center + self.radius * _sphere_from_u(as_uniforms(u, 2))
-
-    def pdf(self, x: np.ndarray) -> np.ndarray:
-        x = as_points(x, 3)
-        return np.full(x.shape[:-1], 1.0 / self.area)
-
-    def invert(self, x: np.ndarray) -> np.ndarray:
-        return _sphere_to_u(self.normal(x))
-
-    def normal(self, x: np.ndarray) -> np.ndarray:
-        return _unit(as_points(x, 3) - self.center)
-
-    def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
-        o, d = self._rays(origin, direction)
-        return _quadric_hits((o - self.center) / self.radius, d / self.radius, self._t_min(t_min))
-
-    intersect.__doc__ = _INTERSECT_DOC
-
-    def cone_from(self, ref: np.ndarray) -> "SphereCone":
-        """Directions uniform in the cone this sphere subtends from ``ref`` (batched)."""
-        from .solid_angle import SphereCone
-        return SphereCone(self.center, self.radius, ref)
-
-    def _repr_fields(self):
-        return {"center": self.center.tolist(), "radius": self.radius}

@@ -139,16 +139,16 @@ class _Regression(Estimator):
     evals_per_unit = 1
 
     def _columns(self, integrand, u) -> np.ndarray:  # pragma: no cover - interface
-        raise NotImplementedError  # (*batch, m, 1 + K)
+        raise NotImplementedError  # abstract: (*batch, m, 1 + K)
 
     def _theta(self) -> np.ndarray:  # pragma: no cover - interface
-        raise NotImplementedError
+        raise NotImplementedError  # abstract
 
     def _alpha(self):
         return "optimal"
 
     def _n_controls(self) -> int:  # pragma: no cover - interface
-        raise NotImplementedError
+        raise NotImplementedError  # abstract
 
     def _min_units(self) -> int:
         return self._n_controls() + 2 if isinstance(self._alpha(), str) else 2

@@ -204,7 +204,7 @@ class _Support:
         self.source, self.target = source, target
 
     def sample(self, u):  # pragma: no cover - never sampled
-        raise NotImplementedError
+        raise TypeError("this object only evaluates the unnormalised target density; sample with RIS")
 
     def pdf(self, x):
         p = np.asarray(self.source.pdf(x), dtype=float)

@@ -114,7 +114,7 @@ class PointSet:
 
     # -- hooks ------------------------------------------------------------------------
     def _random(self, n: int) -> np.ndarray:  # pragma: no cover - abstract
-        raise NotImplementedError
+        raise NotImplementedError  # abstract: subclasses draw the points
 
     def _reset(self) -> None:
         pass
