@@ -7,7 +7,8 @@ from scipy import stats
 
 from vrlab.render import Scene, load_scene
 from vrlab.render.camera import Camera
-from vrlab.render.direct import STRATEGIES, render
+from vrlab.render.direct import STRATEGIES
+from vrlab.render.film import render
 from vrlab.render.geometry import SceneGeometry
 
 RHO = (0.2, 0.5, 0.8)           # floor reflectance (per channel)
@@ -87,6 +88,7 @@ def bonferroni_z(m: int, alpha: float = 1e-3) -> float:
     return float(stats.norm.isf(alpha / (2 * m)))
 
 
+CENTRE_TOL = 1e-4
 LIGHTS = {"rectangle": RECT_LIGHT, "sphere": SPHERE_LIGHT, "disk": DISK_LIGHT}
 
 
@@ -107,6 +109,10 @@ def test_diffuse_floor_matches_closed_form(renders, kind, strategy):
     img, se = images[strategy]
     assert img.shape == se.shape == (6, 8, 3) and img.dtype == np.float32
     assert np.all(se > 0)
+    # the closed form is at the pixel centre, the pixel value a box-filter average over the
+    # pixel: they differ at second order (~1e-5 relative here), visible only to "cv", which
+    # is exact on an unoccluded diffuse floor
+    se = np.sqrt(se.astype(float) ** 2 + (CENTRE_TOL * exact) ** 2)
     z = (img - exact) / se
     assert np.max(np.abs(z)) < bonferroni_z(z.size), (kind, strategy, np.max(np.abs(z)))
     # pooled over pixels (channels are proportional, so one channel): mean z-test

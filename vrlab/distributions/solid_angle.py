@@ -108,16 +108,24 @@ class SphereCone(Distribution):
     14.2.2).  Every direction in the cone hits the sphere, and only those do.
     ``ref`` inside (or on) the sphere: the cone is the whole sphere of directions
     (cos_max = -1, p = 1/(4 pi)).  ``ref`` (..., 3) broadcasts like ``Oriented.axis``:
-    pass ``ref[..., None, :]`` for u of shape (*batch, n, 2).
+    pass ``ref[..., None, :]`` for u of shape (*batch, n, 2).  ``center`` and ``radius``
+    may also be arrays broadcasting with ``ref`` (one sphere per reference point: the
+    renderer samples all sphere lights of a scene in one call).
     """
 
     dim_u = 2
     dim_x = 3
     measure = "solid angle"
 
-    def __init__(self, center: Any, radius: float, ref: np.ndarray):
+    def __init__(self, center: Any, radius: Any, ref: np.ndarray):
         self.center = as_points(center, 3, "center")
-        self.radius = positive_float(radius, "radius")
+        r = np.asarray(radius, dtype=float)
+        if r.ndim == 0:
+            self.radius = positive_float(radius, "radius")
+        elif not (np.all(np.isfinite(r)) and np.all(r > 0)):
+            raise ValueError("radius must be finite and > 0 (a number or an array broadcasting with ref)")
+        else:
+            self.radius = r
         self.ref = as_points(ref, 3, "ref")
         if not (np.all(np.isfinite(self.ref)) and np.all(np.isfinite(self.center))):
             raise ValueError("ref, center: must be finite")

@@ -8,7 +8,7 @@ from . import transforms
 from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor
 from .loader import builtin_scene_path, list_builtin_scenes, load_scene, read_obj
 from .scene import BSDF, AreaEmitter, Integrator, Scene, SceneError, Sensor, Shape
-from .direct import render
+from .film import render
 
 __all__ = ["BSDFModel", "Diffuse", "Phong", "RoughConductor", "AreaEmitter", "BSDF", "Integrator", "Scene", "SceneError", "Sensor", "Shape",
            "builtin_scene_path", "list_builtin_scenes", "load_scene", "read_obj", "render", "transforms"]

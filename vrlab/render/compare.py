@@ -14,7 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .direct import render
+from .film import render
 from .image import rel_mse, srgb_encode
 from .scene import Scene
 

@@ -1,68 +1,60 @@
-"""Vectorised direct-lighting renderer (Mitsuba 3 ``direct`` integrator, one bounce).
+"""Direct lighting at camera-ray hits (Mitsuba 3 ``direct`` integrator, one bounce).
 
-``render(scene, spp, strategy, rng=...)`` returns ``(image, stderr)``, both ``(H, W, 3)``
-float32: the per-pixel mean of ``spp`` independent samples and its standard error.
+The value of one pixel sample is the one-sided emission of the first hit plus, at a hit
+on a non-emitting surface, an estimate of L_d = int f_r L_e cos dw by ``strategy``.
+Every estimate is a function of the sample's uniforms ``u`` (see :class:`UniformLayout`),
+so strategies share their random numbers and any point set can drive them.  With
+``n_b`` = ``bsdf_samples`` and ``n_l`` = ``emitter_samples`` (the scene's integrator
+settings, Mitsuba's defaults 1 and 1):
 
-One pixel sample uses 8 uniforms ``u`` (drawn for all strategies, so strategies share
-their random numbers for the same seed): ``u[0:2]`` the position in the pixel (box
-filter), ``u[2:4]`` a BSDF/cosine direction, ``u[4]`` the light choice, ``u[5:7]`` a
-point on that light (``u[7]`` is unused).  Its value is
-
-* the emitted radiance of the first hit, one-sided: emitters emit on their normal's
-  side only (``flip_normals`` turns them around);
-* plus, at a hit on a non-emitting surface, one estimate of the direct lighting
-  ``int f_r L_e cos dw`` with ``strategy``:
-
-  - ``"cosine"``: wi ~ cos/pi (CosineHemisphere about the normal);
-  - ``"bsdf"``: wi ~ ``bsdf.distribution(wo)``;
-  - ``"light"``: light j with probability P_j (``light_selection``: ``"uniform"`` or
-    ``"power"`` = mean radiance x area, an AliasTable), then wi towards a point of j
-    sampled by area (SolidAngleFromArea: p_w = sum over hits of p_A d^2/|cos|; spheres
-    use SphereCone), pdf P_j p_j(wi);
-  - ``"mis-balance"``/``"mis-power"``: one light sample + one BSDF sample combined with
-    ``vrlab.estimators.mis.mis_weights`` (n_i = 1).  The light density of a BSDF-sampled
-    direction is P_k p_k(wi) for the light k it hits; the BSDF density of a light
-    direction is ``bsdf.pdf``.
-
-  Every direction is traced to its closest hit; the sample counts the one-sided
-  emission found there (for ``"light"`` only if the hit belongs to the chosen light, so
-  that each light's contribution has exactly one sampling density).
+* ``"uniform"`` / ``"cosine"`` / ``"bsdf"``: the mean of n_b samples wi ~ uniform
+  hemisphere / cos/pi / ``bsdf.distribution(wo)``, each f L_e / p;
+* ``"light"``: the mean of n_l samples: light j with probability P_j
+  (``light_selection``: ``"uniform"`` or ``"power"`` = mean radiance x area, an alias
+  table), a direction towards it (spheres by their cone, other shapes by area converted
+  to solid angle over every hit), pdf P_j p_j(w); a sample counts only emission of light
+  j itself, so each light's contribution has one sampling density;
+* ``"mis-balance"`` / ``"mis-power"``: Veach's multi-sample MIS, n_l light and n_b BSDF
+  samples, weights w_i = (n_i p_i)^b / sum_k (n_k p_k)^b (``mis_weights``; b = 1 or 2),
+  as Mitsuba's direct integrator does with its power heuristic;
+* ``"mixture"``: one sample of the mixture c p_bsdf + (1 - c) sum_j P_j p_j with
+  c = n_b / (n_b + n_l) (the Russian lecture's 1/2 BSDF + 1/2 light for 1 and 1);
+* ``"ris"``: n_l RIS samples, each resampled from ``ris_candidates`` = M light samples
+  with the unshadowed target p̂ = Y(f_r cos) Y(L_e j) (Y = luminance; zero behind a
+  one-sided planar light), through :class:`vrlab.estimators.ris.Reservoir`; one
+  shadow ray per RIS sample, weight W = (1/M) sum w_i / p̂(y) (Talbot et al. 2005);
+* ``"cv"``: light sampling with a control variate (alpha = 1):
+  F = G + (f L_e - g) / p, g = (k_d/pi) L_e,j cos theta the unoccluded Lambertian
+  part of the integrand, G = (k_d/pi) sum_j L_e,j I_j its closed-form integral
+  (:meth:`LightSet.cos_integrals`: Lambert's polygon formula for rectangles, the cone
+  formula for spheres).  Where the BSDF has no Lambertian part (k_d = 0) or no closed
+  form applies for a light (it crosses the horizon, the point is behind it, other
+  shapes), that light's control is 0 and the sample is plain light sampling.  Where
+  nothing is occluded the estimate of the Lambertian part is exact.
 
 Emitting surfaces are not shaded (their BSDF is ignored; Mitsuba would add their
-reflection of other lights).  Lights may be rectangles, cubes, disks, spheres and
-ellipsoids; ``obj`` emitters work with ``"cosine"`` and ``"bsdf"`` only.
+reflection of other lights).  ``obj`` emitters work with ``"uniform"``, ``"cosine"``
+and ``"bsdf"`` only.  ``render`` lives in :mod:`vrlab.render.film`.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .._rng import RNGLike, as_generator
-from ..distributions import (
-    AliasTable,
-    BoxSurface,
-    CosineHemisphere,
-    UniformHemisphere,
-    EllipsoidSurface,
-    RectangleSurface,
-    SphereCone,
-    to_local,
-    to_world,
-)
-from ..distributions.surfaces import Surface
-from ..estimate import Moments
+from ..distributions import CosineHemisphere, UniformHemisphere, to_local, to_world
 from ..estimators.mis import mis_weights
+from ..estimators.ris import Reservoir
 from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor
 from .camera import Camera
-from .pixel_samplers import PIXEL_SAMPLERS, PixelSampler  # noqa: F401  (re-exported for the CLI)
 from .geometry import SceneGeometry
-from .scene import BSDF, Scene, Shape
+from .lights import LIGHT_SELECTIONS, LightSet, luminance
+from .pixel_samplers import PIXEL_SAMPLERS  # noqa: F401  (re-exported for the CLI)
+from .scene import BSDF, Scene
 
-__all__ = ["STRATEGIES", "DirectLighting", "make_bsdf", "render"]
+__all__ = ["DIMS", "STRATEGIES", "DirectLighting", "UniformLayout", "make_bsdf"]
 
-STRATEGIES = ("uniform", "cosine", "bsdf", "light", "mis-balance", "mis-power", "mixture")
-LIGHT_SELECTIONS = ("uniform", "power")
-DIMS = 8                      # uniforms per pixel sample
-_RAYS_PER_CHUNK = 1 << 16
+STRATEGIES = ("uniform", "cosine", "bsdf", "light", "mis-balance", "mis-power", "mixture", "ris", "cv")
+_BSDF_ONLY = ("uniform", "cosine", "bsdf")
+DIMS = 8                      # uniforms per pixel sample with one BSDF and one light sample
 _COSINE = CosineHemisphere()
 _UNIFORM = UniformHemisphere()
 
@@ -79,94 +71,95 @@ def make_bsdf(desc: BSDF) -> BSDFModel:
     raise ValueError(f"bsdf type {desc.type!r} is not supported; allowed: diffuse, roughconductor, phong")
 
 
+def lambertian_albedo(bsdf: BSDFModel) -> np.ndarray:
+    """k_d of the Lambertian part k_d/pi of a BSDF (RGB; 0 for a rough conductor)."""
+    if isinstance(bsdf, Diffuse):
+        return bsdf.reflectance
+    if isinstance(bsdf, Phong):
+        return bsdf.kd
+    return np.zeros(3)
+
+
 def _safe_ratio(num: np.ndarray, pdf: np.ndarray) -> np.ndarray:
     """num / pdf[..., None], 0 where the pdf is 0 or not finite."""
     ok = (pdf > 0) & np.isfinite(pdf)
     return np.where(ok[..., None], num / np.where(ok, pdf, 1.0)[..., None], 0.0)
 
 
-class _DiskSurface(Surface):
-    """Uniform points on the disk c + M (x, y, 0), x^2 + y^2 <= 1 (affine maps keep uniformity)."""
-
-    max_hits = 1
-
-    def __init__(self, shape: Shape):
-        self.center, self.a1, self.a2, self.unit_normal = shape.disk()
-        self.minv = np.linalg.inv(shape.to_world[:3, :3])
-        self.area = float(np.pi * np.linalg.norm(np.cross(self.a1, self.a2)))
-
-    def bounding_sphere(self):
-        return self.center, float(max(np.linalg.norm(self.a1), np.linalg.norm(self.a2)))
-
-    def sample(self, u):
-        r, phi = np.sqrt(u[..., 0:1]), 2 * np.pi * u[..., 1:2]
-        return self.center + r * np.cos(phi) * self.a1 + r * np.sin(phi) * self.a2
-
-    def pdf(self, x):
-        return np.full(np.shape(x)[:-1], 1.0 / self.area)
-
-    def normal(self, x):
-        return np.broadcast_to(self.unit_normal, np.shape(x)).copy()
-
-    def intersect(self, origin, direction, t_min=None):
-        o, d = self._rays(origin, direction)
-        ol, dl = (o - self.center) @ self.minv.T, d @ self.minv.T
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = -ol[..., 2] / dl[..., 2]
-        ok = np.isfinite(t) & (t > self._t_min(t_min))
-        x = ol[..., :2] + np.where(ok, t, 0.0)[..., None] * dl[..., :2]
-        ok &= np.sum(x * x, -1) <= 1.0
-        return np.where(ok, t, np.inf)[..., None]
+def _count(value, name: str) -> int:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 0:
+        raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
+    return int(value)
 
 
-class _Light:
-    """An emitting shape as a direction sampler from reference points."""
+class UniformLayout:
+    """Which uniforms of a pixel sample feed what: ``[0, 2)`` the position in the pixel,
+    then a 2D block per BSDF sample, a 3D block (light choice, point) per light sample,
+    one mixture-choice uniform, and for ``"ris"`` one block of 4 M per RIS sample
+    (M candidates x 3, then M reservoir uniforms).  With one BSDF and one light sample
+    the first 8 are the same for every strategy (:data:`DIMS`)."""
 
-    def __init__(self, shape: Shape):
-        self.radiance = np.asarray(shape.emitter.radiance, float)
-        self.sphere = None
-        if shape.type == "sphere":
-            self.sphere = shape.sphere()
-            self.area = 4 * np.pi * self.sphere[1] ** 2
-            return
-        if shape.type == "rectangle":
-            self.surface = RectangleSurface.from_matrix(shape.to_world, shape.flip_normals)
-        elif shape.type == "cube":
-            self.surface = BoxSurface.from_matrix(shape.to_world)
-        elif shape.type == "ellipsoid":
-            self.surface = EllipsoidSurface.from_matrix(shape.to_world)
-        elif shape.type == "disk":
-            self.surface = _DiskSurface(shape)
-        else:
-            raise ValueError(f"light sampling of {shape.type!r} emitters is not supported; use "
-                             "strategy 'cosine' or 'bsdf', or rectangle/cube/disk/sphere/ellipsoid lights")
-        self.area = self.surface.area
+    def __init__(self, bsdf_samples: int = 1, emitter_samples: int = 1, ris_candidates: int = 0):
+        self.n_b, self.n_l, self.m = max(bsdf_samples, 1), max(emitter_samples, 1), ris_candidates
+        self.choice = 2 + 2 * self.n_b + 3 * self.n_l
+        self.dims = self.choice + 1 + (self.n_l * 4 * self.m)
 
-    def sample(self, ref: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Directions ``(m, 3)`` from ``ref (m, 3)`` and their solid-angle pdf ``(m,)``."""
-        if self.sphere is not None:
-            cone = SphereCone(self.sphere[0], self.sphere[1], ref)
-            w = cone.sample(u)
-            return w, cone.pdf(w)
-        s = self.surface.solid_angle_from(ref).sample_point(u)
-        return s.w, s.pdf
+    def bsdf(self, k: int) -> slice:
+        return slice(2 + 2 * k, 4 + 2 * k)
 
-    def pdf(self, ref: np.ndarray, w: np.ndarray) -> np.ndarray:
-        if self.sphere is not None:
-            return SphereCone(self.sphere[0], self.sphere[1], ref).pdf(w)
-        return self.surface.solid_angle_from(ref).pdf(w)
+    def light(self, k: int) -> slice:
+        a = 2 + 2 * self.n_b + 3 * k
+        return slice(a, a + 3)
+
+    def ris(self, k: int) -> slice:
+        a = self.choice + 1 + 4 * self.m * k
+        return slice(a, a + 4 * self.m)
+
+    @property
+    def groups(self) -> list[tuple[int, ...]]:
+        """Dimension pairs a pixel sampler stratifies together."""
+        g = [(0, 1)] + [(2 + 2 * k, 3 + 2 * k) for k in range(self.n_b)]
+        return g + [(self.light(k).start + 1, self.light(k).start + 2) for k in range(self.n_l)]
+
+
+def _stack(u: np.ndarray, slices: list[slice]) -> np.ndarray:
+    """The column blocks ``slices`` of ``u`` stacked on the row axis (sample k after k-1)."""
+    return np.concatenate([u[:, s] for s in slices]) if len(slices) > 1 else u[:, slices[0]]
+
+
+def _tile(a: np.ndarray, k: int) -> np.ndarray:
+    return np.concatenate([a] * k) if k > 1 else a
+
+
+def _mean_of(values: np.ndarray, k: int) -> np.ndarray:
+    return values.reshape((k, -1) + values.shape[1:]).mean(0) if k > 1 else values
 
 
 class DirectLighting:
     """The radiance of camera rays under one strategy (see the module docstring)."""
 
-    def __init__(self, scene: Scene, strategy: str = "mis-power", light_selection: str = "uniform"):
+    def __init__(self, scene: Scene, strategy: str = "mis-power", light_selection: str = "uniform", *,
+                 emitter_samples: int | None = None, bsdf_samples: int | None = None,
+                 ris_candidates: int = 8):
         if strategy not in STRATEGIES:
             raise ValueError(f"strategy: unknown {strategy!r}; allowed: {', '.join(STRATEGIES)}")
         if light_selection not in LIGHT_SELECTIONS:
             raise ValueError(f"light_selection: unknown {light_selection!r}; allowed: "
                              f"{', '.join(LIGHT_SELECTIONS)}")
-        self.strategy = strategy
+        integ = scene.integrator
+        n_l = _count(integ.emitter_samples if emitter_samples is None else emitter_samples, "emitter_samples")
+        n_b = _count(integ.bsdf_samples if bsdf_samples is None else bsdf_samples, "bsdf_samples")
+        m = _count(ris_candidates, "ris_candidates")
+        if strategy in _BSDF_ONLY and n_b < 1:
+            raise ValueError(f"strategy {strategy!r} needs bsdf_samples >= 1")
+        if strategy in ("light", "ris", "cv") and n_l < 1:
+            raise ValueError(f"strategy {strategy!r} needs emitter_samples >= 1")
+        if n_l + n_b < 1:
+            raise ValueError("emitter_samples and bsdf_samples are both 0")
+        if strategy == "ris" and m < 1:
+            raise ValueError(f"ris_candidates must be >= 1, got {ris_candidates!r}")
+        self.strategy, self.n_l, self.n_b, self.ris_candidates = strategy, n_l, n_b, m
+        self.layout = UniformLayout(n_b, n_l, m if strategy == "ris" else 0)
         self.geometry = SceneGeometry(scene)
         self.camera = Camera(scene.sensor)
         shapes = scene.shapes
@@ -176,19 +169,16 @@ class DirectLighting:
         self.radiance = np.array([s.emitter.radiance if s.emitter is not None else np.zeros(3)
                                   for s in shapes], float)
         self.eps = 1e-7
+        self.lights: LightSet | None = None
         self.light_of_shape = np.full(len(shapes), -1)
-        self.lights: list[_Light] = []
-        if strategy in ("cosine", "bsdf") or not self.is_emitter.any():
-            return
-        for k, s in enumerate(shapes):
-            if s.emitter is not None:
-                self.light_of_shape[k] = len(self.lights)
-                self.lights.append(_Light(s))
-        if light_selection == "uniform":
-            weights = np.ones(len(self.lights))
-        else:
-            weights = np.array([max(l.radiance.mean(), 0.0) * l.area for l in self.lights])
-        self.selection = AliasTable(weights)
+        if strategy not in _BSDF_ONLY and self.is_emitter.any():
+            self.lights = LightSet(shapes, light_selection)
+            self.light_of_shape = self.lights.light_of_shape
+
+    @property
+    def dims(self) -> int:
+        """Uniforms per pixel sample."""
+        return self.layout.dims
 
     # ------------------------------------------------------------------ tracing
     def emitted(self, hits, d: np.ndarray) -> np.ndarray:
@@ -205,7 +195,9 @@ class DirectLighting:
         return hits, self.emitted(hits, w)
 
     def radiance_of(self, o: np.ndarray, d: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Radiance samples ``(N, 3)`` of rays ``(N, 3)`` with their uniforms ``u (N, DIMS)``."""
+        """Radiance samples ``(N, 3)`` of rays ``(N, 3)`` with their uniforms ``u (N, dims)``."""
+        if u.shape[-1] != self.dims:
+            raise ValueError(f"u: expected {self.dims} uniforms per sample, got shape {u.shape}")
         hits = self.geometry.intersect(o, d)
         out = self.emitted(hits, d)
         shade = (hits.shape >= 0) & ~self.is_emitter[np.maximum(hits.shape, 0)]
@@ -221,41 +213,90 @@ class DirectLighting:
         if self.twosided[k]:
             n = np.where((np.sum(wo * n, -1) < 0)[:, None], -n, n)
         wo_l = to_local(wo, n)
-        s = self.strategy
-        if s in ("uniform", "cosine", "bsdf"):
+        s, lay, n_b, n_l = self.strategy, self.layout, self.n_b, self.n_l
+        if s in _BSDF_ONLY:
             warp = {"uniform": _UNIFORM, "cosine": _COSINE}.get(s)
-            f, le, pdf, _, _ = self._bsdf_sample(bsdf, p, n, wo_l, u[:, 2:4], warp=warp)
-            return _safe_ratio(f * le, pdf)
-        if not self.lights:
+            u2 = _stack(u, [lay.bsdf(i) for i in range(n_b)])
+            f, le, pdf, _, _ = self._bsdf_sample(bsdf, _tile(p, n_b), _tile(n, n_b), _tile(wo_l, n_b), u2, warp)
+            return _mean_of(_safe_ratio(f * le, pdf), n_b)
+        if self.lights is None:
             return np.zeros((len(p), 3))
         if s == "mixture":
             return self._mixture(bsdf, p, n, wo_l, u)
-        f_l, le_l, q_l, wi_l = self._light_sample(bsdf, p, n, wo_l, u[:, 4:7])
+        if s == "ris":
+            return self._ris(bsdf, p, n, wo_l, u)
+        tl = (_tile(p, n_l), _tile(n, n_l), _tile(wo_l, n_l))
+        if n_l:
+            f_l, le_l, q_l, wi_l, j = self._light_sample(bsdf, *tl, _stack(u, [lay.light(i) for i in range(n_l)]))
         if s == "light":
-            return _safe_ratio(f_l * le_l, q_l)
+            return _mean_of(_safe_ratio(f_l * le_l, q_l), n_l)
+        if s == "cv":
+            return self._control_variate(bsdf, p, n, tl[1], wi_l, j, f_l, le_l, q_l)
         heuristic = "balance" if s == "mis-balance" else "power"
-        q_b_at_l = bsdf.pdf(wo_l, wi_l)
-        w_l = mis_weights(np.stack([q_l, q_b_at_l], -1), heuristic)[:, 0]
-        f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, p, n, wo_l, u[:, 2:4])
-        q_l_at_b = self.light_pdf(p, wi_b, hits_b)
-        w_b = mis_weights(np.stack([q_l_at_b, q_b], -1), heuristic)[:, 1]
-        return (w_l[:, None] * _safe_ratio(f_l * le_l, q_l)
-                + w_b[:, None] * _safe_ratio(f_b * le_b, q_b))
+        out = np.zeros((len(p), 3))
+        if n_l:
+            q_b_at_l = bsdf.pdf(tl[2], wi_l) if n_b else np.zeros_like(q_l)
+            w_l = mis_weights(np.stack([n_l * q_l, n_b * q_b_at_l], -1), heuristic)[:, 0]
+            out += _mean_of(w_l[:, None] * _safe_ratio(f_l * le_l, q_l), n_l)
+        if n_b:
+            pb = _tile(p, n_b)
+            u2 = _stack(u, [lay.bsdf(i) for i in range(n_b)])
+            f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, pb, _tile(n, n_b), _tile(wo_l, n_b), u2)
+            q_l_at_b = self.light_pdf(pb, wi_b, hits_b)
+            w_b = mis_weights(np.stack([n_l * q_l_at_b, n_b * q_b], -1), heuristic)[:, 1]
+            out += _mean_of(w_b[:, None] * _safe_ratio(f_b * le_b, q_b), n_b)
+        return out
 
     def _mixture(self, bsdf, p, n, wo_l, u):
-        """One-sample mixture (Russian lecture 4): with probability 1/2 a BSDF sample, else a
-        light sample (uniform ``u[:, 7]`` decides); either way divide by the mixture density
-        p(w) = 1/2 p_bsdf(w) + 1/2 sum_j P_j p_j(w) (the balance heuristic, one sample)."""
+        """One sample of the mixture c p_bsdf + (1 - c) p_light, c = n_b / (n_b + n_l):
+        ``u[choice] < c`` takes a BSDF sample, else a light sample; either way f / mixture
+        density (the balance heuristic with one sample; Russian lecture 4)."""
+        c = self.n_b / (self.n_b + self.n_l)
+        lay = self.layout
         out = np.zeros((len(p), 3))
-        b = np.flatnonzero(u[:, 7] < 0.5)
+        b = np.flatnonzero(u[:, lay.choice] < c)
         if len(b):
-            f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, p[b], n[b], wo_l[b], u[b, 2:4])
-            out[b] = _safe_ratio(f_b * le_b, 0.5 * q_b + 0.5 * self.light_pdf(p[b], wi_b, hits_b))
-        li = np.flatnonzero(u[:, 7] >= 0.5)
+            f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, p[b], n[b], wo_l[b], u[b, lay.bsdf(0)])
+            out[b] = _safe_ratio(f_b * le_b, c * q_b + (1 - c) * self.light_pdf(p[b], wi_b, hits_b))
+        li = np.flatnonzero(u[:, lay.choice] >= c)
         if len(li):
-            f_l, le_l, q_l, wi_l = self._light_sample(bsdf, p[li], n[li], wo_l[li], u[li, 4:7])
-            out[li] = _safe_ratio(f_l * le_l, 0.5 * q_l + 0.5 * bsdf.pdf(wo_l[li], wi_l))
+            f_l, le_l, q_l, wi_l, _ = self._light_sample(bsdf, p[li], n[li], wo_l[li], u[li, lay.light(0)])
+            out[li] = _safe_ratio(f_l * le_l, (1 - c) * q_l + c * bsdf.pdf(wo_l[li], wi_l))
         return out
+
+    def _ris(self, bsdf, p, n, wo_l, u):
+        """n_l RIS samples from M light candidates each (see the module docstring)."""
+        M, n_l, lights = self.ris_candidates, self.n_l, self.lights
+        blocks = _stack(u, [self.layout.ris(i) for i in range(n_l)])           # (rows, 4M)
+        rows = len(blocks)
+        pr, nr, wor = _tile(p, n_l), _tile(n, n_l), _tile(wo_l, n_l)
+        cand_ref = np.repeat(pr, M, axis=0)
+        j, w, pdf, front = lights.sample(cand_ref, blocks[:, :3 * M].reshape(-1, 3))
+        wi_l = to_local(w, np.repeat(nr, M, axis=0))
+        target = luminance(bsdf.eval(np.repeat(wor, M, axis=0), wi_l)) * luminance(lights.radiance[j])
+        target = np.where(front, np.maximum(target, 0.0), 0.0)
+        weight = np.divide(target, pdf, out=np.zeros_like(target), where=pdf > 0)
+        idx = np.arange(rows * M, dtype=float).reshape(rows, M, 1)
+        res = Reservoir.empty((rows,), 1).update(idx, weight.reshape(rows, M), blocks[:, 3 * M:],
+                                                 target.reshape(rows, M))
+        pick = res.y[:, 0].astype(np.int64)
+        hits, le = self.trace(pr, nr, w[pick])
+        hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
+        le = np.where(((hits.shape >= 0) & (hit_light == j[pick]))[:, None], le, 0.0)
+        value = bsdf.eval(wor, wi_l[pick]) * le * res.W[:, None]
+        return _mean_of(value, n_l)
+
+    def _control_variate(self, bsdf, p, n, n_rows, wi_l, j, f_l, le_l, q_l):
+        """F = G + (f L - g) / p with the Lambertian unoccluded control (module docstring)."""
+        kd = lambertian_albedo(bsdf)
+        n_l = self.n_l
+        if not np.any(kd > 0):
+            return _mean_of(_safe_ratio(f_l * le_l, q_l), n_l)
+        integral, valid = self.lights.cos_integrals(p, n)                       # (m, L)
+        big_g = (kd / np.pi) * ((integral * valid) @ self.lights.radiance)     # (m, 3)
+        ok = _tile(valid, n_l)[np.arange(len(j)), j]
+        g = np.where(ok[:, None], (kd / np.pi) * np.clip(wi_l[:, 2:3], 0.0, None) * self.lights.radiance[j], 0.0)
+        return big_g + _mean_of(_safe_ratio(f_l * le_l - g, q_l), n_l)
 
     def _bsdf_sample(self, bsdf, p, n, wo_l, u2, warp=None):
         if warp is not None:  # a fixed hemisphere warp (uniform or cosine) instead of the BSDF's
@@ -269,66 +310,23 @@ class DirectLighting:
         return bsdf.eval(wo_l, wi_l), le, pdf, wi, hits
 
     def _light_sample(self, bsdf, p, n, wo_l, u3):
-        j = self.selection.sample(u3[:, 0])
-        w = np.zeros_like(p)
-        pdf = np.zeros(len(p))
-        for i in np.unique(j):
-            m = np.flatnonzero(j == i)
-            w[m], pdf[m] = self.lights[i].sample(p[m], u3[m, 1:3])
-        pdf = pdf * self.selection.pmf(j)
+        j, w, pdf, _ = self.lights.sample(p, u3)
         hits, le = self.trace(p, n, w)
         hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
         le = np.where(((hits.shape >= 0) & (hit_light == j))[:, None], le, 0.0)
         wi_l = to_local(w, n)
-        return bsdf.eval(wo_l, wi_l), le, pdf, wi_l
+        return bsdf.eval(wo_l, wi_l), le, pdf, wi_l, j
 
     def light_pdf(self, p: np.ndarray, w: np.ndarray, hits) -> np.ndarray:
         """P_k p_k(w): selection probability x solid-angle pdf of the light ``hits`` belong to
         (0 where no light is hit)."""
         j = np.where(hits.shape >= 0, self.light_of_shape[np.maximum(hits.shape, 0)], -1)
-        out = np.zeros(len(p))
-        for i in np.unique(j[j >= 0]):
-            m = np.flatnonzero(j == i)
-            out[m] = self.selection.pmf(i) * self.lights[i].pdf(p[m], w[m])
-        return out
+        return self.lights.pdf(p, w, j)
 
 
-def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *, rng: RNGLike = None,
-           pixel_sampler: str = "independent", chunk_pixels: int | None = None,
-           light_selection: str = "uniform") -> tuple[np.ndarray, np.ndarray]:
-    """Render ``scene`` with direct lighting: ``(image, stderr)``, both ``(H, W, 3)`` float32.
-
-    ``spp`` samples per pixel (default: the scene's sampler ``sample_count``); ``strategy``
-    one of :data:`STRATEGIES`; ``rng`` seeds everything.  Pixels are processed in blocks of
-    ``chunk_pixels`` (default: about 65536 rays per block); the uniforms are drawn
-    pixel after pixel from one stream, so the image does not depend on the block size.
-    ``stderr`` is the per-pixel standard error sqrt(s^2 / spp) (NaN when spp = 1).
-    """
-    spp = scene.sensor.spp if spp is None else int(spp)
-    if spp < 1:
-        raise ValueError(f"spp must be >= 1, got {spp}")
-    if chunk_pixels is None:
-        chunk_pixels = max(1, _RAYS_PER_CHUNK // spp)
-    if int(chunk_pixels) < 1:
-        raise ValueError(f"chunk_pixels must be >= 1, got {chunk_pixels}")
-    chunk_pixels = int(chunk_pixels)
-    gen = as_generator(rng)
-    # uniforms per sample: pixel position (0, 1), direction (2, 3), light choice (4), light point (5, 6)
-    sampler = PixelSampler(pixel_sampler, spp, DIMS, gen, groups=[(0, 1), (2, 3), (5, 6)])
-    integrator = DirectLighting(scene, strategy, light_selection)
-    height, width = scene.sensor.height, scene.sensor.width
-    rows, cols = np.divmod(np.arange(height * width), width)
-    pixels = np.stack([rows, cols], -1)
-    mean = np.zeros((height * width, 3))
-    stderr = np.zeros((height * width, 3))
-    for a in range(0, height * width, chunk_pixels):
-        pix = pixels[a:a + chunk_pixels]
-        u = sampler.draw(len(pix))
-        o, d = integrator.camera.pixel_rays(pix[:, None, :], u[..., :2])
-        values = integrator.radiance_of(o.reshape(-1, 3), d.reshape(-1, 3), u.reshape(-1, DIMS))
-        mom = Moments().add(np.moveaxis(values.reshape(len(pix), spp, 3), 1, -1))
-        mean[a:a + len(pix)] = mom.mean
-        with np.errstate(invalid="ignore"):
-            stderr[a:a + len(pix)] = np.sqrt(mom.variance / spp)
-    shape = (height, width, 3)
-    return mean.reshape(shape).astype(np.float32), stderr.reshape(shape).astype(np.float32)
+def __getattr__(name: str):
+    """``vrlab.render.direct.render`` is :func:`vrlab.render.film.render` (moved there)."""
+    if name == "render":
+        from .film import render
+        return render
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -50,16 +50,19 @@ class PixelSampler:
                 cells = np.stack(np.unravel_index(np.arange(self.spp), counts), -1)  # (spp, len(g))
                 self.grids[g] = (cells, np.asarray(counts, float))
 
-    def draw(self, npix: int) -> np.ndarray:
+    def draw(self, npix: int, gen: np.random.Generator | None = None) -> np.ndarray:
+        """Uniforms ``(npix, spp, d)`` of the next ``npix`` pixels from ``gen`` (default:
+        the generator given at construction)."""
         spp, d = self.spp, self.d
+        gen = self.gen if gen is None else gen
         if self.name == "independent":
-            return self.gen.random((npix, spp, d))
+            return gen.random((npix, spp, d))
         if self.name in ("sobol", "halton"):
-            shift = self.gen.random((npix, 1, d))
+            shift = gen.random((npix, 1, d))
             return np.mod(self.base[None] + shift, 1.0)
         # stratified: jitter (d values) + one shuffle key per group and per single dimension
         groups = self.groups + [(k,) for k in self.singles]
-        r = self.gen.random((npix, spp, d + len(groups)))
+        r = gen.random((npix, spp, d + len(groups)))
         u = np.empty((npix, spp, d))
         for j, g in enumerate(groups):
             if len(g) == 1:

@@ -1,0 +1,165 @@
+"""``render``: the image as per-pixel Monte Carlo estimates, in tiles, optionally in parallel.
+
+Work units are tiles of ``TILE_PIXELS`` consecutive pixels (row-major).  Tile t draws
+its uniforms from its own stream, child t + 1 of the root ``SeedSequence`` (child 0
+scrambles the shared QMC set of the ``sobol``/``halton`` pixel samplers), pixel after
+pixel; inside a tile pixels are processed in blocks of ``chunk_pixels``.  So the image
+depends on the seed only: not on the block size, the number of worker processes or
+the order in which tiles finish (seeds per work unit, never per worker).  Memory is
+bounded by the block size (rays x uniforms) plus the image accumulators.
+"""
+from __future__ import annotations
+
+import os
+from concurrent.futures import ProcessPoolExecutor
+from typing import Callable
+
+import numpy as np
+
+from .._rng import RNGLike
+from ..estimate import Moments
+from .direct import DirectLighting
+from .pixel_samplers import PixelSampler
+from .scene import Scene
+
+__all__ = ["TILE_PIXELS", "render", "root_seed"]
+
+TILE_PIXELS = 1024           # pixels per work unit (fixed: it defines the random streams)
+_RAYS_PER_CHUNK = 1 << 16    # camera rays per block
+
+
+def root_seed(rng: RNGLike) -> np.random.SeedSequence:
+    """The root ``SeedSequence`` of a render: ``rng`` itself, or its entropy (an int, a
+    list of ints), or 4 words drawn from a ``Generator``/``BitGenerator``."""
+    if isinstance(rng, np.random.SeedSequence):
+        return rng
+    if isinstance(rng, np.random.BitGenerator):
+        rng = np.random.Generator(rng)
+    if isinstance(rng, np.random.Generator):
+        return np.random.SeedSequence([int(x) for x in rng.integers(0, 2**63, size=4)])
+    if rng is None or isinstance(rng, (int, np.integer)):
+        if rng is not None and rng < 0:
+            raise ValueError(f"rng: a seed must be non-negative, got {rng}")
+        return np.random.SeedSequence(rng)
+    if isinstance(rng, (list, tuple)) and rng and all(isinstance(k, (int, np.integer)) and k >= 0 for k in rng):
+        return np.random.SeedSequence(list(rng))
+    raise TypeError("rng: expected None, an int seed, a list of ints, a SeedSequence, BitGenerator or "
+                    f"Generator, got {type(rng).__name__}")
+
+
+def _child(root: np.random.SeedSequence, i: int) -> np.random.Generator:
+    """Child ``i`` of ``root`` (the same as ``root.spawn(i + 1)[i]`` without spawning)."""
+    seq = np.random.SeedSequence(root.entropy, spawn_key=tuple(root.spawn_key) + (int(i),),
+                                 pool_size=root.pool_size)
+    return np.random.default_rng(seq)
+
+
+class _Job:
+    """Everything a worker needs to render tiles (built once per process)."""
+
+    def __init__(self, scene, spp, strategy, pixel_sampler, light_selection, chunk_pixels, root, options):
+        self.integrator = DirectLighting(scene, strategy, light_selection, **options)
+        self.spp, self.root, self.chunk = spp, root, chunk_pixels
+        self.width, self.n_pixels = scene.sensor.width, scene.sensor.width * scene.sensor.height
+        lay = self.integrator.layout
+        self.sampler = PixelSampler(pixel_sampler, spp, lay.dims, _child(root, 0), groups=lay.groups)
+
+    def tile(self, t: int) -> tuple[int, np.ndarray, np.ndarray]:
+        """(first pixel, mean (n, 3), standard error (n, 3)) of tile ``t``."""
+        a, b = t * TILE_PIXELS, min((t + 1) * TILE_PIXELS, self.n_pixels)
+        gen = _child(self.root, t + 1)
+        mean, err = np.zeros((b - a, 3)), np.zeros((b - a, 3))
+        integ, spp = self.integrator, self.spp
+        for c in range(a, b, self.chunk):
+            idx = np.arange(c, min(c + self.chunk, b))
+            pix = np.stack(np.divmod(idx, self.width), -1)
+            u = self.sampler.draw(len(pix), gen)
+            o, d = integ.camera.pixel_rays(pix[:, None, :], u[..., :2])
+            values = integ.radiance_of(o.reshape(-1, 3), d.reshape(-1, 3), u.reshape(-1, integ.dims))
+            mom = Moments().add(np.moveaxis(values.reshape(len(pix), spp, 3), 1, -1))
+            mean[idx - a] = mom.mean
+            with np.errstate(invalid="ignore"):
+                err[idx - a] = np.sqrt(mom.variance / spp)
+        return a, mean, err
+
+
+_WORKER_JOB: _Job | None = None
+
+
+def _init_worker(args) -> None:
+    global _WORKER_JOB
+    _WORKER_JOB = _Job(*args)
+
+
+def _run_tiles(tiles: list[int]) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    return [_WORKER_JOB.tile(t) for t in tiles]
+
+
+def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *, rng: RNGLike = None,
+           pixel_sampler: str = "independent", chunk_pixels: int | None = None,
+           light_selection: str = "uniform", emitter_samples: int | None = None,
+           bsdf_samples: int | None = None, ris_candidates: int = 8, workers: int = 1,
+           progress: Callable[[int, int], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Render ``scene`` with direct lighting: ``(image, stderr)``, both ``(H, W, 3)`` float32.
+
+    ``spp`` samples per pixel (default: the scene's sampler ``sample_count``); ``strategy``
+    one of :data:`vrlab.render.direct.STRATEGIES`; ``emitter_samples``/``bsdf_samples``
+    default to the scene's integrator settings; ``ris_candidates`` = M for ``"ris"``;
+    ``rng`` seeds everything (see the module docstring); ``workers`` processes render
+    tiles in parallel with the same result; ``progress(done_pixels, total)`` is called
+    after each tile.  ``stderr`` is the per-pixel standard error sqrt(s^2 / spp) (NaN
+    when spp = 1), valid for the ``independent`` pixel sampler only (the others
+    correlate a pixel's samples; the i.i.d. formula then overestimates).
+    """
+    spp = scene.sensor.spp if spp is None else spp
+    if isinstance(spp, (bool, np.bool_)) or not isinstance(spp, (int, np.integer)) or spp < 1:
+        raise ValueError(f"spp must be an integer >= 1, got {spp!r}")
+    if isinstance(workers, (bool, np.bool_)) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    spp = int(spp)
+    options = dict(emitter_samples=emitter_samples, bsdf_samples=bsdf_samples, ris_candidates=ris_candidates)
+    root = root_seed(rng)
+    probe = DirectLighting(scene, strategy, light_selection, **options)   # validates the settings
+    rays_cost = 1 + probe.n_l + probe.n_b + (probe.n_l * probe.ris_candidates if strategy == "ris" else 0)
+    if chunk_pixels is None:
+        chunk_pixels = max(1, (4 * _RAYS_PER_CHUNK) // (spp * (rays_cost + probe.dims // 4)))
+    if isinstance(chunk_pixels, (bool, np.bool_)) or int(chunk_pixels) < 1:
+        raise ValueError(f"chunk_pixels must be >= 1, got {chunk_pixels!r}")
+    args = (scene, spp, strategy, pixel_sampler, light_selection, min(int(chunk_pixels), TILE_PIXELS), root,
+            options)
+    height, width = scene.sensor.height, scene.sensor.width
+    n_pixels = height * width
+    tiles = list(range(-(-n_pixels // TILE_PIXELS)))
+    mean, err = np.zeros((n_pixels, 3), np.float32), np.zeros((n_pixels, 3), np.float32)
+    done = 0
+
+    def collect(results):
+        nonlocal done
+        for a, m, e in results:
+            mean[a:a + len(m)], err[a:a + len(m)] = m, e
+            done += len(m)
+            if progress is not None:
+                progress(done, n_pixels)
+
+    workers = min(int(workers), len(tiles))
+    if workers == 1:
+        job = _Job(*args)
+        for t in tiles:
+            collect([job.tile(t)])
+    else:
+        import multiprocessing as mp
+        ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+        batches = [tiles[i::4 * workers] for i in range(4 * workers)]
+        with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker, initargs=(args,)) as pool:
+            for res in pool.map(_run_tiles, [b for b in batches if b]):
+                collect(res)
+    shape = (height, width, 3)
+    return mean.reshape(shape), err.reshape(shape)
+
+
+def default_workers() -> int:
+    """Worker processes to use by default: the CPUs this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return os.cpu_count() or 1
