@@ -1,0 +1,229 @@
+"""Build the README gallery: one key figure per experiment script, copied to ``docs/gallery/``.
+
+For every entry of ``GALLERY`` whose script exists in ``experiments/``, run its
+``main(tmp_dir / name, full=...)``, take the chosen PNG from what it wrote, shrink it if it is
+over ``MAX_BYTES`` (Pillow, which matplotlib already depends on) and save it as
+``docs/gallery/<name>.png``.
+Then (re)write the README section between ``<!-- gallery:start -->`` and
+``<!-- gallery:end -->`` with one row per figure present in ``docs/gallery/`` (a script that
+does not exist yet is skipped with a message; re-run this script once it does).
+
+Run ``python experiments/make_gallery.py [--full] [--only NAME ...] [--no-readme | --readme-only]``.
+The captions' numbers come from the default (quick) runs.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import io
+import re
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+EXPERIMENTS = ROOT / "experiments"
+GALLERY_DIR = ROOT / "docs" / "gallery"
+README = ROOT / "README.md"
+START, END = "<!-- gallery:start -->", "<!-- gallery:end -->"
+HEADING = "## Gallery"
+MAX_BYTES = 250_000     # keep each gallery PNG below this
+MAX_WIDTH = 1200        # pixels; wider figures are downscaled
+
+
+@dataclass(frozen=True)
+class Entry:
+    script: str          # experiments/<script>.py
+    png: str | None      # file written by that script's main(); None: not chosen yet
+    notebook: str        # notebooks/<notebook>.ipynb (may not exist yet)
+    title: str
+    caption: str
+
+
+GALLERY: list[Entry] = [
+    Entry("importance_sampling", "importance_sampling_convergence.png", "01_importance_sampling",
+          "Importance sampling",
+          "RMSE against n for sin x on [0, π/2] and x²·1[x > ½]: a density shaped like the "
+          "integrand (p ∝ x; uniform on [½, 1]) lowers the whole line, the slope stays −½. "
+          "For sin the one-sample variance drops from 0.234 to 0.0168 (14×)."),
+    Entry("cosine_sampling", "cosine_sampling_renders.png", "02_cosine_sampling",
+          "Cosine-weighted sampling",
+          "Cornell box at 16 and 64 spp with uniform-hemisphere, cosine, light and MIS (power) "
+          "sampling. Uniform and cosine directions rarely hit the small light, so most pixels "
+          "stay black. "
+          "On ∫cos θ dω, cosine sampling has zero variance; uniform sampling has π²/3 ≈ 3.29."),
+    Entry("light_surfaces", None, "03_light_surfaces",
+          "Sampling light surfaces",
+          "Notebook 03: sampling points on light surfaces (figure to be chosen)."),
+    Entry("mis", "mis_veach.png", "04_multiple_importance_sampling",
+          "Multiple importance sampling",
+          "Veach's glossy plates (4 plates × 4 spherical lights, 16 spp). BSDF sampling is noisy "
+          "for small lights on rough plates, light sampling for large lights on sharp plates; "
+          "MIS with the power heuristic is good in all 16 regions (right: region map)."),
+    Entry("antithetic_crn", "antithetic_crn_rmse.png", "05_antithetic_crn",
+          "Common random numbers",
+          "RMSE of the estimated difference ∫eˣ − ∫e^(1.1x) with common versus independent "
+          "uniforms (dotted: theory). Sharing the random numbers cuts the variance about 86× "
+          "(0.570 → 0.0066 per sample)."),
+    Entry("control_variates", "control_variates_sweep.png", "06_control_variates",
+          "Control variates",
+          "Variance per sample against the correlation ρ of f and the control h (dots: measured, "
+          "lines: theory). α = 1 beats plain MC only for ρ > ½ (ρ > ¾ at equal cost); the "
+          "optimal α always helps: σ²(1 − ρ²)."),
+    Entry("ris", None, "07_ris",
+          "Resampled importance sampling",
+          "Notebook 07: resampled importance sampling (figure to be chosen)."),
+    Entry("sampling_patterns", "sampling_patterns_convergence.png", "08_sampling_patterns",
+          "Sampling patterns",
+          "RMSE against n with fitted slopes (dashed: theory): Monte Carlo −0.49, jittered "
+          "−1.51 in 1D and −1.00 in 2D, LHS, and scrambled Halton and Sobol on a smooth 2D "
+          "integrand."),
+    Entry("discrete_sampling", "discrete_sampling_timings.png", "09_discrete_sampling",
+          "Discrete sampling",
+          "Draw and build cost against table size n = 2⁴ … 2²⁰. The alias table's draw cost "
+          "(O(1)) grows only a little; CDF binary search (O(log n)) and NumPy's "
+          "Generator.choice are more than 10× slower at n = 2²⁰. Timings depend on the machine."),
+    Entry("metropolis_hastings", "metropolis_hastings_tv.png", "10_metropolis_hastings",
+          "Metropolis–Hastings",
+          "Total-variation distance of the MH histogram to the target image. With small steps "
+          "only, the chain never leaves its start blob, so TV stays at 0.56 (the mass outside "
+          "it). With 10% or 50% large steps it converges (0.026 and 0.015 after 8000 steps); "
+          "i.i.d. sampling is the ideal."),
+]
+
+
+def script_path(entry: Entry) -> Path:
+    return EXPERIMENTS / f"{entry.script}.py"
+
+
+def gallery_path(entry: Entry) -> Path:
+    return GALLERY_DIR / f"{entry.script}.png"
+
+
+def load(name: str):
+    spec = importlib.util.spec_from_file_location(f"experiments_{name}", EXPERIMENTS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def shrink_png(src: Path, dst: Path, max_bytes: int = MAX_BYTES, max_width: int = MAX_WIDTH) -> int:
+    """Copy ``src`` to ``dst``; if it is over ``max_bytes``, downscale it (at most ``max_width``
+    pixels wide, smaller until it fits) and store it with a 256-colour palette.  Return its size."""
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    data = src.read_bytes()
+    if len(data) > max_bytes:
+        from PIL import Image
+
+        with Image.open(src) as im:
+            img = im.convert("RGB")
+        width = min(img.width, max_width)
+        while True:
+            out = img if width == img.width else img.resize(
+                (width, max(1, round(img.height * width / img.width))), Image.LANCZOS)
+            buf = io.BytesIO()
+            out.quantize(256).save(buf, format="PNG", optimize=True)
+            if buf.tell() <= max_bytes or width <= 300:
+                break
+            width = int(width * 0.8)
+        data = buf.getvalue()
+    dst.write_bytes(data)
+    return len(data)
+
+
+def build_one(entry: Entry, tmp: Path, full: bool) -> Path | None:
+    if not script_path(entry).exists():
+        print(f"skip {entry.script}: experiments/{entry.script}.py does not exist yet")
+        return None
+    print(f"run {entry.script} ...", flush=True)
+    res = load(entry.script).main(tmp / entry.script, full=full)
+    files = list(res.get("files", []))
+    png = entry.png
+    if png is None:
+        pngs = [f for f in files if f.endswith(".png")]
+        if not pngs:
+            print(f"skip {entry.script}: its main() wrote no PNG")
+            return None
+        png = pngs[0]
+        print(f"note {entry.script}: no figure chosen in GALLERY yet; using {png} "
+              f"(choose among {pngs})")
+    elif png not in files:
+        raise RuntimeError(f"{entry.script}.main() did not report {png}; it wrote {files}")
+    dst = gallery_path(entry)
+    size = shrink_png(tmp / entry.script / png, dst)
+    print(f"wrote {dst.relative_to(ROOT)} ({size / 1024:.0f} KB) from {png}")
+    return dst
+
+
+def section_lines() -> list[str]:
+    """Markdown for the README gallery section: one row per figure present in docs/gallery."""
+    rows = []
+    for e in GALLERY:
+        path = gallery_path(e)
+        if not path.exists():
+            continue
+        rel = path.relative_to(ROOT).as_posix()
+        nb = ROOT / "notebooks" / f"{e.notebook}.ipynb"
+        src = f"[`experiments/{e.script}.py`](experiments/{e.script}.py)"
+        if nb.exists():
+            src += f"<br>[`notebooks/{e.notebook}.ipynb`](notebooks/{e.notebook}.ipynb)"
+        img = f'<a href="{rel}"><img src="{rel}" width="360" alt="{e.title}"></a>'
+        rows.append(f"| {img} | **{e.title}.** {e.caption} | {src} |")
+    return [
+        "One key figure per experiment script (click for full size). Regenerate them with",
+        "`python experiments/make_gallery.py` (`--full` for the large runs, `--only NAME` for one).",
+        "",
+        "| Figure | What it shows | Made by |",
+        "| --- | --- | --- |",
+        *rows,
+    ]
+
+
+def update_readme(readme: Path = README) -> bool:
+    """(Re)write the gallery section between the markers; add it before ``## Layout`` if absent."""
+    text = readme.read_text()
+    body = "\n".join([START, *section_lines(), END])
+    if START in text and END in text:
+        new = re.sub(re.escape(START) + r".*?" + re.escape(END), lambda _: body, text, count=1,
+                     flags=re.DOTALL)
+    else:
+        anchor = "\n## Layout"
+        if anchor not in text:
+            raise RuntimeError("README.md has no '## Layout' heading to put the gallery before")
+        new = text.replace(anchor, f"\n{HEADING}\n\n{body}\n{anchor}", 1)
+    if new != text:
+        readme.write_text(new)
+    return new != text
+
+
+def main(argv: list[str] | None = None) -> list[Path]:
+    ap = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
+    ap.add_argument("--full", action="store_true", help="publication-quality sample counts")
+    ap.add_argument("--only", nargs="+", metavar="NAME", help="only these scripts")
+    ap.add_argument("--no-readme", action="store_true", help="do not rewrite README.md")
+    ap.add_argument("--readme-only", action="store_true",
+                    help="run nothing; rewrite the README section from docs/gallery")
+    args = ap.parse_args(argv)
+    names = [e.script for e in GALLERY]
+    if args.only:
+        unknown = sorted(set(args.only) - set(names))
+        if unknown:
+            ap.error(f"unknown gallery entries {unknown}; choose from {names}")
+    entries = [e for e in GALLERY if (not args.only or e.script in args.only) and not args.readme_only]
+    written = []
+    with tempfile.TemporaryDirectory(prefix="vrlab-gallery-") as tmp:
+        for entry in entries:
+            path = build_one(entry, Path(tmp), args.full)
+            if path is not None:
+                written.append(path)
+    if not args.no_readme:
+        changed = update_readme()
+        print("README.md gallery section", "updated" if changed else "unchanged")
+    total = sum(p.stat().st_size for p in GALLERY_DIR.glob("*.png"))
+    print(f"docs/gallery: {len(list(GALLERY_DIR.glob('*.png')))} PNGs, {total / 1024:.0f} KB")
+    return written
+
+
+if __name__ == "__main__":
+    sys.exit(0 if main() is not None else 1)
