@@ -55,6 +55,24 @@ def test_render_cli_writes_images_and_rel_mse(tmp_path, capsys):
         main(["render", "no-such-scene"])
 
 
+def test_render_cli_counts_workers_and_progress(tmp_path, capsys):
+    import numpy as np
+
+    base = ["render", "many_lights", "--spp", "2", "--width", "40", "--height", "30", "--seed", "5",
+            "--strategy", "ris", "--ris-candidates", "4", "--emitter-samples", "2", "--json"]
+    a, b = tmp_path / "a.npy", tmp_path / "b.npy"
+    assert main(base + ["-o", str(a), "--progress"]) == 0
+    captured = capsys.readouterr()
+    assert "render [" in captured.err and "1200/1200" in captured.err
+    assert main(base + ["-o", str(b), "--workers", "2", "--no-progress"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["workers"] == 2
+    np.testing.assert_array_equal(np.load(a), np.load(b))
+    with pytest.raises(ValueError, match="emitter_samples"):
+        main(["render", "furnace", "--spp", "1", "--width", "4", "--height", "3", "--strategy", "light",
+              "--emitter-samples", "0"])
+
+
 def test_rel_mse_and_srgb():
     import numpy as np
 

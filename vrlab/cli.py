@@ -201,11 +201,23 @@ def _cmd_render(args: argparse.Namespace) -> int:
               "\n".join(f"{k:12s} relMSE {v:.4g}  {res['seconds'][k]:.2f} s" for k, v in res["rel_mse"].items()))
         return 0
     t0 = time.perf_counter()
+    show = args.progress if args.progress is not None else sys.stderr.isatty()
+    bar = None
+    if show:
+        from .lab.runner import ProgressBar
+        bar = ProgressBar(scene.sensor.width * scene.sensor.height, label="render")
+
+    def progress(done, total):
+        bar.update(done - bar.done)
+
     img, err = render(scene, args.spp, args.strategy, rng=args.seed, pixel_sampler=args.pixel_sampler,
-                      light_selection=args.light_selection)
+                      light_selection=args.light_selection, emitter_samples=args.emitter_samples,
+                      bsdf_samples=args.bsdf_samples, ris_candidates=args.ris_candidates,
+                      workers=args.workers, progress=progress if bar else None)
     seconds = time.perf_counter() - t0
     spp = args.spp or scene.sensor.spp
-    out = {"scene": str(path), "strategy": args.strategy, "spp": spp, "width": scene.sensor.width,
+    out = {"scene": str(path), "strategy": args.strategy, "spp": spp, "workers": args.workers,
+           "width": scene.sensor.width,
            "height": scene.sensor.height, "seconds": seconds,
            "samples_per_second": scene.sensor.width * scene.sensor.height * spp / seconds,
            "mean_stderr": float(np.nanmean(err))}
@@ -279,6 +291,16 @@ def build_parser() -> argparse.ArgumentParser:
     rend.add_argument("--pixel-sampler", choices=list(PIXEL_SAMPLERS), default="independent")
     rend.add_argument("--light-selection", choices=["uniform", "power"], default="uniform")
     rend.add_argument("--seed", type=int, default=0)
+    rend.add_argument("--emitter-samples", type=int, default=None,
+                      help="light samples per shading point (default: the scene integrator's)")
+    rend.add_argument("--bsdf-samples", type=int, default=None,
+                      help="BSDF samples per shading point (default: the scene integrator's)")
+    rend.add_argument("--ris-candidates", type=int, default=8, help="light candidates per RIS sample (ris)")
+    rend.add_argument("--workers", type=int, default=1,
+                      help="worker processes (tiles are seeded per tile: the same image for any count)")
+    rend.add_argument("--progress", dest="progress", action="store_true", default=None,
+                      help="progress bar on stderr (default: when stderr is a terminal)")
+    rend.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     rend.add_argument("--width", type=int, default=None, help="override the film width")
     rend.add_argument("--height", type=int, default=None, help="override the film height")
     rend.add_argument("-o", "--output", help="image file: .npy, .png or .exr")
