@@ -53,9 +53,11 @@ GALLERY: list[Entry] = [
           "sampling. Uniform and cosine directions rarely hit the small light, so most pixels "
           "stay black. "
           "On ∫cos θ dω, cosine sampling has zero variance; uniform sampling has π²/3 ≈ 3.29."),
-    Entry("light_surfaces", None, "03_light_surfaces",
-          "Sampling light surfaces",
-          "Notebook 03: sampling points on light surfaces (figure to be chosen)."),
+    Entry("light_surfaces", "light_surfaces_direction_pdfs.png", "03_light_surfaces",
+          "Light surfaces: area to solid angle",
+          "Density of directions towards a box and an ellipsoid light, p_w = Σ_hits p_A d²/|cos θ|: "
+          "a closed light is crossed twice, and only the sum over both hits integrates to 1 "
+          "(first hit alone: 0.37 for the box, 0.41 for the ellipsoid)."),
     Entry("mis", "mis_veach.png", "04_multiple_importance_sampling",
           "Multiple importance sampling",
           "Veach's glossy plates (4 plates × 4 spherical lights, 16 spp). BSDF sampling is noisy "
