@@ -1,6 +1,8 @@
-"""vrlab vs Mitsuba 3 on veach_mis and cornell_box: speed and equal-spp error.
+"""vrlab vs Mitsuba 3 on veach_mis, cornell_box and many_lights: speed and error.
 
-Renders each scene at the same resolution and spp with vrlab ("mis-power") and with
+Renders each scene at the same resolution and spp with vrlab (each in a child process,
+so the whole-process time includes Python start-up, imports and scene loading; 1 and 2
+worker processes) and with
 Mitsuba 3's ``direct`` integrator (``scalar_rgb``; ``llvm_ad_rgb`` too when it runs --
 it is tried in a subprocess because drjit's LLVM backend aborts the process on systems
 whose libLLVM is too old).  Reports wall time (render call and whole process), samples/s (pixels x spp / s), and the
@@ -14,7 +16,6 @@ gracefully without mitsuba.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import subprocess
 import sys
@@ -27,7 +28,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "experiments"))
 
-SCENES = ("veach_mis", "cornell_box")
+SCENES = ("veach_mis", "cornell_box", "many_lights")
+# vrlab strategies per scene: (strategy, light_selection, ris_candidates)
+VRLAB_RUNS = {"veach_mis": [("mis-power", "uniform", 8)], "cornell_box": [("mis-power", "uniform", 8),
+                                                                         ("cv", "uniform", 8)],
+              "many_lights": [("mis-power", "uniform", 8), ("light", "power", 8), ("ris", "uniform", 16),
+                              ("ris", "power", 16)]}
 
 
 def relmse(img, ref):
@@ -64,12 +70,33 @@ def mitsuba_subprocess(variant, name, w, h, spp, tmp):
     return np.load(out), json.loads(p.stdout.strip().splitlines()[-1]), wall
 
 
+def vrlab_subprocess(name, w, h, spp, strategy, selection, m, workers, tmp):
+    """(image, render seconds, whole-process seconds) of vrlab in a child process."""
+    out = Path(tmp) / f"vrlab_{name}_{strategy}_{selection}_{workers}.npy"
+    code = ("import time, json, dataclasses; t0 = time.perf_counter(); import numpy as np; "
+            "from vrlab.render import builtin_scene_path, load_scene, render; "
+            f"sc = load_scene(builtin_scene_path({name!r})); "
+            f"sc.sensor = dataclasses.replace(sc.sensor, width={w}, height={h}); t = time.perf_counter(); "
+            f"img, _ = render(sc, {spp}, {strategy!r}, rng=1, light_selection={selection!r}, "
+            f"ris_candidates={m}, workers={workers}); dt = time.perf_counter() - t; "
+            f"np.save({str(out)!r}, img); print(json.dumps([dt, time.perf_counter() - t0]))")
+    t = time.perf_counter()
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=str(ROOT))
+    wall = time.perf_counter() - t
+    if p.returncode != 0:
+        raise RuntimeError(p.stderr)
+    dt, _ = json.loads(p.stdout.strip().splitlines()[-1])
+    return np.load(out), dt, wall
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--width", type=int, default=128)
     ap.add_argument("--height", type=int, default=96)
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--ref-spp", type=int, default=4096)
+    ap.add_argument("--scenes", nargs="*", default=list(SCENES))
+    ap.add_argument("--workers", nargs="*", type=int, default=[1, 2])
     ap.add_argument("--variants", nargs="*", default=["scalar_rgb", "llvm_ad_rgb"])
     args = ap.parse_args(argv)
     try:
@@ -78,37 +105,52 @@ def main(argv=None):
         print("mitsuba is not installed (pip install mitsuba); skipping bench_mitsuba")
         return 0
     import tempfile
-    from vrlab.render import builtin_scene_path, load_scene, render
 
     w, h, spp = args.width, args.height, args.spp
     samples = w * h * spp
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for name in SCENES:
-            ref, t_ref = mitsuba_render("scalar_rgb", name, w, h, args.ref_spp, seed=12345)
-            t0 = time.perf_counter()
-            scene = load_scene(builtin_scene_path(name))
-            scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=w, height=h))
-            t = time.perf_counter()
-            img, _ = render(scene, spp, "mis-power", rng=1)
-            dt = time.perf_counter() - t
-            rows.append((name, "vrlab mis-power", dt, samples / dt, relmse(img, ref),
-                         time.perf_counter() - t0))
+        for name in args.scenes:
+            ref, _ = mitsuba_render("scalar_rgb", name, w, h, args.ref_spp, seed=12345)
+            base = None
             for v in args.variants:
                 img, dt, wall = mitsuba_subprocess(v, name, w, h, spp, tmp)
                 if img is None:
                     rows.append((name, f"mitsuba {v}", None, None, None, dt))
-                else:
-                    rows.append((name, f"mitsuba {v}", dt, samples / dt, relmse(img, ref), wall))
+                    continue
+                rows.append((name, f"mitsuba {v}", dt, samples / dt, relmse(img, ref), wall))
+                if v == "scalar_rgb":
+                    base = rows[-1]
+            for strategy, selection, m in VRLAB_RUNS.get(name, [("mis-power", "uniform", 8)]):
+                label = strategy + (f"/{selection}" if strategy in ("light", "ris") else "") + \
+                    (f" M={m}" if strategy == "ris" else "")
+                for k in args.workers:
+                    img, dt, wall = vrlab_subprocess(name, w, h, spp, strategy, selection, m, k, tmp)
+                    rows.append((name, f"vrlab {label} w={k}", dt, samples / dt, relmse(img, ref), wall))
+            rows.append((name, "--ratios vs scalar", base))
     print(f"mitsuba {mi.__version__}; {w}x{h}, {spp} spp; reference: mitsuba scalar_rgb {args.ref_spp} spp")
-    print("render s: the render call (Mitsuba after a 1-spp warm-up); process s: vrlab scene "
-          "load + render, Mitsuba the whole child process (import, load, warm-up, render)")
-    print(f"{'scene':<12} {'renderer':<22} {'render s':>8} {'samples/s':>11} {'relMSE':>10} {'process s':>9}")
+    print("render s: the render call (Mitsuba after a 1-spp warm-up); process s: the whole child process "
+          "(Python start-up, imports, scene load, render).  Ratios are vrlab / Mitsuba scalar_rgb: "
+          "speed = samples/s ratio (>1: vrlab faster), process = Mitsuba process s / vrlab process s "
+          "(>1: vrlab faster), relMSE = vrlab / Mitsuba at equal spp (<1: vrlab better), "
+          "eq-time = (relMSE x process s) ratio (<1: vrlab better at equal whole-process time)")
+    print(f"{'scene':<12} {'renderer':<30} {'render s':>8} {'samples/s':>10} {'relMSE':>9} {'process s':>9}"
+          f" {'speed':>6} {'process':>7} {'relMSE':>6} {'eq-time':>7}")
+    base = {}
     for r in rows:
+        if r[1] == "--ratios vs scalar":
+            continue
         if r[2] is None:
-            print(f"{r[0]:<12} {r[1]:<22} {'failed':>8}  ({r[5]})")
-        else:
-            print(f"{r[0]:<12} {r[1]:<22} {r[2]:8.2f} {r[3]:11.3g} {r[4]:10.3g} {r[5]:9.2f}")
+            print(f"{r[0]:<12} {r[1]:<30} {'failed':>8}  ({r[5]})")
+            continue
+        if r[1] == "mitsuba scalar_rgb":
+            base[r[0]] = r
+        b = base.get(r[0])
+        ratios = ""
+        if b is not None and r[1].startswith("vrlab"):
+            ratios = (f" {r[3] / b[3]:6.2f} {b[5] / r[5]:7.2f} {r[4] / b[4]:6.2f} "
+                      f"{(r[4] * r[5]) / (b[4] * b[5]):7.2f}")
+        print(f"{r[0]:<12} {r[1]:<30} {r[2]:8.2f} {r[3]:10.3g} {r[4]:9.3g} {r[5]:9.2f}{ratios}")
     return 0
 
 

@@ -93,3 +93,11 @@ def test_render_compare_ranks_strategies_like_veach(tmp_path, capsys):
     err = res["rel_mse"]
     assert err["mis-power"] < err["light"] < err["bsdf"]
     assert (tmp_path / "cmp.png").exists()
+
+
+def test_render_compare_equal_time(tmp_path, capsys):
+    assert main(["render", "cornell_box", "--spp", "8", "--width", "24", "--height", "18", "--compare",
+                 "cosine,cv", "--equal-time", "-o", str(tmp_path / "eq.png"), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["spp"]["cv"] == 8 and res["spp"]["cosine"] >= 1 and set(res["rel_mse"]) == {"cosine", "cv"}
+    assert (tmp_path / "eq.png").stat().st_size > 0

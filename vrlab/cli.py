@@ -193,7 +193,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
         from .render.compare import compare, compare_figure
 
         res = compare(scene, args.compare.split(","), args.spp or scene.sensor.spp, rng=args.seed,
-                      reference=np.load(args.reference) if args.reference else None)
+                      reference=np.load(args.reference) if args.reference else None,
+                      equal_time=args.equal_time)
         out = {"scene": str(path), "spp": res["spp"], "rel_mse": res["rel_mse"], "seconds": res["seconds"]}
         if args.output:
             out["figure"] = str(compare_figure(res, args.output, exposure=args.exposure))
@@ -310,6 +311,8 @@ def build_parser() -> argparse.ArgumentParser:
     rend.add_argument("--compare", metavar="S1,S2,...", nargs="?", const="bsdf,light,mis-power",
                       help="render a grid of strategies at equal spp with relMSE under each panel "
                            "(default: the Veach figure bsdf,light,mis-power); -o names the figure (.png)")
+    rend.add_argument("--equal-time", action="store_true",
+                      help="with --compare: give each strategy the time the last one needs for --spp")
     rend.add_argument("--json", action="store_true", help="print time, samples/s and errors as JSON")
     rend.set_defaults(func=_cmd_render)
     return parser

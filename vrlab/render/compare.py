@@ -4,7 +4,10 @@
 seed and reports each image's relMSE against a reference: the ``reference`` image if
 one is given, else a high-spp ``mis-power`` render (``ref_spp``), which is independent
 of the compared images (its own seed).  ``compare_figure`` draws the panels with the
-relMSE under each.  Equal spp, not equal time: the seconds are reported alongside.
+relMSE under each.  Equal spp by default; with ``equal_time=True`` each strategy first
+renders a pilot (spp/4 samples) to measure its cost per sample, then gets the spp that
+fit in the time the *last* strategy (MIS in the Veach order) needs for ``spp``: the
+comparison that counts, error at equal cost (Veach 1997, ch. 9).
 """
 from __future__ import annotations
 
@@ -22,17 +25,30 @@ VEACH_STRATEGIES = ("bsdf", "light", "mis-power")
 
 
 def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int = 16, *, rng: int = 0,
-            reference: np.ndarray | None = None, ref_spp: int = 256) -> dict:
-    """Render ``scene`` with each strategy; ``{"images", "seconds", "rel_mse", "reference"}``."""
+            reference: np.ndarray | None = None, ref_spp: int = 256, equal_time: bool = False) -> dict:
+    """Render ``scene`` with each strategy; ``{"images", "seconds", "rel_mse", "reference",
+    "spp"}`` where ``spp`` is an int (equal spp) or a dict per strategy (equal time)."""
     if reference is None:
         reference, _ = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([rng, 1]))
+    counts = {s: spp for s in strategies}
+    if equal_time:
+        pilot = max(1, spp // 4)
+        cost = {}
+        for s in strategies:
+            t0 = time.perf_counter()
+            render(scene, pilot, s, rng=np.random.SeedSequence([rng, 2]))
+            cost[s] = (time.perf_counter() - t0) / pilot
+        budget = spp * cost[strategies[-1]]
+        counts = {s: max(1, int(round(budget / cost[s]))) for s in strategies}
+        counts[strategies[-1]] = spp
     images, seconds, errors = {}, {}, {}
     for s in strategies:
         t0 = time.perf_counter()
-        images[s], _ = render(scene, spp, s, rng=np.random.SeedSequence([rng, 0]))
+        images[s], _ = render(scene, counts[s], s, rng=np.random.SeedSequence([rng, 0]))
         seconds[s] = time.perf_counter() - t0
         errors[s] = rel_mse(images[s], reference)
-    return {"images": images, "seconds": seconds, "rel_mse": errors, "reference": reference, "spp": spp}
+    return {"images": images, "seconds": seconds, "rel_mse": errors, "reference": reference,
+            "spp": counts if equal_time else spp}
 
 
 def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure: float = 1.0) -> Path:
@@ -48,9 +64,11 @@ def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure:
         ax = fig.add_subplot(1, len(names), k + 1)
         ax.imshow(srgb_encode(np.nan_to_num(result["images"][name]) * exposure))
         ax.set_xticks([]), ax.set_yticks([])
-        ax.set_xlabel(f"{name}\nrelMSE = {result['rel_mse'][name]:.3g}, {result['seconds'][name]:.1f} s",
+        each = f", {result['spp'][name]} spp" if isinstance(result["spp"], dict) else ""
+        ax.set_xlabel(f"{name}\nrelMSE = {result['rel_mse'][name]:.3g}, {result['seconds'][name]:.1f} s{each}",
                       fontsize=9)
-    fig.suptitle(title or f"{result['spp']} spp per strategy", fontsize=10)
+    equal = "equal time" if isinstance(result["spp"], dict) else f"{result['spp']} spp per strategy"
+    fig.suptitle(title or equal, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return Path(path)
