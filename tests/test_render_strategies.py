@@ -201,3 +201,13 @@ def test_workers_and_chunks_give_identical_images():
 
 def test_floor_albedo_is_what_the_closed_forms_use():
     assert RHO == (0.2, 0.5, 0.8) and EMIT.count("radiance") == 1
+
+
+def test_shapes_with_identical_bsdfs_share_a_shading_group():
+    from vrlab.render import builtin_scene_path
+    sc = load_scene(builtin_scene_path("cornell_box"))
+    integ = DirectLighting(sc, "cosine")
+    assert len(integ.bsdfs) == len(np.unique(integ.group_of_shape)) == 4     # white, red, green, light's
+    for k, s in enumerate(sc.shapes):
+        model = integ.bsdfs[integ.group_of_shape[k]]
+        np.testing.assert_array_equal(model.reflectance, s.bsdf.params["reflectance"])

@@ -163,8 +163,15 @@ class DirectLighting:
         self.geometry = SceneGeometry(scene)
         self.camera = Camera(scene.sensor)
         shapes = scene.shapes
-        self.bsdfs = [make_bsdf(s.bsdf) for s in shapes]
-        self.twosided = np.array([s.bsdf.twosided for s in shapes])
+        # shapes with identical BSDFs are shaded together (one batch per distinct BSDF)
+        keys = [repr((s.bsdf.type, sorted((k, np.asarray(v).tolist() if not isinstance(v, str) else v)
+                                          for k, v in s.bsdf.params.items()), s.bsdf.twosided))
+                for s in shapes]
+        distinct = list(dict.fromkeys(keys))
+        self.group_of_shape = np.array([distinct.index(k) for k in keys], dtype=np.int64)
+        first = [keys.index(k) for k in distinct]
+        self.bsdfs = [make_bsdf(shapes[i].bsdf) for i in first]      # one model per group
+        self.twosided = np.array([shapes[i].bsdf.twosided for i in first], dtype=bool)
         self.is_emitter = np.array([s.emitter is not None for s in shapes])
         self.radiance = np.array([s.emitter.radiance if s.emitter is not None else np.zeros(3)
                                   for s in shapes], float)
@@ -200,15 +207,18 @@ class DirectLighting:
             raise ValueError(f"u: expected {self.dims} uniforms per sample, got shape {u.shape}")
         hits = self.geometry.intersect(o, d)
         out = self.emitted(hits, d)
-        shade = (hits.shape >= 0) & ~self.is_emitter[np.maximum(hits.shape, 0)]
-        for k in np.unique(hits.shape[shade]):
-            m = np.flatnonzero(hits.shape == k)
-            out[m] += self.direct(k, hits.p[m], hits.n[m], -d[m], u[m])
+        shape = np.maximum(hits.shape, 0)
+        shade = (hits.shape >= 0) & ~self.is_emitter[shape]
+        group = np.where(shade, self.group_of_shape[shape], -1)
+        for g in np.unique(group[shade]):
+            m = np.flatnonzero(group == g)
+            out[m] += self.direct(g, hits.p[m], hits.n[m], -d[m], u[m])
         return out
 
     # ------------------------------------------------------------------ direct lighting
     def direct(self, k: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """One estimate ``(m, 3)`` of the direct lighting at points ``p`` of shape ``k``."""
+        """One estimate ``(m, 3)`` of the direct lighting at points ``p`` whose BSDF is
+        ``self.bsdfs[k]`` (BSDF group ``k``, see ``group_of_shape``)."""
         bsdf = self.bsdfs[k]
         if self.twosided[k]:
             n = np.where((np.sum(wo * n, -1) < 0)[:, None], -n, n)
