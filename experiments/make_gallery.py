@@ -73,9 +73,11 @@ GALLERY: list[Entry] = [
           "Variance per sample against the correlation ρ of f and the control h (dots: measured, "
           "lines: theory). α = 1 beats plain MC only for ρ > ½ (ρ > ¾ at equal cost); the "
           "optimal α always helps: σ²(1 − ρ²)."),
-    Entry("ris", None, "07_ris",
+    Entry("ris", "ris_many_lights.png", "07_resampled_importance_sampling",
           "Resampled importance sampling",
-          "Notebook 07: resampled importance sampling (figure to be chosen)."),
+          "128 sphere lights, 8 spp, one shadow ray per sample. Resampling M = 16 uniformly drawn "
+          "light candidates towards their unshadowed contribution cuts the relMSE from 1.92 "
+          "(light chosen uniformly) and 0.85 (by power) to 0.12; candidates drawn by power: 0.05."),
     Entry("sampling_patterns", "sampling_patterns_convergence.png", "08_sampling_patterns",
           "Sampling patterns",
           "RMSE against n with fitted slopes (dashed: theory): Monte Carlo −0.49, jittered "
