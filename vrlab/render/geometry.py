@@ -3,8 +3,13 @@
 ``SceneGeometry(scene)`` collects every shape of a :class:`~vrlab.render.Scene` into
 primitive groups:
 
-* triangles (``rectangle``, ``cube``, ``obj``; Moller & Trumbore 1997, "Fast,
-  minimum storage ray/triangle intersection"), one array of all triangles;
+* planar primitives ``x = v0 + s e1 + u e2``: parallelograms (``s, u`` in [0, 1]; a
+  rectangle, each cube face and every pair of mesh triangles that forms one) and the
+  remaining mesh triangles (``s, u >= 0``, ``s + u <= 1``; ``obj``).  The hit is the
+  plane hit ``t = (v0 - o).n / d.n`` and ``s = (x - v0).a1``, ``u = (x - v0).a2`` with
+  the dual basis ``a1 = (e2 x m)/|m|^2``, ``a2 = (m x e1)/|m|^2``, ``m = e1 x e2``
+  (the same hits as Moller & Trumbore 1997, "Fast, minimum storage ray/triangle
+  intersection");
 * quadrics (``sphere``, ``ellipsoid``): the unit sphere under an affine map
   x = c + M s, intersected in the unit-sphere frame;
 * disks: the unit disk in z = 0 under an affine map.
@@ -15,20 +20,40 @@ the index of the shape hit (into ``scene.shapes``; -1 for a miss), the hit point
 the unit geometric normal, which follows Mitsuba: ``M^-T`` of the object normal for
 analytic shapes (rectangle, disk, sphere, ellipsoid), the winding ``e1 x e2`` for
 meshes (cube, obj), outward for closed shapes, and reversed by ``flip_normals``.
-Loops run over primitive groups and blocks of rays, never over single rays.
+
+Every group works in two passes over a block of rays: a conservative *cull* of all
+(ray, primitive) pairs with thin matrix products ``[1, o] @ W`` (plane distance and
+``s, u`` of every primitive; for quadrics the discriminant of the bounding sphere,
+``b^2 - a (|o|^2 - 2 o.c + |c|^2 - r^2)``) and component-wise arithmetic, whose
+tolerances only admit extra pairs, then an exact per-pair test (the formulas above on
+differences ``o - v0``, or the stable quadratic roots in the unit-sphere frame), so a
+ray's hit does not depend on the block it is in.  Big planar groups (``obj`` meshes)
+replace the cull by a BVH (:mod:`vrlab.render.bvh`), so memory stays bounded.  Among
+exactly equal ``t`` (coincident surfaces) the first group (parallelograms, triangles,
+quadrics, disks) and then the lowest primitive wins.  Loops run over primitive groups and
+blocks, never over single rays.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
 
+from .bvh import BVH
 from .scene import Scene
 
 __all__ = ["DEFAULT_RAY_CHUNK", "Hits", "SceneGeometry"]
 
-DEFAULT_RAY_CHUNK = 1 << 15   # rays per block
-_BLOCK_ELEMS = 1 << 19        # rays x triangles per Moller-Trumbore block
+DEFAULT_RAY_CHUNK = 1 << 13   # rays per block
+# (ray, primitive) pairs per culling block: cache sized, and small enough (N k P <= 2^18
+# for an (N, k) @ (k, P) product) that OpenBLAS stays single-threaded (much faster here)
+_PLANAR_ELEMS = 1 << 14
+_QUADRIC_ELEMS = 1 << 15
+_BVH_MIN_PRIMS = 64           # planar groups at least this big are traversed with a BVH
+_TOL_SU = 1e-7                # culling slack of the (s, u) parameters
+_TOL_T = 1e-9                 # culling slack of t, relative to |o| + scene size
+_TOL_DISC = 1e-12             # culling slack of sphere discriminants, relative
 
 
 class Hits(NamedTuple):
@@ -46,21 +71,264 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.where(norm > 0, norm, 1.0)
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+
+
+def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` of a thin ``a (N, k)``, k <= 4 (blocks: see ``_PLANAR_ELEMS``)."""
+    return a @ b
+
+
+def _parallelograms(tri: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Split triangles ``(T, 3, 3)`` into parallelograms ``(corner, e1, e2)`` made of
+    consecutive pairs ``(p0, p1, p2), (p0, p2, y)`` or ``(y, p0, p2)`` with ``y = p0 + p2 - p1``
+    (fan-triangulated quads, also reversed), and the indices of the triangles left over.
+    Returns ``(para (Q, 4, 3): corner, e1, e2, winding normal of the first triangle), rest``."""
+    a, b = tri[:-1], tri[1:]
+    p0, p1, p2 = a[:, 0], a[:, 1], a[:, 2]
+
+    def near(x, y):
+        return np.all(np.abs(x - y) <= tol, axis=-1)
+
+    fan = near(b[:, 0], p0) & near(b[:, 1], p2)
+    rev = near(b[:, 1], p0) & near(b[:, 2], p2)
+    y = np.where(fan[:, None], b[:, 2], b[:, 0])
+    ok = (fan | rev) & near(y, p0 + p2 - p1)
+    used = np.zeros(len(tri), bool)
+    first = []
+    for k in np.flatnonzero(ok):       # greedy, non-overlapping pairs
+        if not used[k]:
+            used[k] = used[k + 1] = True
+            first.append(k)
+    first = np.array(first, int)
+    p0, p1, p2 = tri[first, 0], tri[first, 1], tri[first, 2]
+    n = _unit(np.cross(p1 - p0, p2 - p0))
+    para = np.stack([p1, p0 - p1, p2 - p1, n], axis=1) if len(first) else np.zeros((0, 4, 3))
+    return para, np.flatnonzero(~used)
+
+
+class _Planar:
+    """Parallelograms (``para=True``) or triangles ``v0 + s e1 + u e2`` with their
+    normals and shape indices; see the module docstring for the formulas."""
+
+    def __init__(self, v0, e1, e2, normal, shape, para: bool):
+        m = np.cross(e1, e2)
+        m2 = np.sum(m * m, -1)
+        keep = m2 > 0                                  # degenerate ones are never hit
+        v0, e1, e2, m, m2 = v0[keep], e1[keep], e2[keep], m[keep], m2[keep]
+        self.para = para
+        self.v0, self.e1, self.e2 = v0, e1, e2
+        self.normal, self.shape = normal[keep], shape[keep]
+        self.n = m / np.sqrt(m2)[:, None]
+        self.a1 = np.cross(e2, m) / m2[:, None]
+        self.a2 = np.cross(m, e1) / m2[:, None]
+        self.packed = np.concatenate([v0, self.n, self.a1, self.a2], axis=1)
+        # cull matrices: [1, o] @ wo = [(v0 - o).n, (o - v0).a1, (o - v0).a2]; d @ wd likewise
+        p = len(v0)
+        self.wo = np.zeros((4, 3 * p))
+        self.wo[0] = np.concatenate([_dot(v0, self.n), -_dot(v0, self.a1), -_dot(v0, self.a2)])
+        self.wo[1:] = np.concatenate([-self.n, self.a1, self.a2]).T
+        self.wd = np.concatenate([self.n, self.a1, self.a2]).T.copy()
+        self.bvh = BVH(np.stack([v0, v0 + e1, v0 + e2] + ([v0 + e1 + e2] if para else []),
+                                axis=1)) if p >= _BVH_MIN_PRIMS else None
+
+    def __len__(self) -> int:
+        return len(self.v0)
+
+    def candidates(self, oh, d, t_min, tol_t, sl):
+        """Conservative (ray, primitive) pairs of the block ``sl``; ``oh = [1, o]`` (see
+        the module docstring)."""
+        p = sl.stop - sl.start
+        full = p == len(self)
+        wo = self.wo if full else self.wo.reshape(4, 3, -1)[:, :, sl].reshape(4, -1)
+        wd = self.wd if full else self.wd.reshape(3, 3, -1)[:, :, sl].reshape(3, -1)
+        ow, dw = _mm(oh, wo), _mm(d, wd)
+        t, s, u = ow[:, :p], ow[:, p:2 * p], ow[:, 2 * p:]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            np.divide(t, dw[:, :p], out=t)
+            ok = t > (t_min - tol_t)[:, None]
+            tmp = t * dw[:, p:2 * p]
+            s += tmp
+            np.multiply(t, dw[:, 2 * p:], out=tmp)
+            u += tmp
+            ok &= np.minimum(s, u, out=tmp) >= -_TOL_SU
+            if self.para:
+                np.maximum(s, u, out=s)
+            else:
+                s += u
+            ok &= s <= 1.0 + _TOL_SU
+        i, j = _nonzero(ok)
+        return i, j + sl.start
+
+    def exact(self, rays, t_min, i, j):
+        """Exact t (inf on a miss) of the pairs ``(i, j)``; ``rays = [o, d]`` ``(N, 6)``."""
+        r, q = rays[i], self.packed[j]            # [o, d], [v0, n, a1, a2]
+        oc = r[:, :3] - q[:, :3]
+        dd, n = r[:, 3:], q[:, 3:6]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = _dot(oc, n)
+            t /= _dot(dd, n)
+            np.negative(t, out=t)
+            oc += t[:, None] * dd                 # hit point - v0
+            s, u = _dot(oc, q[:, 6:9]), _dot(oc, q[:, 9:])
+            ok = (t > t_min) & (np.minimum(s, u) >= 0.0)
+            ok &= (np.maximum(s, u) <= 1.0) if self.para else (s + u <= 1.0)
+        ok &= np.isfinite(t)
+        return np.where(ok, t, np.inf)
+
+    def closest(self, o, d, t_min, tol_t, t, shape, normal):
+        """Update the closest hits ``t, shape, normal`` of a block of rays in place."""
+        if not len(self):
+            return
+        rays = np.concatenate([o, d], axis=1)
+        oh = np.empty((len(o), 4))
+        oh[:, 0] = 1.0
+        oh[:, 1:] = o
+        if self.bvh is not None:
+            def test(i, j):
+                return self.exact(rays, t_min, i, j)
+            i, j, tt = self.bvh.closest(o, d, t_min, t, test)
+            _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], lambda w: self.normal[j[w]])
+            return
+        ii, jj = [], []
+        for r, sl in _blocks(len(o), len(self), _PLANAR_ELEMS):
+            i, j = self.candidates(oh[r], d[r], t_min, tol_t[r], sl)
+            ii.append(i + r.start)
+            jj.append(j)
+        i, j = _pairs(ii, jj)
+        tt = self.exact(rays, t_min, i, j)
+        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], lambda w: self.normal[j[w]])
+
+
+class _Quadrics:
+    """Ellipsoids ``x = c + M s``, ``|s| = 1``, culled with their bounding spheres
+    (a BVH of their boxes was about 2x slower for the 128 small spheres of many_lights)."""
+
+    def __init__(self, quad):
+        self.shape = np.array([q[0] for q in quad], int)
+        self.c = np.array([q[1] for q in quad], float).reshape(-1, 3)
+        self.minv = np.array([q[2] for q in quad], float).reshape(-1, 3, 3)
+        self.sign = np.array([q[3] for q in quad], float)
+        m = np.linalg.inv(self.minv)
+        r = np.linalg.norm(m, ord=2, axis=(1, 2))                # bounding sphere radius
+        self.w_b = np.concatenate([-self.c.T, np.ones((1, len(r)))])
+        self.w_c = np.concatenate([-2.0 * self.c.T, np.ones((1, len(r))),
+                                   [np.sum(self.c * self.c, -1) - r * r]])
+        self.cmax = float(np.max(np.linalg.norm(self.c, axis=-1) + r, initial=0.0))
+
+    def __len__(self) -> int:
+        return len(self.shape)
+
+    def _local(self, o, d, i, j):
+        """Pair rays in the unit-sphere frames: ``M^-1 (o - c)``, ``M^-1 d``."""
+        minv = self.minv[j]
+        return (np.einsum("kab,kb->ka", minv, o[i] - self.c[j]),
+                np.einsum("kab,kb->ka", minv, d[i]))
+
+    def _fold(self, o, d, t_min, i, j, tt, t, shape, normal):
+        def nrm(w):
+            ol, dl = self._local(o, d, i[w], j[w])
+            x = ol + tt[w, None] * dl                                    # unit-sphere point
+            n = np.einsum("ka,kab->kb", x, self.minv[j[w]])              # M^-T x
+            return self.sign[j[w], None] * _unit(n)
+        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], nrm)
+
+    def closest(self, o, d, t_min, t, shape, normal):
+        """Update the closest hits of a block of rays in place."""
+        a, oo = _dot(d, d), _dot(o, o)
+        tol = -_TOL_DISC * a * (np.sqrt(oo) + self.cmax) ** 2
+        ao = np.empty((len(o), 5))                        # a [o, |o|^2, 1]
+        np.multiply(o, a[:, None], out=ao[:, :3])
+        ao[:, 3] = a * oo
+        ao[:, 4] = a
+        do = np.empty((len(o), 4))                        # [d, d.o]
+        do[:, :3] = d
+        do[:, 3] = _dot(o, d)
+        ii, jj = [], []
+        for r, sl in _blocks(len(o), len(self), _QUADRIC_ELEMS):
+            b = _mm(do[r], self.w_b[:, sl])               # b = d.(o - c)
+            b *= b
+            b -= _mm(ao[r], self.w_c[:, sl])              # - a (|o - c|^2 - r^2): discriminant / 4
+            i, j = _nonzero(b >= tol[r, None])
+            ii.append(i + r.start)
+            jj.append(j + sl.start)
+        i, j = _pairs(ii, jj)
+        tt = _unit_sphere_hit(*self._local(o, d, i, j), t_min)
+        self._fold(o, d, t_min, i, j, tt, t, shape, normal)
+
+
+def _blocks(n_rays: int, n_prims: int, elems: int):
+    """(ray slice, primitive slice) blocks of about ``elems`` pairs (cache sized)."""
+    pb = min(n_prims, elems // 64)
+    rb = max(64, elems // max(pb, 1))
+    for a in range(0, n_rays, rb):
+        for b in range(0, n_prims, pb):
+            yield slice(a, min(a + rb, n_rays)), slice(b, min(b + pb, n_prims))
+
+
+def _nonzero(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.nonzero`` of a C-contiguous 2-d mask (4x faster via the flat indices)."""
+    return np.divmod(np.flatnonzero(mask), mask.shape[1])
+
+
+def _pairs(ii: list, jj: list) -> tuple[np.ndarray, np.ndarray]:
+    """Concatenated (ray, primitive) pairs of all blocks, sorted by ray, then primitive."""
+    i, j = np.concatenate(ii), np.concatenate(jj)
+    if len(i) > 1 and np.any(i[1:] < i[:-1]):
+        s = np.lexsort((j, i))
+        i, j = i[s], j[s]
+    return i, j
+
+
+def _firsts(i: np.ndarray) -> np.ndarray:
+    """Mask of the first element of each run of equal values in ``i``."""
+    f = np.empty(len(i), bool)
+    f[:1] = True
+    np.not_equal(i[1:], i[:-1], out=f[1:])
+    return f
+
+
+def _update(t, shape, normal, i, tt, shape_of: Callable, normal_of: Callable) -> None:
+    """Fold pair hits ``(ray i, t tt)`` (``i`` ascending) into the closest hits; a tie
+    keeps the earlier hit (the first pair, or the hit already stored)."""
+    w = np.flatnonzero(tt < t[i])
+    if not len(w):
+        return
+    iw, tw = i[w], tt[w]
+    starts = np.flatnonzero(_firsts(iw))
+    best = np.minimum.reduceat(tw, starts)
+    win = np.flatnonzero(tw == np.repeat(best, np.diff(np.append(starts, len(iw)))))
+    win = win[_firsts(iw[win])]                                # first of ties
+    rows = iw[win]
+    t[rows] = tw[win]
+    shape[rows] = shape_of(w[win])
+    normal[rows] = normal_of(w[win])
+
+
 class SceneGeometry:
     """All shapes of ``scene`` as arrays of primitives (see the module docstring)."""
 
     def __init__(self, scene: Scene):
-        tris, tri_shape, tri_normal = [], [], []
-        quad, disk = [], []
+        para, tris, quad, disk, pts = [], [], [], [], [np.zeros(3)]
+        self._n_tri = 0
         for k, s in enumerate(scene.shapes):
+            pts.append(s.center)
             if s.type in ("rectangle", "cube", "obj"):
                 t = s.triangles()
-                n = _unit(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]))
+                self._n_tri += len(t)
+                pts.append(t.reshape(-1, 3))
                 if s.type == "rectangle":      # analytic in Mitsuba: normal M^-T z (mirrors too)
-                    n = np.broadcast_to(s.rectangle()[3], n.shape)
-                tris.append(t)
-                tri_normal.append(n)
-                tri_shape.append(np.full(len(t), k))
+                    corner, e1, e2, n = s.rectangle()
+                    para.append((np.array([[corner, e1, e2, n]]), k))
+                    continue
+                tol = 1e-12 * (1.0 + np.max(np.abs(t)))
+                pg, rest = _parallelograms(t, tol)
+                para.append((pg, k))
+                t = t[rest]
+                tris.append((np.stack([t[:, 0], t[:, 1] - t[:, 0], t[:, 2] - t[:, 0],
+                                       _unit(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]))],
+                                      axis=1), k))
             elif s.type in ("sphere", "ellipsoid"):
                 c, m = s.ellipsoid()
                 quad.append((k, c, np.linalg.inv(m), -1.0 if s.flip_normals else 1.0))
@@ -69,21 +337,14 @@ class SceneGeometry:
                 disk.append((k, c, np.linalg.inv(m), s.disk()[3]))
             else:  # pragma: no cover - the loader rejects other types
                 raise ValueError(f"shape type {s.type!r} is not supported by the renderer")
-        if tris:
-            t = np.concatenate(tris)
-            self.v0 = t[:, 0]
-            self.e1 = t[:, 1] - t[:, 0]
-            self.e2 = t[:, 2] - t[:, 0]
-            self.tri_shape = np.concatenate(tri_shape)
-            self.tri_normal = np.concatenate(tri_normal)
-        else:
-            self.v0 = self.e1 = self.e2 = self.tri_normal = np.zeros((0, 3))
-            self.tri_shape = np.zeros(0, int)
-        self.quadrics = quad
+        self.planar = []
+        for group, is_para in ((para, True), (tris, False)):
+            arr = np.concatenate([g for g, _ in group] or [np.zeros((0, 4, 3))])
+            if len(arr):
+                ids = np.concatenate([np.full(len(g), k) for g, k in group])
+                self.planar.append(_Planar(arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], ids, is_para))
+        self.quadrics = _Quadrics(quad) if quad else None
         self.disks = disk
-        pts = [np.zeros(3)] + [s.center for s in scene.shapes]
-        if tris:
-            pts.append(t.reshape(-1, 3))
         pts = np.vstack(pts)
         radii = [np.linalg.norm(np.linalg.inv(q[2]), 2) for q in quad + disk]
         #: a length scale of the scene (for ray offsets)
@@ -91,7 +352,8 @@ class SceneGeometry:
 
     @property
     def n_triangles(self) -> int:
-        return len(self.v0)
+        """Number of triangles of the mesh shapes (rectangle 2, cube 12, obj)."""
+        return self._n_tri
 
     # ------------------------------------------------------------------ intersection
     def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float = 0.0,
@@ -106,28 +368,20 @@ class SceneGeometry:
         normal = np.zeros((n_rays, 3))
         for a in range(0, n_rays, chunk):
             sl = slice(a, min(a + chunk, n_rays))
-            self._closest(o[sl], d[sl], t_min, t[sl], shape[sl], normal[sl])
+            self._closest(np.ascontiguousarray(o[sl]), np.ascontiguousarray(d[sl]), t_min,
+                          t[sl], shape[sl], normal[sl])
         hit = shape >= 0
         p = np.where(hit[:, None], o + np.where(hit, t, 0.0)[:, None] * d, 0.0)
         return Hits(t, shape, p, normal)
 
     def _closest(self, o, d, t_min, t, shape, normal):
         """Update ``t``, ``shape``, ``normal`` (views of one chunk) in place."""
-        block = max(1, _BLOCK_ELEMS // max(len(o), 1))
-        for a in range(0, self.n_triangles, block):
-            tt, idx = self._triangles(o, d, t_min, slice(a, a + block))
-            better = tt < t
-            t[better] = tt[better]
-            shape[better] = self.tri_shape[idx[better]]
-            normal[better] = self.tri_normal[idx[better]]
-        for k, c, minv, sign in self.quadrics:
-            ol, dl = (o - c) @ minv.T, d @ minv.T
-            tt = _unit_sphere_hit(ol, dl, t_min)
-            better = tt < t
-            t[better] = tt[better]
-            shape[better] = k
-            s = ol[better] + tt[better, None] * dl[better]           # unit-sphere point
-            normal[better] = sign * _unit(s @ minv)                  # M^-T s
+        if self.planar:
+            tol_t = _TOL_T * (np.sqrt(_dot(o, o)) + self.scale) / np.maximum(np.sqrt(_dot(d, d)), 1e-300)
+            for g in self.planar:
+                g.closest(o, d, t_min, tol_t, t, shape, normal)
+        if self.quadrics is not None:
+            self.quadrics.closest(o, d, t_min, t, shape, normal)
         for k, c, minv, n in self.disks:
             ol, dl = (o - c) @ minv.T, d @ minv.T
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -140,29 +394,12 @@ class SceneGeometry:
             shape[better] = k
             normal[better] = n
 
-    def _triangles(self, o, d, t_min, sl):
-        """Closest triangle hit within the block ``sl``: ``(t (N,), triangle index (N,))``."""
-        v0, e1, e2 = self.v0[sl], self.e1[sl], self.e2[sl]
-        pvec = np.cross(d[:, None, :], e2[None])                     # (N, T, 3)
-        det = np.einsum("tk,ntk->nt", e1, pvec)
-        ok = det != 0.0
-        inv = 1.0 / np.where(ok, det, 1.0)
-        tvec = o[:, None, :] - v0[None]
-        u = np.einsum("ntk,ntk->nt", tvec, pvec) * inv
-        qvec = np.cross(tvec, e1[None])
-        v = np.einsum("nk,ntk->nt", d, qvec) * inv
-        tt = np.einsum("tk,ntk->nt", e2, qvec) * inv
-        ok &= (u >= 0.0) & (v >= 0.0) & (u + v <= 1.0) & (tt > t_min)
-        tt = np.where(ok, tt, np.inf)
-        j = np.argmin(tt, axis=1)
-        return tt[np.arange(len(tt)), j], j + (sl.start or 0)
-
 
 def _unit_sphere_hit(o: np.ndarray, d: np.ndarray, t_min: float) -> np.ndarray:
     """Smallest t > t_min with |o + t d| = 1, inf if none (stable quadratic roots)."""
-    a = np.sum(d * d, -1)
-    b = np.sum(o * d, -1)
-    c = np.sum(o * o, -1) - 1.0
+    a = _dot(d, d)
+    b = _dot(o, d)
+    c = _dot(o, o) - 1.0
     disc = b * b - a * c
     hit = disc >= 0.0
     sq = np.sqrt(np.where(hit, disc, 0.0))

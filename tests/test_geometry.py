@@ -1,0 +1,250 @@
+"""SceneGeometry.intersect against a plain per-primitive reference (vrlab.render.geometry, bvh)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vrlab.render import load_scene
+from vrlab.render.bvh import BVH
+from vrlab.render.geometry import SceneGeometry
+
+
+def _scene(shapes: str, tmp_path=None):
+    xml = f"""<scene version="3.0.0">
+  <integrator type="direct"/>
+  <sensor type="perspective"><float name="fov" value="40"/>
+    <film type="hdrfilm"><integer name="width" value="4"/><integer name="height" value="3"/>
+      <rfilter type="box"/></film></sensor>
+  {shapes}
+</scene>"""
+    if tmp_path is None:
+        return load_scene(xml)
+    (tmp_path / "scene.xml").write_text(xml)              # obj paths are relative to the file
+    return load_scene(tmp_path / "scene.xml")
+
+
+# ----------------------------------------------------------------------------- reference
+def _unit(v):
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _ref_triangle(o, d, v0, v1, v2, t_min):
+    """Moller & Trumbore (1997), one triangle, all rays: t (inf on a miss)."""
+    e1, e2 = v1 - v0, v2 - v0
+    p = np.cross(d, e2)
+    det = p @ e1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / det
+        tv = o - v0
+        u = np.sum(tv * p, -1) * inv
+        q = np.cross(tv, e1)
+        v = np.sum(d * q, -1) * inv
+        t = (q @ e2) * inv
+        ok = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > t_min)
+    return np.where(ok, t, np.inf)
+
+
+def _ref_quadric(o, d, c, m, t_min):
+    """|M^-1 (o + t d - c)| = 1, smallest root > t_min, by the textbook formula."""
+    minv = np.linalg.inv(m)
+    ol, dl = (o - c) @ minv.T, d @ minv.T
+    a, b, cc = np.sum(dl * dl, -1), 2 * np.sum(ol * dl, -1), np.sum(ol * ol, -1) - 1
+    disc = b * b - 4 * a * cc
+    sq = np.sqrt(np.maximum(disc, 0))
+    t1, t2 = (-b - sq) / (2 * a), (-b + sq) / (2 * a)
+    t = np.where(t1 > t_min, t1, np.where(t2 > t_min, t2, np.inf))
+    return np.where(disc >= 0, t, np.inf), minv
+
+
+def reference(scene, o, d, t_min=0.0):
+    """Closest hit per ray over every primitive of every shape, one primitive at a time."""
+    n_rays = len(o)
+    best_t, best_k, best_n = np.full(n_rays, np.inf), np.full(n_rays, -1), np.zeros((n_rays, 3))
+
+    def take(t, k, normal):
+        b = t < best_t
+        best_t[b], best_k[b] = t[b], k
+        best_n[b] = normal[b] if normal.ndim == 2 else normal
+
+    for k, s in enumerate(scene.shapes):
+        if s.type in ("rectangle", "cube", "obj"):
+            for tri in s.triangles():
+                n = _unit(np.cross(tri[1] - tri[0], tri[2] - tri[0]))
+                if s.type == "rectangle":                       # analytic M^-T z
+                    n = s.rectangle()[3]
+                take(_ref_triangle(o, d, *tri, t_min), k, n)
+        elif s.type in ("sphere", "ellipsoid"):
+            c, m = s.ellipsoid()
+            t, minv = _ref_quadric(o, d, c, m, t_min)
+            x = (o - c + np.where(np.isfinite(t), t, 0)[:, None] * d) @ minv.T
+            take(t, k, (-1 if s.flip_normals else 1) * _unit(x @ minv))
+        elif s.type == "disk":
+            minv = np.linalg.inv(s.to_world[:3, :3])
+            ol, dl = (o - s.center) @ minv.T, d @ minv.T
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = -ol[:, 2] / dl[:, 2]
+                x = ol[:, :2] + t[:, None] * dl[:, :2]
+            ok = np.isfinite(t) & (t > t_min) & (np.sum(x * x, -1) <= 1)
+            take(np.where(ok, t, np.inf), k, s.disk()[3])
+    return best_t, best_k, best_n
+
+
+SHAPES = """
+  <shape type="rectangle"><transform name="to_world"><scale x="3" y="2"/><rotate x="1" angle="-90"/>
+    <translate y="-1"/></transform></shape>
+  <shape type="rectangle"><boolean name="flip_normals" value="true"/>
+    <transform name="to_world"><scale x="-0.5" y="0.7"/><rotate y="1" angle="30"/>
+    <translate x="1" z="-1.5"/></transform></shape>
+  <shape type="cube"><transform name="to_world"><scale x="0.3" y="0.5" z="0.2"/>
+    <rotate x="1" y="1" angle="40"/><translate x="-1" y="0.2" z="0.5"/></transform></shape>
+  <shape type="cube"><boolean name="flip_normals" value="true"/>
+    <transform name="to_world"><scale x="-0.4" y="0.3" z="0.3"/><translate x="1.2" y="0.5" z="1"/></transform></shape>
+  <shape type="sphere"><point name="center" x="0.2" y="0.3" z="-0.4"/><float name="radius" value="0.35"/></shape>
+  <shape type="sphere"><boolean name="flip_normals" value="true"/>
+    <point name="center" x="-0.5" y="1.2" z="-0.8"/><float name="radius" value="0.25"/></shape>
+  <shape type="ellipsoid"><point name="center" x="0.9" y="-0.3" z="-0.2"/>
+    <vector name="radii" x="0.2" y="0.5" z="0.3"/><transform name="to_world"><rotate z="1" angle="25"/></transform></shape>
+  <shape type="disk"><transform name="to_world"><scale x="0.6" y="0.3"/><rotate x="1" angle="70"/>
+    <translate x="-0.2" y="1.5"/></transform></shape>
+  <shape type="disk"><boolean name="flip_normals" value="true"/>
+    <transform name="to_world"><scale value="0.4"/><translate x="-1.5" y="-0.5" z="-1"/></transform></shape>"""
+
+
+def _rays(rng, scene, n, geo):
+    """Random rays: half aimed at (near) shape centres, a quarter starting just off
+    surfaces (1e-9 away, either side), a few grazing ones along the floor plane."""
+    o = rng.normal(size=(n, 3)) * 1.5
+    d = rng.normal(size=(n, 3)) * rng.uniform(0.2, 3.0, (n, 1))          # not unit
+    c = np.array([s.center for s in scene.shapes])
+    aim = c[rng.integers(len(c), size=n)] + rng.normal(size=(n, 3)) * 0.2 - o
+    d[: n // 2] = aim[: n // 2]
+    h = geo.intersect(o, d)
+    on = np.flatnonzero(h.shape >= 0)[: n // 4]
+    side = rng.choice([-1e-9, 1e-9], size=(len(on), 1))
+    o[on] = h.p[on] + side * h.n[on]                      # rays starting next to surfaces
+    d[-20:] = [1, 0, 0.001]                               # grazing the floor at y = -1
+    o[-20:] = np.c_[rng.uniform(-3, -2, 20), np.full(20, -1.0) + rng.uniform(-1e-3, 1e-3, 20),
+                    rng.uniform(-1.5, 1.5, 20)]
+    return o, d
+
+
+def _check(scene, o, d, t_min):
+    geo = SceneGeometry(scene)
+    h = geo.intersect(o, d, t_min=t_min)
+    t, k, n = reference(scene, o, d, t_min)
+    hit = np.isfinite(t)
+    np.testing.assert_array_equal(h.shape, k)
+    np.testing.assert_array_equal(np.isfinite(h.t), hit)
+    np.testing.assert_allclose(h.t[hit], t[hit], rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(h.n, n, atol=1e-9)
+    np.testing.assert_allclose(h.p[hit], o[hit] + t[hit, None] * d[hit], rtol=1e-9, atol=1e-11)
+    assert np.all(h.p[~hit] == 0) and np.all(h.n[~hit] == 0) and np.all(np.isinf(h.t[~hit]))
+    return h
+
+
+@pytest.mark.parametrize("t_min", [0.0, 0.3])
+def test_matches_reference_all_shape_types(t_min):
+    sc = _scene(SHAPES)
+    rng = np.random.default_rng(5)
+    o, d = _rays(rng, sc, 4000, SceneGeometry(sc))
+    h = _check(sc, o, d, t_min)
+    assert set(range(len(sc.shapes))) <= set(h.shape.tolist())   # every shape was hit
+    assert 0.05 < np.mean(h.shape < 0) < 0.95                      # and misses occur
+
+
+def test_rays_from_surfaces_leave_them():
+    """Rays leaving a surface point (t_min = 0) do not hit it again at t ~ 0; with t_min
+    they skip everything closer."""
+    sc = _scene(SHAPES)
+    geo = SceneGeometry(sc)
+    rng = np.random.default_rng(2)
+    o, d = _rays(rng, sc, 3000, geo)
+    h = geo.intersect(o, d)
+    m = h.shape >= 0
+    w = rng.normal(size=(m.sum(), 3))
+    w *= np.where(np.sum(w * h.n[m], -1) < 0, -1.0, 1.0)[:, None]   # to the normal's side
+    p = h.p[m] + 1e-9 * h.n[m]
+    _check(sc, p, w, 0.0)
+    _check(sc, h.p[m], w, 1e-6)
+
+
+def test_obj_mesh_bvh_matches_reference(tmp_path):
+    """A mesh big enough for the BVH path: a bumpy tessellated sphere (triangles) plus quads."""
+    rng = np.random.default_rng(7)
+    nu, nv = 12, 8
+    th, ph = np.meshgrid(np.linspace(0.1, np.pi - 0.1, nv), np.linspace(0, 2 * np.pi, nu, endpoint=False))
+    r = 1 + 0.1 * rng.uniform(size=th.shape)
+    v = np.c_[(r * np.sin(th) * np.cos(ph)).ravel(), (r * np.cos(th)).ravel(), (r * np.sin(th) * np.sin(ph)).ravel()]
+    faces = [f"f {i * nv + j + 1} {((i + 1) % nu) * nv + j + 1} {((i + 1) % nu) * nv + j + 2} {i * nv + j + 2}"
+             for i in range(nu) for j in range(nv - 1)]
+    quads = "v 2 0 0\nv 3 0 0\nv 3 1 0\nv 2 1 0\n"
+    n_v = len(v)
+    text = "\n".join(f"v {a} {b} {c}" for a, b, c in v) + "\n" + quads + "\n".join(faces) \
+        + f"\nf {n_v + 1} {n_v + 2} {n_v + 3} {n_v + 4}\n"
+    (tmp_path / "mesh.obj").write_text(text)
+    sc = _scene('<shape type="obj"><string name="filename" value="mesh.obj"/></shape>'
+                '<shape type="obj"><boolean name="flip_normals" value="true"/>'
+                '<string name="filename" value="mesh.obj"/><transform name="to_world">'
+                '<translate x="-3"/></transform></shape>', tmp_path)
+    geo = SceneGeometry(sc)
+    assert geo.n_triangles == 2 * (2 * nu * (nv - 1) + 2)
+    assert any(g.bvh is not None for g in geo.planar)
+    o = rng.normal(size=(3000, 3)) * 3
+    d = rng.normal(size=(3000, 3))
+    d[::2] = (rng.normal(size=(1500, 3)) * 0.8 + [[-1.5, 0, 0]]) - o[::2]
+    h = _check(sc, o, d, 0.0)
+    assert np.mean(h.shape >= 0) > 0.2
+    _check(sc, o, d, 0.5)
+
+
+def test_builtin_scene_like_rays_and_chunking():
+    sc = _scene(SHAPES)
+    geo = SceneGeometry(sc)
+    rng = np.random.default_rng(3)
+    o, d = _rays(rng, sc, 5000, geo)
+    a = geo.intersect(o, d)
+    b = geo.intersect(o, d, chunk=37)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+    # broadcasting one origin against many directions
+    c = geo.intersect(o[0], d[:10])
+    np.testing.assert_array_equal(c.t, geo.intersect(np.repeat(o[:1], 10, 0), d[:10]).t)
+
+
+def test_bvh_slab_test_finds_all_boxes():
+    rng = np.random.default_rng(1)
+    tri = rng.uniform(-1, 1, (200, 3, 3)) * 0.3 + rng.uniform(-2, 2, (200, 1, 3))
+    bvh = BVH(tri, leaf_size=3)
+    o = rng.normal(size=(500, 3)) * 3
+    d = rng.uniform(-2, 2, (500, 3)) - o
+    seen = np.zeros((500, 200), bool)
+
+    def test(i, j):
+        seen[i, j] = True
+        return np.full(len(i), np.inf)
+
+    i, _, _ = bvh.closest(o, d, 0.0, np.full(500, np.inf), test)
+    assert len(i) == 0
+    # every triangle whose box the ray's half-line crosses was tested
+    lo, hi = tri.min(1), tri.max(1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0 = (lo[None] - o[:, None]) / d[:, None]
+        t1 = (hi[None] - o[:, None]) / d[:, None]
+    near = np.minimum(t0, t1).max(-1)
+    far = np.maximum(t0, t1).min(-1)
+    crosses = (near <= far) & (far > 0)
+    assert crosses.sum() > 300
+    assert np.all(seen[crosses])
+
+
+def test_degenerate_triangles_and_empty_inputs(tmp_path):
+    (tmp_path / "d.obj").write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 4\n")
+    sc = _scene('<shape type="obj"><string name="filename" value="d.obj"/></shape>', tmp_path)
+    geo = SceneGeometry(sc)
+    assert geo.n_triangles == 2
+    h = geo.intersect([[0.2, 0.2, 1], [1.5, 0.0, 1]], [[0, 0, -1], [0, 0, -1]])
+    np.testing.assert_array_equal(h.shape, [0, -1])
+    np.testing.assert_allclose(h.t, [1, np.inf])
+    np.testing.assert_allclose(h.n[0], [0, 0, 1])
+    e = geo.intersect(np.zeros((0, 3)), np.zeros((0, 3)))
+    assert e.t.shape == (0,) and e.p.shape == (0, 3) and e.n.shape == (0, 3)
