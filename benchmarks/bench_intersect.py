@@ -91,6 +91,15 @@ class OldGeometry:
             t[better], shape[better] = tt[better], k
 
 
+def _scene(name, width=128, height=96):
+    """A built-in scene at ``width`` x ``height`` (the film is edited: not every scene has
+    a resolution parameter)."""
+    import dataclasses
+    sc = load_scene(builtin_scene_path(name))
+    sc.sensor = dataclasses.replace(sc.sensor, width=width, height=height)
+    return sc
+
+
 def make_rays(scene, n, rng):
     """n camera rays and up to n rays leaving their hits."""
     cam = Camera(scene.sensor)
@@ -121,7 +130,7 @@ def main():
     rng = np.random.default_rng(0)
     print(f"{'scene':14s} {'rays':>8s} {'old rays/s':>11s} {'new rays/s':>11s} {'ratio':>6s} {'agree':>6s}")
     for name in SCENES:
-        sc = load_scene(builtin_scene_path(name), {"width": 128, "height": 96})
+        sc = _scene(name)
         o, d = make_rays(sc, args.rays, rng)
         old, new = OldGeometry(sc), SceneGeometry(sc)
         t_old, (t1, s1) = timed(lambda old=old, o=o, d=d: old.intersect(o, d),
@@ -132,7 +141,7 @@ def main():
               f"{t_old / t_new:6.1f} {agree:6.4f}", flush=True)
     if args.render:
         for name in ("veach_mis", "cornell_box", "many_lights"):
-            sc = load_scene(builtin_scene_path(name), {"width": 128, "height": 96})
+            sc = _scene(name)
             dt, _ = timed(lambda sc=sc: render(sc, 16, "mis-power", rng=1), reps=1)
             print(f"render {name:12s} 128x96x16: {128 * 96 * 16 / dt:.3g} samples/s ({dt:.1f} s)", flush=True)
 

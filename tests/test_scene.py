@@ -180,6 +180,9 @@ def test_default_substitution_and_params():
     s = load_scene(xml, {"r": 2})
     assert s.shapes[0].sphere()[1] == pytest.approx(2)
     assert load_scene(builtin_scene_path("cornell_box"), {"res": 8}).sensor.width == 8
+    # a parameter the scene never uses is an error, not silently ignored
+    with pytest.raises(SceneError, match="'width'.*not used"):
+        load_scene(builtin_scene_path("cornell_box"), {"width": 8})
 
 
 def test_shapes_geometry_and_refs():

@@ -272,6 +272,13 @@ def load_scene(source: str | os.PathLike, params: dict[str, Any] | None = None) 
     if not re.fullmatch(r"3(\.\d+){0,2}", version.strip()):
         raise ctx.error(root, f"scene version {version!r} is not supported", ["3.x.y"])
     overrides = {k: str(v) for k, v in (params or {}).items()}
+    referenced = set(re.findall(r"\$(\w+)", text))
+    unused = sorted(set(overrides) - referenced)
+    if unused:
+        raise SceneError(f"{name}: parameter(s) {', '.join(map(repr, unused))} are not used by the scene "
+                         f"(its $parameters: {', '.join(sorted(referenced)) or 'none'}); to change the "
+                         "resolution of a scene without a parameter for it, edit scene.sensor "
+                         "(dataclasses.replace) or use vrlab render --width/--height")
     for c in root:
         if c.tag == "default":
             ctx.check_attrs(c, ("name", "value"))
