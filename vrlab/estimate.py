@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 
 class Moments:
@@ -86,6 +85,8 @@ class Estimate:
         """Normal-theory confidence interval ``(lo, hi)`` at ``level``."""
         if not 0 < level < 1:
             raise ValueError(f"level must be in (0, 1), got {level}")
+        from scipy import stats
+
         z = stats.norm.ppf(0.5 + level / 2)
         v, s = np.asarray(self.value), np.asarray(self.stderr)
         return v - z * s, v + z * s

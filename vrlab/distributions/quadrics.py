@@ -8,7 +8,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.special import elliprg
 
 from .base import as_points, as_uniforms, positive_float
 from .surfaces import (FOUR_PI, Surface, _affine4, _INTERSECT_DOC, _matrix3, _quadric_hits,
@@ -38,6 +37,8 @@ class EllipsoidSurface(Surface):
         self.abs_det = float(abs(np.linalg.det(self.M)))
         self.semi_axes = np.linalg.svd(self.M, compute_uv=False)
         a, b, c = self.semi_axes
+        from scipy.special import elliprg  # imported on use (startup time)
+
         self.area = float(FOUR_PI * elliprg(a * a * b * b, b * b * c * c, c * c * a * a))
 
     @classmethod

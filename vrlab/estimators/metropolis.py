@@ -41,7 +41,6 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
-from scipy import special
 
 from .._rng import RNGLike, as_generator, spawn
 from ..distributions.interval import as_bounds
@@ -171,7 +170,7 @@ class MetropolisHastings(Estimator):
                 raise ValueError(f"u: expected {total} steps of uniforms, got more")
             large = v[..., 0] < self.large_step_prob                          # (b, C)
             prop = v[..., 2:]
-            delta = (self.step * width) * special.ndtri(np.clip(prop, _TINY, 1 - 1e-16))
+            delta = (self.step * width) * _ndtri(np.clip(prop, _TINY, 1 - 1e-16))
             jump = lo + width * prop
             for i in range(b):
                 y = x + delta[i]
@@ -338,3 +337,10 @@ class MetropolisHastings(Estimator):
                         "MetropolisHastings", {"expectation": e.value, "expectation_stderr": e.stderr,
                                                "normalization": b, "normalization_stderr": b_se,
                                                "normalization_evals": b_evals, "acceptance": e.extra["acceptance"]})
+
+
+def _ndtri(p: np.ndarray) -> np.ndarray:
+    """Inverse standard normal CDF (``scipy.special.ndtri``, imported on first use)."""
+    from scipy import special
+
+    return special.ndtri(p)

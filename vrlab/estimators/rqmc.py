@@ -30,8 +30,6 @@ import time
 from typing import Any
 
 import numpy as np
-from scipy import stats
-from scipy.stats import qmc
 
 from .._rng import RNGLike
 from ..estimate import Estimate, Moments
@@ -39,10 +37,24 @@ from ..points.base import check_int
 from .base import DEFAULT_CHUNK, Estimator, check_n
 
 
+def _is_scipy_engine_class(points: Any) -> bool:
+    from scipy.stats import qmc  # imported here: scipy.stats costs ~0.8 s to import
+
+    return isinstance(points, type) and issubclass(points, qmc.QMCEngine)
+
+
+def _is_scipy_engine(points: Any) -> bool:
+    from scipy.stats import qmc
+
+    return isinstance(points, qmc.QMCEngine)
+
+
 def t_interval(estimate: Estimate, level: float = 0.95) -> tuple:
     """Student-t interval ``(lo, hi)`` with ``estimate.n - 1`` degrees of freedom (few replicates)."""
     if not 0 < level < 1:
         raise ValueError(f"level must be in (0, 1), got {level}")
+    from scipy import stats
+
     q = stats.t.ppf(0.5 + level / 2, max(int(estimate.n) - 1, 1))
     v, s = np.asarray(estimate.value), np.asarray(estimate.stderr)
     return v - q * s, v + q * s
@@ -100,9 +112,9 @@ class RQMC(Estimator):
             template = make_points(points, d, rng=0)
         elif isinstance(points, type) and issubclass(points, PointSet):
             template = points(d, rng=0)
-        elif isinstance(points, type) and issubclass(points, qmc.QMCEngine):
+        elif _is_scipy_engine_class(points):
             return replicates(points, R, rng=rng, d=d), "scipy"
-        elif isinstance(points, qmc.QMCEngine):
+        elif _is_scipy_engine(points):
             raise TypeError("points: a scipy.stats.qmc engine instance cannot be re-randomized; pass its class "
                             "or a factory rng -> engine")
         elif isinstance(points, np.ndarray):

@@ -27,7 +27,6 @@ Names (``get(name)``; ``names()`` lists them):
 from __future__ import annotations
 
 import numpy as np
-from scipy import special
 
 from .. import distributions as D
 from .base import Integrand
@@ -37,6 +36,8 @@ EULER_GAMMA = float(np.euler_gamma)
 
 
 def _sin() -> Integrand:
+    from scipy import special  # imported on use (startup time)
+
     ci_pi = special.sici(np.pi)[1]
     sin2_over_x = 0.5 * (np.log(np.pi) + EULER_GAMMA - ci_pi)
     return Integrand(lambda x: np.sin(x[..., 0]), [(0, np.pi / 2)], 1.0, "sin", f2=np.pi / 4,
@@ -65,6 +66,8 @@ def _exp() -> Integrand:
 
 def _gauss_bump(mu: float = 0.5, s: float = 0.05) -> Integrand:
     def mass(scale):  # int_0^1 exp(-(x - mu)^2 / (2 scale^2)) dx
+        from scipy import special
+
         return scale * np.sqrt(2 * np.pi) * (special.ndtr((1 - mu) / scale) - special.ndtr(-mu / scale))
     return Integrand(lambda x: np.exp(-0.5 * ((x[..., 0] - mu) / s) ** 2), [(0, 1)], mass(s), "gauss-bump",
                      f2=mass(s / np.sqrt(2)),
@@ -115,6 +118,8 @@ class GlossyLight:
         return self.radiance(x) * self.rho(x)
 
     def _gauss_mass(self, lo, hi, c, scale):
+        from scipy import special
+
         return special.ndtr((hi - c) / scale) - special.ndtr((lo - c) / scale)
 
     def integrals(self) -> tuple[float, float]:

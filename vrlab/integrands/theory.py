@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..testing.charts import BoxChart, DiskChart, HemisphereChart, SphereChart
-from ..testing.chisquare import cell_integrals
 from .base import Integrand
 
 
 def chart_for(integrand: Integrand):
     """The chart that parameterises the integrand's domain."""
+    from ..testing.charts import BoxChart, DiskChart, HemisphereChart, SphereChart  # scipy.stats: lazy
+
     if integrand.bounds is not None:
         if integrand.dim > 2:
             raise ValueError("quadrature of predicted variances is available for 1D and 2D boxes only")
@@ -27,6 +27,8 @@ def chart_for(integrand: Integrand):
 def mc_variance(integrand: Integrand, distribution=None, *, bins: int | None = None, quad: int = 8,
                 sub: int = 2) -> float:
     """Var of f(X)/p(X) for X ~ ``distribution`` (default uniform), by quadrature."""
+    from ..testing.chisquare import cell_integrals  # scipy.stats: imported on use
+
     dist = integrand.uniform() if distribution is None else distribution
     chart = chart_for(integrand)
     nb = bins or (400 if chart.p == 1 else 96)

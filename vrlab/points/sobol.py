@@ -14,7 +14,6 @@ keeps SciPy's behaviour unchanged.  Use :meth:`Sobol.random_base2` to ask for
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import qmc
 
 from .._rng import RNGLike
 from .base import PointSet, check_int
@@ -54,6 +53,8 @@ class Sobol(PointSet):
         self.scramble = bool(scramble)
         self.bits = bits
         self.randomized = self.scramble
+        from scipy.stats import qmc  # imported here: scipy.stats costs ~0.8 s to import
+
         self.engine = qmc.Sobol(self.d, scramble=self.scramble, bits=bits, rng=self.rng)
         self._params = {"scramble": self.scramble, "bits": bits}
 

@@ -6,7 +6,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.stats import qmc
 
 from .._rng import RNGLike, spawn
 from .base import PointSet, check_int
@@ -73,6 +72,8 @@ def replicates(points: Any, R: int, *, rng: RNGLike = None, d: int | None = None
     R = check_int("R", R, 0)
     if isinstance(points, PointSet):
         return points.replicate(R, rng=rng)
+    from scipy.stats import qmc
+
     if isinstance(points, qmc.QMCEngine):
         raise TypeError(
             "points: cannot re-randomise a scipy.stats.qmc engine instance; pass its class "
@@ -132,4 +133,6 @@ def discrepancy(points: ArrayLike, method: str = "CD", *, workers: int = 1) -> f
         raise ValueError(f"points must have shape (n, d), got {x.shape}")
     if x.size and ((x.min() < 0) or (x.max() > 1)):
         raise ValueError("points must lie in [0, 1]^d")
+    from scipy.stats import qmc
+
     return float(qmc.discrepancy(x, method=method, workers=workers))

@@ -1,0 +1,16 @@
+"""Importing the renderer must not pull in the slow SciPy modules (whole-process time of
+``vrlab render`` is benchmarked against Mitsuba, see benchmarks/bench_mitsuba.py)."""
+import subprocess
+import sys
+
+
+def test_render_import_does_not_load_scipy_stats_or_pandas():
+    code = ("import sys, vrlab, vrlab.render, vrlab.render.film; "
+            "print(sorted(m for m in ('scipy.stats', 'pandas', 'matplotlib', 'scipy.special') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out
+
+
+def test_lazy_testing_attribute():
+    import vrlab
+    assert vrlab.testing.chi2_gof is not None
