@@ -177,6 +177,12 @@ class LightSet:
     def __len__(self) -> int:
         return len(self.lights)
 
+    def __iter__(self):
+        return iter(self.lights)
+
+    def __getitem__(self, j: int) -> Light:
+        return self.lights[j]
+
     def sample(self, ref: np.ndarray, u3: np.ndarray) -> tuple[np.ndarray, ...]:
         """``(j, w, pdf, front)`` for uniforms ``u3 (m, 3)``: light j ~ P (``u3[:, 0]``), a
         direction towards it (``u3[:, 1:3]``), pdf = P_j p_j(w) in solid angle, and
