@@ -123,7 +123,10 @@ def test_agrees_with_mitsuba(name, spp, block, mean_tol):
 ], ids=["cornell_box-cv", "many_lights-ris", "veach_mis-mixture"])
 def test_other_strategies_agree_with_mitsuba(name, strategy, options):
     """The same expected image from a different estimator: vrlab's own strategies against
-    Mitsuba's MIS reference (with the conservative variance model of ``compare``)."""
+    Mitsuba's MIS reference (with the conservative variance model of ``compare``).
+    Light-only strategies (light, ris) are not compared on veach_mis: on its sharpest plate
+    their 64-spp samples are so heavy-tailed (|z| = 44 for plain light sampling) that no
+    standard error describes them."""
     spp, block, mean_tol, _ = CASES[name]
     ref = np.load(DATA / f"{name}_mean.npy")
     ref_err = np.load(DATA / f"{name}_stderr.npy")

@@ -144,13 +144,21 @@ def test_strategies_agree_and_variance_ordering(renders, kind):
     assert var["cosine"] < var["uniform"]                    # cos-weighting beats uniform (lecture 4)
 
 
-def test_glossy_strategies_agree():
+GLOSSY = {"phong": '<bsdf type="phong"><float name="exponent" value="20"/></bsdf>',
+          "ggx": '<bsdf type="roughconductor"><string name="distribution" value="ggx"/>'
+                 '<float name="alpha" value="0.3"/><string name="material" value="none"/>'
+                 '<boolean name="sample_visible" value="false"/></bsdf>'}
+
+
+@pytest.mark.parametrize("kind", list(GLOSSY))
+def test_glossy_strategies_agree(kind):
     phong = FLOOR.replace('<bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.5, 0.8"/></bsdf>',
-                          '<bsdf type="phong"><float name="exponent" value="20"/></bsdf>')
+                          GLOSSY[kind])
     assert phong != FLOOR
     sc = scene(phong + RECT_LIGHT, origin="-0.6, 0.5, 0", target="0.3, 0, 0.05", up="0, 1, 0",
                fov=20, width=6, height=4)
-    images = {s: render(sc, 512, s, rng=3) for s in ("bsdf", "light", "mis-balance", "mis-power")}
+    images = {s: render(sc, 512, s, rng=3) for s in ("bsdf", "light", "mis-balance", "mis-power", "mixture",
+                                                     "ris", "cv")}
     ref, ref_se = images["mis-power"]
     assert ref.mean() > 0.05
     for s, (img, se) in images.items():

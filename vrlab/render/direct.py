@@ -282,8 +282,10 @@ class DirectLighting:
         pr, nr, wor = _tile(p, n_l), _tile(n, n_l), _tile(wo_l, n_l)
         cand_ref = np.repeat(pr, M, axis=0)
         j, w, pdf, front = lights.sample(cand_ref, blocks[:, :3 * M].reshape(-1, 3))
-        wi_l = to_local(w, np.repeat(nr, M, axis=0))
-        target = luminance(bsdf.eval(np.repeat(wor, M, axis=0), wi_l)) * luminance(lights.radiance[j])
+        # local frames once per shading point, broadcast over its M candidates
+        wi_l = to_local(w.reshape(rows, M, 3), nr[:, None, :]).reshape(-1, 3)
+        f_c = bsdf.eval(wor[:, None, :], wi_l.reshape(rows, M, 3)).reshape(-1, 3)
+        target = luminance(f_c) * luminance(lights.radiance[j])
         target = np.where(front, np.maximum(target, 0.0), 0.0)
         weight = np.divide(target, pdf, out=np.zeros_like(target), where=pdf > 0)
         idx = np.arange(rows * M, dtype=float).reshape(rows, M, 1)

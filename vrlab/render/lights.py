@@ -188,6 +188,9 @@ class LightSet:
         direction towards it (``u3[:, 1:3]``), pdf = P_j p_j(w) in solid angle, and
         whether the sampled point faces ``ref``."""
         j = self.selection.sample(u3[:, 0])
+        if self.is_sphere.all():                  # sphere lights only: one batched cone, no gathers
+            cone = SphereCone(self.centers[j], self.radii[j], ref)
+            return j, cone.sample(u3[:, 1:3]), self.selection.pmf(j) / cone.solid_angle, np.ones(len(j), bool)
         w = np.zeros_like(ref)
         pdf = np.zeros(len(ref))
         front = np.ones(len(ref), bool)
