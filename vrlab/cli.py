@@ -202,6 +202,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
               "\n".join(f"{k:12s} relMSE {v:.4g}  {res['seconds'][k]:.2f} s" for k, v in res["rel_mse"].items()))
         return 0
     t0 = time.perf_counter()
+    if args.workers is None:
+        from .render.film import default_workers
+        args.workers = default_workers()
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     bar = None
     if show:
@@ -297,8 +300,9 @@ def build_parser() -> argparse.ArgumentParser:
     rend.add_argument("--bsdf-samples", type=int, default=None,
                       help="BSDF samples per shading point (default: the scene integrator's)")
     rend.add_argument("--ris-candidates", type=int, default=8, help="light candidates per RIS sample (ris)")
-    rend.add_argument("--workers", type=int, default=1,
-                      help="worker processes (tiles are seeded per tile: the same image for any count)")
+    rend.add_argument("--workers", type=int, default=None,
+                      help="worker processes (default: the CPUs available; tiles are seeded per tile, so "
+                           "the image is the same for any count)")
     rend.add_argument("--progress", dest="progress", action="store_true", default=None,
                       help="progress bar on stderr (default: when stderr is a terminal)")
     rend.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
