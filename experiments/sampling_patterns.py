@@ -12,9 +12,15 @@ Questions answered (tables in ``sampling_patterns_*.csv``, figures ``*.png``):
   jittered -1/2 - 1/d (-1.5 in 1D, -1 in 2D), LHS, scrambled Halton/Sobol;
 * the student report's experiment -- 4 sub-pixel strata against random sub-pixel
   positions at 5 and 1000 samples per pixel -- first on a pixel-footprint integrand with
-  an edge (exact answer known), then in a small Cornell-box render (the renderer has only
-  an independent pixel sampler, so the script draws the strata itself and feeds the
-  uniforms to ``vrlab.render.direct.DirectLighting``).
+  an edge (exact answer known), then in a small Cornell-box render (the script draws the
+  strata itself, so both variants use the very same uniforms, and feeds them to
+  ``vrlab.render.direct.DirectLighting``; the renderer's ``pixel_sampler="stratified"``
+  does the same with shuffled strata);
+* the report's importance-sampling experiments at 10 and 1000 spp (fast mode: 10 and
+  100): cos-weighted against uniform hemisphere sampling on the diffuse Cornell box, and
+  Phong-BRDF sampling against uniform on the Phong floor of ``box_ellipsoid``; the
+  unbiasedness argument E[f/p] = int f is checked numerically by a pooled z-test of each
+  image against an independent MIS reference.
 
 Run ``python experiments/sampling_patterns.py [--full] [--out DIR]``.
 """
@@ -41,7 +47,8 @@ from vrlab import lab  # noqa: E402
 from vrlab import points as P  # noqa: E402
 from vrlab._rng import spawn  # noqa: E402
 from vrlab.estimators import MonteCarlo  # noqa: E402
-from vrlab.render import builtin_scene_path, load_scene  # noqa: E402
+from vrlab.render import builtin_scene_path, load_scene, render  # noqa: E402
+from vrlab.render.image import rel_mse  # noqa: E402
 from vrlab.render.direct import DIMS, DirectLighting  # noqa: E402
 from vrlab.lab.experiment import experiment_cli  # noqa: E402
 
@@ -244,6 +251,49 @@ def plot_strata(images: dict, spps: list[int], is_edge: np.ndarray, path: Path) 
     return path
 
 
+REPORT_IS = {"cornell_box": ("uniform", "cosine"), "box_ellipsoid": ("uniform", "bsdf")}
+
+
+def report_importance(size, spps: list[int], ref_spp: int, seed: int = 6):
+    """The report's cos- and BRDF-weighted importance sampling against uniform hemisphere
+    sampling: relMSE against an independent ``mis-power`` reference, the per-sample pixel
+    variance (green channel, from the standard errors) and the pooled z of the image mean,
+    z = (mean(img) - mean(ref)) / sqrt(sum se^2 + sum se_ref^2) / npix (unbiasedness)."""
+    rows, images = [], {}
+    for name, strategies in REPORT_IS.items():
+        scene = load_scene(builtin_scene_path(name))
+        scene.sensor = dataclasses.replace(scene.sensor, width=size[0], height=size[1])
+        ref, ref_se = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([seed, 0]), workers=1)
+        for spp in spps:
+            for k, strategy in enumerate(strategies):
+                img, se = render(scene, spp, strategy, rng=np.random.SeedSequence([seed, 1 + k, spp]), workers=1)
+                g, gs, rg, rs = (np.asarray(a[..., 1], float) for a in (img, se, ref, ref_se))
+                z = (g.mean() - rg.mean()) / (np.sqrt(np.sum(gs ** 2) + np.sum(rs ** 2)) / g.size)
+                images[(name, strategy, spp)] = img
+                rows.append({"scene": name, "strategy": strategy, "spp": spp, "rel_mse": rel_mse(img, ref),
+                             "pixel_variance": float(np.mean(gs ** 2) * spp), "pooled_z": float(z)})
+    t = pd.DataFrame(rows)
+    base = t[t.strategy == "uniform"].set_index(["scene", "spp"])["pixel_variance"]
+    t["variance_vs_uniform"] = t.pixel_variance / [base[(r.scene, r.spp)] for r in t.itertuples()]
+    return t, images
+
+
+def plot_report_importance(images: dict, table: pd.DataFrame, path: Path) -> Path:
+    keys = list(images)
+    fig, axes = plt.subplots(2, len(keys) // 2, figsize=(2.8 * len(keys) // 2, 5.2), squeeze=False)
+    for k, key in enumerate(keys):
+        ax = axes.flat[k]
+        img = images[key]
+        ax.imshow(np.clip(img / (1 + img), 0, 1) ** (1 / 2.2), interpolation="nearest")
+        row = table[(table.scene == key[0]) & (table.strategy == key[1]) & (table.spp == key[2])].iloc[0]
+        ax.set_title(f"{key[0]}: {key[1]}, {key[2]} spp\nrelMSE {row.rel_mse:.3g}", fontsize=8)
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run every experiment, write CSV + PNG into ``out``, return the key numbers."""
     out = Path(out)
@@ -262,9 +312,14 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     render_t, images, is_edge = render_strata((32, 24) if full else (24, 18), spps, 16)
     render_t.to_csv(out / "sampling_patterns_pixel_render.csv", index=False)
     plot_strata(images, spps, is_edge, out / "sampling_patterns_pixel_render.png")
+    report_t, report_images = report_importance((48, 36) if full else (24, 18), [10, 1000] if full else [10, 100],
+                                                4000 if full else 400)
+    report_t.to_csv(out / "sampling_patterns_report_is.csv", index=False)
+    plot_report_importance(report_images, report_t, out / "sampling_patterns_report_is.png")
     s = slopes.set_index(["estimator", "integrand"])
     return {
         "discrepancy": disc, "summary": summary, "slopes": slopes, "edge": edge_t, "render": render_t,
+        "report_is": report_t,
         "slope_mc_1d": float(s.loc[("MC", "exp"), "slope"]),
         "slope_jittered_1d": float(s.loc[("jittered", "exp"), "slope"]),
         "slope_jittered_2d": float(s.loc[("jittered", "smooth-2d"), "slope"]),
