@@ -12,15 +12,12 @@ Only two in-memory edits are made to each XML (the file on disk is not touched):
 
 * the film's width/height are set to the override (the built-in files hard-code them or
   use differently named ``<default>`` parameters);
-* ``--black-emitters`` (default on) gives every emitting shape a black diffuse BSDF.
-  vrlab does not shade emitting surfaces (see ``vrlab.render.direct``: "Emitting surfaces
-  are not shaded"), whereas Mitsuba adds their reflection of other lights through their
-  BSDF -- for the sphere lights of veach_mis / many_lights that BSDF is Mitsuba's default
-  diffuse 0.5.  The cornell_box light already has a black BSDF and furnace's emitter
-  faces away from every other light, so only veach_mis and many_lights could be affected.
-  In practice Mitsuba 3.9.1's ``direct`` integrator gives bit-identical images with and
-  without this edit on both scenes (checked at 64x48, 2048 spp, seed 7), so the stored
-  references equal those of the unmodified files; the edit is kept as a safeguard.
+* ``--black-emitters`` (default on) gives every emitting shape without a ``<bsdf>`` an
+  explicit black diffuse BSDF.  That is what Mitsuba 3 does anyway: an emitter without a
+  BSDF reflects nothing (checked: bit-identical images with and without this edit on
+  veach_mis and many_lights at 64x48, 2048 spp, seed 7), while an emitter *with* a BSDF
+  reflects other lights -- and so does vrlab (``tests/test_render_strategies.py``).  The
+  edit is kept as a safeguard.
 
 box_ellipsoid is skipped: it uses vrlab's own ``ellipsoid`` shape and ``phong`` BSDF,
 which plain Mitsuba 3 does not have.
@@ -46,7 +43,7 @@ OUT_DIR = Path(__file__).resolve().parents[1] / "tests" / "data" / "mitsuba"
 
 def scene_xml(name: str, width: int, height: int, black_emitters: bool = True) -> str:
     """The built-in XML of ``name`` with the film resolution overridden (and optionally
-    black BSDFs on emitting shapes), as a string for ``mi.load_string``."""
+    an explicit black BSDF on emitting shapes that have none), as a string for ``mi.load_string``."""
     root = ET.parse(SCENE_DIR / f"{name}.xml").getroot()
     film = root.find("sensor/film")
     for node in film.findall("integer"):
@@ -56,10 +53,8 @@ def scene_xml(name: str, width: int, height: int, black_emitters: bool = True) -
             node.set("value", str(height))
     if black_emitters:
         for shape in root.iter("shape"):
-            if shape.find("emitter") is None:
+            if shape.find("emitter") is None or shape.findall("bsdf") + shape.findall("ref"):
                 continue
-            for b in shape.findall("bsdf") + shape.findall("ref"):
-                shape.remove(b)
             bsdf = ET.SubElement(shape, "bsdf", type="diffuse")
             ET.SubElement(bsdf, "rgb", name="reflectance", value="0")
     return ET.tostring(root, encoding="unicode")

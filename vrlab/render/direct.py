@@ -32,8 +32,9 @@ settings, Mitsuba's defaults 1 and 1):
   shapes), that light's control is 0 and the sample is plain light sampling.  Where
   nothing is occluded the estimate of the Lambertian part is exact.
 
-Emitting surfaces are not shaded (their BSDF is ignored; Mitsuba would add their
-reflection of other lights).  ``obj`` emitters work with ``"uniform"``, ``"cosine"``
+Emitting surfaces reflect other lights through their BSDF like any surface, as in
+Mitsuba; an emitter without a ``<bsdf>`` is black (Mitsuba's behaviour), and black
+diffuse surfaces are skipped.  ``obj`` emitters work with ``"uniform"``, ``"cosine"``
 and ``"bsdf"`` only.  ``render`` lives in :mod:`vrlab.render.film`.
 """
 from __future__ import annotations
@@ -173,6 +174,9 @@ class DirectLighting:
         self.bsdfs = [make_bsdf(shapes[i].bsdf) for i in first]      # one model per group
         self.twosided = np.array([shapes[i].bsdf.twosided for i in first], dtype=bool)
         self.is_emitter = np.array([s.emitter is not None for s in shapes])
+        black = [s.bsdf.type == "diffuse" and not np.any(np.asarray(s.bsdf.params["reflectance"]) > 0)
+                 for s in shapes]
+        self.shaded = ~np.array(black, dtype=bool)         # black diffuse reflects nothing
         self.radiance = np.array([s.emitter.radiance if s.emitter is not None else np.zeros(3)
                                   for s in shapes], float)
         self.eps = 1e-7
@@ -208,7 +212,7 @@ class DirectLighting:
         hits = self.geometry.intersect(o, d)
         out = self.emitted(hits, d)
         shape = np.maximum(hits.shape, 0)
-        shade = (hits.shape >= 0) & ~self.is_emitter[shape]
+        shade = (hits.shape >= 0) & self.shaded[shape]
         group = np.where(shade, self.group_of_shape[shape], -1)
         for g in np.unique(group[shade]):
             m = np.flatnonzero(group == g)

@@ -208,7 +208,9 @@ def _parse_shape(ctx: _Ctx, el: ET.Element) -> Shape:
                 raise ctx.error(c, "a shape can have only one bsdf")
             bsdf = _bsdf_or_ref(ctx, c)
     if bsdf is None:
-        bsdf = BSDF("diffuse", {"reflectance": np.full(3, 0.5)})
+        # Mitsuba 3: a shape without a bsdf is diffuse 0.5, but an emitter without one does not
+        # reflect (checked with Mitsuba 3.9.1's direct integrator): black for emitters
+        bsdf = BSDF("diffuse", {"reflectance": np.full(3, 0.0 if emitter is not None else 0.5)})
     return Shape(t, m, bsdf, emitter, p.bool("flip_normals", False), params)
 
 
