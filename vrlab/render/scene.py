@@ -22,7 +22,8 @@ Supported (Mitsuba 3 conventions and defaults unless marked *vrlab*):
   (``filename``; ``v``/``f`` lines, fan-triangulated, face normals only) and the *vrlab*
   ``ellipsoid`` (``center``, ``radii`` vector; ``to_world @ T(center) @ S(radii)``).
   All take ``to_world``, ``flip_normals``, a nested ``<bsdf>`` or ``<ref id/>`` (default:
-  ``diffuse`` 0.5, as in Mitsuba) and an optional nested ``<emitter type="area">``.
+  ``diffuse`` 0.5, as in Mitsuba; black for an emitter, which in Mitsuba reflects only
+  through an explicit ``<bsdf>``) and an optional nested ``<emitter type="area">``.
 * BSDFs ``diffuse`` (``reflectance``, default 0.5; one-sided), ``twosided`` (one nested
   bsdf; gives ``BSDF.twosided=True``), ``roughconductor`` (``distribution`` ``beckmann``
   default or ``ggx``, ``alpha`` default 0.1, ``material`` only ``none`` i.e. Fresnel = 1,
