@@ -50,3 +50,25 @@ def spawn(rng: RNGLike, k: int) -> list[np.random.Generator]:
     else:
         raise TypeError(f"rng: cannot spawn from {type(rng).__name__}")
     return [np.random.default_rng(s) for s in seq.spawn(k)]
+
+
+def as_seed_sequence(rng: RNGLike) -> np.random.SeedSequence:
+    """A root ``SeedSequence`` for work split into units: ``rng`` itself, or built from its
+    entropy (an int or a list of ints; ``None``: fresh OS entropy), or 4 words drawn from a
+    ``Generator``/``BitGenerator`` (which advances it)."""
+    if isinstance(rng, np.random.SeedSequence):
+        return rng
+    if isinstance(rng, (np.random.Generator, np.random.BitGenerator)):
+        gen = rng if isinstance(rng, np.random.Generator) else np.random.Generator(rng)
+        return np.random.SeedSequence([int(x) for x in gen.integers(0, 2**63, size=4)])
+    as_generator(rng)                          # validates ints, int lists and None
+    return np.random.SeedSequence(list(rng) if isinstance(rng, (list, tuple)) else rng)
+
+
+def unit_seed(root: np.random.SeedSequence, *indices: int) -> np.random.SeedSequence:
+    """The seed of one work unit: the spawn-tree child of ``root`` at ``indices``
+    (``unit_seed(root, a, b) == root.spawn(.)[a].spawn(.)[b]`` for small indices), without
+    spawning the siblings."""
+    return np.random.SeedSequence(root.entropy, spawn_key=tuple(root.spawn_key) + tuple(int(i) for i in indices),
+                                  pool_size=root.pool_size)
+

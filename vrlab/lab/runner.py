@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from .._rng import unit_seed  # noqa: F401  (re-exported: the lab's seed per work unit)
 from . import registry
 
 CORE_COLUMNS = ["estimator", "integrand", "n", "rep", "value", "stderr", "exact", "error", "seconds",
@@ -100,13 +101,6 @@ def _root(rng) -> np.random.SeedSequence:
 def stable_index(text: str) -> int:
     """A stable spawn-key index for a label or name: CRC-32 of its UTF-8 bytes."""
     return zlib.crc32(str(text).encode("utf-8"))
-
-
-def unit_seed(root: np.random.SeedSequence, *indices: int) -> np.random.SeedSequence:
-    """The seed of one work unit: the spawn-tree child of ``root`` at ``indices``
-    (``unit_seed(root, a, b) == root.spawn(.)[a].spawn(.)[b]`` for small indices)."""
-    return np.random.SeedSequence(root.entropy, spawn_key=tuple(root.spawn_key) + tuple(int(i) for i in indices),
-                                  pool_size=root.pool_size)
 
 
 # -- the work ------------------------------------------------------------------------------------

@@ -44,6 +44,7 @@ import numpy as np
 from ..distributions import CosineHemisphere, UniformHemisphere, to_local, to_world
 from ..estimators.mis import mis_weights
 from ..estimators.ris import Reservoir
+from ..points.base import check_int
 from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor
 from .camera import Camera
 from .geometry import SceneGeometry
@@ -85,12 +86,6 @@ def _safe_ratio(num: np.ndarray, pdf: np.ndarray) -> np.ndarray:
     """num / pdf[..., None], 0 where the pdf is 0 or not finite."""
     ok = (pdf > 0) & np.isfinite(pdf)
     return np.where(ok[..., None], num / np.where(ok, pdf, 1.0)[..., None], 0.0)
-
-
-def _count(value, name: str) -> int:
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 0:
-        raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
-    return int(value)
 
 
 class UniformLayout:
@@ -148,9 +143,9 @@ class DirectLighting:
             raise ValueError(f"light_selection: unknown {light_selection!r}; allowed: "
                              f"{', '.join(LIGHT_SELECTIONS)}")
         integ = scene.integrator
-        n_l = _count(integ.emitter_samples if emitter_samples is None else emitter_samples, "emitter_samples")
-        n_b = _count(integ.bsdf_samples if bsdf_samples is None else bsdf_samples, "bsdf_samples")
-        m = _count(ris_candidates, "ris_candidates")
+        n_l = check_int("emitter_samples", integ.emitter_samples if emitter_samples is None else emitter_samples, 0)
+        n_b = check_int("bsdf_samples", integ.bsdf_samples if bsdf_samples is None else bsdf_samples, 0)
+        m = check_int("ris_candidates", ris_candidates, 0)
         if strategy in _BSDF_ONLY and n_b < 1:
             raise ValueError(f"strategy {strategy!r} needs bsdf_samples >= 1")
         if strategy in ("light", "ris", "cv") and n_l < 1:

@@ -16,58 +16,35 @@ from typing import Callable
 
 import numpy as np
 
-from .._rng import RNGLike
+from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Moments
+from ..points.base import check_int
 from .direct import DirectLighting
 from .pixel_samplers import PixelSampler
 from .scene import Scene
 
-__all__ = ["TILE_PIXELS", "render", "root_seed"]
+__all__ = ["TILE_PIXELS", "default_workers", "render"]
 
 TILE_PIXELS = 1024           # pixels per work unit (fixed: it defines the random streams)
 _RAYS_PER_CHUNK = 1 << 16    # camera rays per block
 
 
-def root_seed(rng: RNGLike) -> np.random.SeedSequence:
-    """The root ``SeedSequence`` of a render: ``rng`` itself, or its entropy (an int, a
-    list of ints), or 4 words drawn from a ``Generator``/``BitGenerator``."""
-    if isinstance(rng, np.random.SeedSequence):
-        return rng
-    if isinstance(rng, np.random.BitGenerator):
-        rng = np.random.Generator(rng)
-    if isinstance(rng, np.random.Generator):
-        return np.random.SeedSequence([int(x) for x in rng.integers(0, 2**63, size=4)])
-    if rng is None or isinstance(rng, (int, np.integer)):
-        if rng is not None and rng < 0:
-            raise ValueError(f"rng: a seed must be non-negative, got {rng}")
-        return np.random.SeedSequence(rng)
-    if isinstance(rng, (list, tuple)) and rng and all(isinstance(k, (int, np.integer)) and k >= 0 for k in rng):
-        return np.random.SeedSequence(list(rng))
-    raise TypeError("rng: expected None, an int seed, a list of ints, a SeedSequence, BitGenerator or "
-                    f"Generator, got {type(rng).__name__}")
-
-
-def _child(root: np.random.SeedSequence, i: int) -> np.random.Generator:
-    """Child ``i`` of ``root`` (the same as ``root.spawn(i + 1)[i]`` without spawning)."""
-    seq = np.random.SeedSequence(root.entropy, spawn_key=tuple(root.spawn_key) + (int(i),),
-                                 pool_size=root.pool_size)
-    return np.random.default_rng(seq)
-
-
 class _Job:
     """Everything a worker needs to render tiles (built once per process)."""
 
-    def __init__(self, scene, spp, strategy, pixel_sampler, light_selection, chunk_pixels, root, options):
-        self.integrator = DirectLighting(scene, strategy, light_selection, **options)
+    def __init__(self, scene, spp, strategy, pixel_sampler, light_selection, chunk_pixels, root, options,
+                 integrator: DirectLighting | None = None):
+        self.integrator = integrator or DirectLighting(scene, strategy, light_selection, **options)
         self.spp, self.root, self.chunk = spp, root, chunk_pixels
         self.width, self.n_pixels = scene.sensor.width, scene.sensor.width * scene.sensor.height
         lay = self.integrator.layout
-        self.sampler = PixelSampler(pixel_sampler, spp, lay.dims, _child(root, 0), groups=lay.groups)
+        base = np.random.default_rng(unit_seed(root, 0))          # the shared QMC set's scramble
+        self.sampler = PixelSampler(pixel_sampler, spp, lay.dims, base, groups=lay.groups)
 
     def tile(self, t: int) -> tuple[int, np.ndarray, np.ndarray]:
         """(first pixel, mean (n, 3), standard error (n, 3)) of tile ``t``."""
         a, b = t * TILE_PIXELS, min((t + 1) * TILE_PIXELS, self.n_pixels)
-        gen = _child(self.root, t + 1)
+        gen = np.random.default_rng(unit_seed(self.root, t + 1))
         mean, err = np.zeros((b - a, 3)), np.zeros((b - a, 3))
         integ, spp = self.integrator, self.spp
         for c in range(a, b, self.chunk):
@@ -111,21 +88,16 @@ def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *,
     when spp = 1), valid for the ``independent`` pixel sampler only (the others
     correlate a pixel's samples; the i.i.d. formula then overestimates).
     """
-    spp = scene.sensor.spp if spp is None else spp
-    if isinstance(spp, (bool, np.bool_)) or not isinstance(spp, (int, np.integer)) or spp < 1:
-        raise ValueError(f"spp must be an integer >= 1, got {spp!r}")
-    if isinstance(workers, (bool, np.bool_)) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
-    spp = int(spp)
+    spp = check_int("spp", scene.sensor.spp if spp is None else spp, 1)
+    workers = check_int("workers", workers, 1)
     options = dict(emitter_samples=emitter_samples, bsdf_samples=bsdf_samples, ris_candidates=ris_candidates)
-    root = root_seed(rng)
+    root = as_seed_sequence(rng)
     probe = DirectLighting(scene, strategy, light_selection, **options)   # validates the settings
     rays_cost = 1 + probe.n_l + probe.n_b + (probe.n_l * probe.ris_candidates if strategy == "ris" else 0)
     if chunk_pixels is None:
         chunk_pixels = max(1, (4 * _RAYS_PER_CHUNK) // (spp * (rays_cost + probe.dims // 4)))
-    if isinstance(chunk_pixels, (bool, np.bool_)) or int(chunk_pixels) < 1:
-        raise ValueError(f"chunk_pixels must be >= 1, got {chunk_pixels!r}")
-    args = (scene, spp, strategy, pixel_sampler, light_selection, min(int(chunk_pixels), TILE_PIXELS), root,
+    chunk_pixels = check_int("chunk_pixels", chunk_pixels, 1)
+    args = (scene, spp, strategy, pixel_sampler, light_selection, min(chunk_pixels, TILE_PIXELS), root,
             options)
     height, width = scene.sensor.height, scene.sensor.width
     n_pixels = height * width
@@ -143,7 +115,7 @@ def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *,
 
     workers = min(int(workers), len(tiles))
     if workers == 1:
-        job = _Job(*args)
+        job = _Job(*args, integrator=probe)
         for t in tiles:
             collect([job.tile(t)])
     else:

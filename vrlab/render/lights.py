@@ -41,6 +41,17 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     return np.asarray(rgb, float) @ _LUMA
 
 
+def _sphere_cos_integral(center, radius, ref, n) -> tuple[np.ndarray, np.ndarray]:
+    """``(I, valid)``: I = pi (r/d)^2 cos(theta_c) = int cos dw over a sphere's cone where
+    the whole sphere is above the horizon of (``ref``, ``n``); broadcasts."""
+    v = center - ref
+    d = np.linalg.norm(v, axis=-1)
+    h = np.sum(v * n, -1)
+    valid = (d > radius) & (h >= radius)
+    safe = np.where(valid, d, 1.0)
+    return np.where(valid, np.pi * (radius / safe) ** 2 * h / safe, 0.0), valid
+
+
 class DiskSurface(Surface):
     """Uniform points on the disk c + M (x, y, 0), x^2 + y^2 <= 1 (affine maps keep uniformity)."""
 
@@ -127,13 +138,7 @@ class Light:
         ``n``) that reach this light, without occlusion, where a closed form applies."""
         m = len(ref)
         if self.sphere is not None:
-            c, r = self.sphere
-            v = c - ref
-            d = np.linalg.norm(v, axis=-1)
-            h = np.sum(v * n, -1)
-            valid = (d > r) & (h >= r)                      # whole sphere above the horizon
-            safe = np.where(valid, d, 1.0)
-            return np.where(valid, np.pi * (r / safe) ** 2 * h / safe, 0.0), valid
+            return _sphere_cos_integral(self.sphere[0], self.sphere[1], ref, n)
         if self.corners is None:
             return np.zeros(m), np.zeros(m, bool)
         v = self.corners[None] - ref[:, None]                # (m, 4, 3)
@@ -188,15 +193,12 @@ class LightSet:
         direction towards it (``u3[:, 1:3]``), pdf = P_j p_j(w) in solid angle, and
         whether the sampled point faces ``ref``."""
         j = self.selection.sample(u3[:, 0])
-        if self.is_sphere.all():                  # sphere lights only: one batched cone, no gathers
-            cone = SphereCone(self.centers[j], self.radii[j], ref)
-            return j, cone.sample(u3[:, 1:3]), self.selection.pmf(j) / cone.solid_angle, np.ones(len(j), bool)
         w = np.zeros_like(ref)
         pdf = np.zeros(len(ref))
         front = np.ones(len(ref), bool)
         sph = self.is_sphere[j]
-        if sph.any():
-            m = np.flatnonzero(sph)
+        if sph.any():                            # all sphere lights in one batched cone
+            m = slice(None) if sph.all() else np.flatnonzero(sph)
             cone = SphereCone(self.centers[j[m]], self.radii[j[m]], ref[m])
             w[m] = cone.sample(u3[m, 1:3])
             pdf[m] = 1.0 / cone.solid_angle
@@ -225,15 +227,8 @@ class LightSet:
         m, L = len(ref), len(self.lights)
         out, valid = np.zeros((m, L)), np.zeros((m, L), bool)
         s = np.flatnonzero(self.is_sphere)
-        if len(s):
-            v = self.centers[s][None] - ref[:, None]                    # (m, S, 3)
-            d = np.linalg.norm(v, axis=-1)
-            h = np.einsum("msc,mc->ms", v, n)
-            r = self.radii[s][None]
-            ok = (d > r) & (h >= r)
-            safe = np.where(ok, d, 1.0)
-            out[:, s] = np.where(ok, np.pi * (r / safe) ** 2 * h / safe, 0.0)
-            valid[:, s] = ok
+        if len(s):                                       # (m, S) at once
+            out[:, s], valid[:, s] = _sphere_cos_integral(self.centers[s], self.radii[s], ref[:, None], n[:, None])
         for i in np.flatnonzero(~self.is_sphere):
             out[:, i], valid[:, i] = self.lights[i].cos_integral(ref, n)
         return out, valid
