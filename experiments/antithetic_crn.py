@@ -35,7 +35,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from vrlab._rng import spawn  # noqa: E402
 from vrlab.estimators import Antithetic, MonteCarlo, crn_difference  # noqa: E402
 from vrlab.integrands import Integrand, catalogue  # noqa: E402
-from vrlab.lab.experiment import experiment_cli  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "antithetic_crn"
 E = np.e
@@ -121,10 +121,7 @@ def plot_pairs(path: Path, seed: int = 3) -> Path:
     ax.hist(a - b_ind, bins=40, alpha=0.5, density=True, label="independent U")
     ax.set_title("one-sample values of e^U − e^(1.1 U')", fontsize=9)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def plot_crn(table: pd.DataFrame, path: Path) -> Path:
@@ -135,16 +132,12 @@ def plot_crn(table: pd.DataFrame, path: Path) -> Path:
     ax.set_xlabel("n (evaluations of both integrands)"); ax.set_ylabel("RMSE of the difference")
     ax.set_title("CRN: int e^x − int e^(1.1x)  (dotted: theory)", fontsize=9)
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run every experiment, write CSV + PNG into ``out``, return the key numbers."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(out)
     n, reps = (100_000, 200) if full else (20_000, 40)
     anti = antithetic_table(n, reps)
     anti.to_csv(out / "antithetic_crn_factors.csv", index=False)

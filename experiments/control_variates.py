@@ -43,7 +43,7 @@ from vrlab import Integrand, lab  # noqa: E402
 from vrlab._rng import spawn  # noqa: E402
 from vrlab.estimators import ControlVariate, MonteCarlo  # noqa: E402
 from vrlab.integrands import catalogue  # noqa: E402
-from vrlab.lab.experiment import experiment_cli  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "control_variates"
 S12 = np.sqrt(12.0)
@@ -133,16 +133,12 @@ def plot_sweep(table: pd.DataFrame, path: Path) -> Path:
     ax.set_ylim(0, 4)
     ax.legend(fontsize=8, loc="center left")
     ax.set_title("control variates: α = 1 vs optimal α")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run the sweep and the e^x check, write CSV + PNG into ``out``, return the key numbers."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(out)
     rhos = np.round(np.linspace(-1, 1, 41 if full else 21), 6)
     n, reps = (20_000, 50) if full else (4_000, 10)
     table = correlation_sweep(rhos, n, reps, 10)

@@ -41,7 +41,7 @@ from vrlab.integrands import catalogue  # noqa: E402
 from vrlab.render import builtin_scene_path, load_scene  # noqa: E402
 from vrlab.render.direct import DIMS, DirectLighting  # noqa: E402
 from vrlab.testing import HemisphereChart, chi2_gof, sidak_threshold  # noqa: E402
-from vrlab.lab.experiment import experiment_cli  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "cosine_sampling"
 METHODS = ("inversion", "disk", "sphere-shift")
@@ -85,10 +85,7 @@ def plot_scatter(path: Path, n: int = 1500, seed: int = 1) -> Path:
         ax.plot(z, 2 * z if label.startswith("cosine") else np.ones_like(z), "k--", lw=1)
         ax.set_title("density of cos θ (dashed: theory)", fontsize=9)
     fig.suptitle("colour = first uniform u₁: the methods map the same u differently, the distribution is the same")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def cos_variance(n: int, reps: int, seed: int = 2) -> pd.DataFrame:
@@ -150,16 +147,12 @@ def plot_renders(images: dict, spps: list[int], path: Path) -> Path:
             axes[i, j].imshow(np.clip(img / (1 + img), 0, 1) ** (1 / 2.2), interpolation="nearest")
             axes[i, j].set_title(f"{s}, {spp} spp", fontsize=9)
             axes[i, j].axis("off")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run every experiment, write CSV + PNG into ``out``, return the key numbers."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(out)
     gof = gof_table(1_000_000 if full else 200_000)
     gof.to_csv(out / "cosine_sampling_gof.csv", index=False)
     plot_scatter(out / "cosine_sampling_scatter.png")

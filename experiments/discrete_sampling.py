@@ -34,7 +34,7 @@ from scipy.stats.sampling import DiscreteAliasUrn  # noqa: E402
 
 from vrlab import AliasTable, CDFTable  # noqa: E402
 from vrlab.bench.timing import race  # noqa: E402
-from vrlab.lab.experiment import experiment_cli  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "discrete_sampling"
 EXAMPLE = np.array([1.0, 6.0, 2.0, 0.5, 3.0, 0.0, 1.5, 2.0])   # the small worked example
@@ -122,10 +122,7 @@ def plot_example(table: pd.DataFrame, path: Path) -> Path:
     axes[1].set_title("alias table: keep q_j (solid), alias (hatched)")
     for ax in axes:
         ax.set_xlabel("index")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)
 
 
 def plot_timings(df: pd.DataFrame, path: Path) -> Path:
@@ -139,16 +136,12 @@ def plot_timings(df: pd.DataFrame, path: Path) -> Path:
         ax.set_ylabel(ylabel)
         ax.set_title(f"{task} cost")
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Time, check and plot; write CSV + PNG into ``out``; return the key numbers."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(out)
     exponents = list(range(4, 21)) if full else list(range(4, 21, 4))
     draws, repeat = (10**6, 5) if full else (2**17, 2)
     t = timings(exponents, draws, repeat, 2026)

@@ -34,7 +34,7 @@ from vrlab._rng import spawn  # noqa: E402
 from vrlab.estimators import MonteCarlo  # noqa: E402
 from vrlab.integrands import catalogue  # noqa: E402
 from vrlab.integrands.theory import mc_variance  # noqa: E402
-from vrlab.lab.experiment import experiment_cli  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "importance_sampling"
 
@@ -102,16 +102,12 @@ def plot_densities(path: Path) -> Path:
     ax.plot(x, 8 * x / np.pi**2, label="p2 = 8x/π²")
     ax.set_title("sin on [0, π/2]")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run every experiment, write CSV + PNG into ``out``, return the key numbers."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(out)
     n, reps = (200_000, 100) if full else (20_000, 30)
     step = catalogue.get("step-x2")
     sin = catalogue.get("sin")

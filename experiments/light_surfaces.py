@@ -49,7 +49,7 @@ from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, ParallelogramCh
                            chi2_discrete, chi2_gof, sidak_threshold)
 from vrlab.testing.charts import Chart  # noqa: E402
 from vrlab.testing.chisquare import cell_integrals, histogram  # noqa: E402
-from vrlab.lab.experiment import experiment_cli  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "light_surfaces"
 ALPHA = 0.01        # family-wise level of the chi-square tests of the correct densities
@@ -175,10 +175,7 @@ def plot_area_samples(lights: dict, path: Path, n: int = 4000, n_map: int = 200_
         ax.set_xlabel("φ / 2π")
         ax.set_ylabel("(1 - z_s) / 2")
         fig.colorbar(im, ax=ax, shrink=0.8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 # --------------------------------------------------------------------------- 3: area -> solid angle
@@ -298,10 +295,7 @@ def plot_direction_pdfs(lights: dict, path: Path, m: int = 160) -> Path:
             ax.set_yticks([])
             fig.colorbar(im, ax=ax, shrink=0.8)
     fig.suptitle("solid-angle density of directions from a floor point, p_w = Σ_hits p_A d² / |cos θ_l|")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 # --------------------------------------------------------------------------- 4: irradiance
@@ -395,16 +389,12 @@ def plot_renders(images: dict, reference: np.ndarray, table: pd.DataFrame, path:
     for ax in axes.ravel():
         ax.set_xticks([])
         ax.set_yticks([])
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run every experiment, write CSV + PNG into ``out``, return the key numbers."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(out)
     lights = scene_lights()
     gof = area_gof(lights, 1_000_000 if full else 200_000)
     gof.to_csv(out / "light_surfaces_gof.csv", index=False)

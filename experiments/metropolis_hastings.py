@@ -34,7 +34,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from vrlab.distributions.tabulated import PiecewiseConstant2D  # noqa: E402
 from vrlab.estimators import MetropolisHastings  # noqa: E402
 from vrlab.estimators.metropolis import sample_histogram  # noqa: E402
-from vrlab.lab.experiment import experiment_cli  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "metropolis_hastings"
 # (centre x, centre y, radius, brightness); blob 0 is where the chains start
@@ -126,10 +126,7 @@ def plot_histograms(res: dict, path: Path) -> Path:
     for ax in axes:
         ax.set_xticks([])
         ax.set_yticks([])
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def plot_tv(res: dict, path: Path) -> Path:
@@ -143,16 +140,12 @@ def plot_tv(res: dict, path: Path) -> Path:
     ax.set_ylabel("total variation to the image (16×16 cells)")
     ax.set_title("convergence of the MH histogram")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=120)
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run the chains, write CSV + PNG into ``out``, return the key numbers."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(out)
     n_steps, n_chains = (100_000, 64) if full else (8_000, 32)
     res = run_configs(n_steps, n_chains, seed=5)
     res["tv"].to_csv(out / "metropolis_hastings_tv.csv", index=False)

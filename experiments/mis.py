@@ -40,7 +40,7 @@ from vrlab.estimators import HEURISTICS, MIS, MonteCarlo, OneSampleMIS  # noqa: 
 from vrlab.integrands import Integrand, catalogue, mc_variance  # noqa: E402
 from vrlab.render import builtin_scene_path, load_scene  # noqa: E402
 from vrlab.render.direct import DIMS, DirectLighting  # noqa: E402
-from vrlab.lab.experiment import experiment_cli  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "mis"
 STRATEGIES = ("bsdf", "light", "mis-power")
@@ -104,10 +104,7 @@ def plot_toy(path: Path) -> Path:
         im = ax.imshow(np.log10(z.reshape(240, 240) + 1e-3), origin="lower", extent=(0, 1, 0, 1))
         ax.set_title(f"log10({title})", fontsize=9)
         fig.colorbar(im, ax=ax, shrink=0.8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 # --------------------------------------------------------------------------- Veach plates
@@ -196,16 +193,12 @@ def plot_veach(images: dict, masks, spp: int, path: Path) -> Path:
     axes[3].imshow(lab, cmap="tab20", interpolation="nearest")
     axes[3].set_title("regions: colour = (plate, nearest light)", fontsize=9)
     axes[3].axis("off")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run every experiment, write CSV + PNG into ``out``, return the key numbers."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(out)
     n, reps = (100_000, 60) if full else (10_000, 30)
     table = heuristic_table(n, reps)
     table.to_csv(out / "mis_heuristics.csv", index=False)

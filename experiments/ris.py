@@ -47,7 +47,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from vrlab._rng import spawn  # noqa: E402
 from vrlab.estimators import RIS  # noqa: E402
 from vrlab.integrands import catalogue, mc_variance  # noqa: E402
-from vrlab.lab.experiment import experiment_cli  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 from vrlab.render import builtin_scene_path, load_scene, render  # noqa: E402
 from vrlab.render.direct import DirectLighting  # noqa: E402
 
@@ -195,10 +195,7 @@ def plot_variance(table: pd.DataFrame, lim: dict, hists: dict, path: Path) -> Pa
     ax.set_xlabel("x")
     ax.set_title("the kept sample's density tends to p̂/∫p̂")
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 # --------------------------------------------------------------------------- many lights
@@ -307,10 +304,7 @@ def plot_images(table: pd.DataFrame, images: dict, ref: np.ndarray, path: Path) 
         ax.axis("off")
     fig.suptitle("many_lights: 128 sphere lights, one shadow ray per sample "
                  f"(relMSE over the {int(table['pixels'].iloc[0])} pixels that see no light)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def plot_efficiency(table: pd.DataFrame, path: Path) -> Path:
@@ -330,16 +324,12 @@ def plot_efficiency(table: pd.DataFrame, path: Path) -> Path:
         ax.legend(fontsize=7)
     axes[0].set_title("many_lights: error at equal samples")
     axes[1].set_title("many_lights: error × time")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run the 1D sweep and the many-lights renders, write CSV + PNG into ``out``, return key numbers."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(out)
     lim = limits()
     n, reps = (50_000, 40) if full else (10_000, 20)
     table = variance_sweep(MS, n, reps)

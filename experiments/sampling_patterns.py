@@ -50,7 +50,7 @@ from vrlab.estimators import MonteCarlo  # noqa: E402
 from vrlab.render import builtin_scene_path, load_scene, render  # noqa: E402
 from vrlab.render.image import rel_mse  # noqa: E402
 from vrlab.render.direct import DIMS, DirectLighting  # noqa: E402
-from vrlab.lab.experiment import experiment_cli  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "sampling_patterns"
 
@@ -82,10 +82,7 @@ def plot_patterns(path: Path, n: int = 64) -> Path:
     for ax in axes:
         ax.set_xlim(0, 1); ax.set_ylim(0, 1); ax.set_aspect("equal")
         ax.set_xticks([0, 0.5, 1]); ax.set_yticks([0, 0.5, 1]); ax.grid(lw=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def discrepancy_table(ns: list[int], reps: int = 4) -> pd.DataFrame:
@@ -112,10 +109,7 @@ def plot_discrepancy(table: pd.DataFrame, path: Path) -> Path:
     ax.loglog(n, 0.5 * table["discrepancy"].max() * (n / n[0]) ** -1.0, "k--", lw=0.8, label="∝ n^−1")
     ax.set_xlabel("n"); ax.set_ylabel("centred L2 discrepancy")
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def convergence(ns: list[int], reps: int):
@@ -245,10 +239,7 @@ def plot_strata(images: dict, spps: list[int], is_edge: np.ndarray, path: Path) 
     axes[k].imshow(is_edge, cmap="gray", interpolation="nearest")
     axes[k].set_title("edge pixels", fontsize=9)
     axes[k].axis("off")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 REPORT_IS = {"cornell_box": ("uniform", "cosine"), "box_ellipsoid": ("uniform", "bsdf")}
@@ -288,16 +279,12 @@ def plot_report_importance(images: dict, table: pd.DataFrame, path: Path) -> Pat
         row = table[(table.scene == key[0]) & (table.strategy == key[1]) & (table.spp == key[2])].iloc[0]
         ax.set_title(f"{key[0]}: {key[1]}, {key[2]} spp\nrelMSE {row.rel_mse:.3g}", fontsize=8)
         ax.axis("off")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run every experiment, write CSV + PNG into ``out``, return the key numbers."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(out)
     plot_patterns(out / "sampling_patterns_points.png")
     disc = discrepancy_table([2**k for k in range(4, 13 if full else 11)])
     disc.to_csv(out / "sampling_patterns_discrepancy.csv", index=False)

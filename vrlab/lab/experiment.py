@@ -13,6 +13,25 @@ from typing import Callable, Sequence
 
 import pandas as pd
 
+__all__ = ["experiment_cli", "output_dir", "save_figure"]
+
+
+def output_dir(out: str | Path) -> Path:
+    """``out`` as a ``Path``, created (with parents) if missing."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Lay out, write and close a matplotlib figure; returns ``Path(path)``."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return Path(path)
+
 
 def experiment_cli(main: Callable[..., dict], default_out: str | Path, doc: str | None,
                    argv: Sequence[str] | None = None) -> dict:
