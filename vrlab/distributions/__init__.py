@@ -5,7 +5,7 @@ where the warp is a bijection, ``invert(x)``.
 """
 from .base import Distribution
 from .discrete import AliasTable, CDFTable
-from .frames import Oriented, orthonormal_basis, to_local, to_world
+from .frames import Frame, Oriented, orthonormal_basis, to_local, to_world
 from .interval import Exponential, LinearInterval, Product, TruncatedNormal, UniformBox, UniformInterval
 from .mixture import Mixture
 from .planar import Disk, Rectangle, Triangle, concentric_disk
@@ -16,7 +16,7 @@ from .surfaces import BoxSurface, RectangleSurface, Surface
 from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 
 __all__ = [
-    "AliasTable", "CDFTable", "Distribution", "Oriented", "orthonormal_basis", "to_local", "to_world",
+    "AliasTable", "CDFTable", "Distribution", "Frame", "Oriented", "orthonormal_basis", "to_local", "to_world",
     "Exponential", "LinearInterval", "Product", "TruncatedNormal", "UniformBox", "UniformInterval",
     "Mixture", "Disk", "Rectangle", "Triangle", "concentric_disk",
     "GGX", "CosineHemisphere", "PhongLobe", "UniformCone", "UniformHemisphere", "UniformSphere",

@@ -10,13 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._vec import dot
+from .._vec import norm as _norm
+
 from .base import Distribution, as_points
 
 
 def normalize(v: np.ndarray, name: str = "axis") -> np.ndarray:
     """Unit vectors along ``v`` (shape ``(..., 3)``); a zero or non-finite vector is an error."""
     v = as_points(v, 3, name)
-    norm = np.linalg.norm(v, axis=-1, keepdims=True)
+    norm = _norm(v)[..., None]
     if not np.all(np.isfinite(norm)) or np.any(norm == 0):
         raise ValueError(f"{name}: vectors must be finite and non-zero")
     return v / norm
@@ -34,16 +37,42 @@ def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t, bt
 
 
+class Frame:
+    """The orthonormal frames ``(t, b, n)`` of unit normals ``n (..., 3)``, built once
+    and reused for several ``to_local`` / ``to_world`` transforms (the renderer needs
+    three per shading point)."""
+
+    def __init__(self, n: np.ndarray, t: np.ndarray | None = None, b: np.ndarray | None = None):
+        self.n = np.asarray(n, dtype=float)
+        self.t, self.b = orthonormal_basis(self.n) if t is None else (t, b)
+
+    def to_world(self, v: np.ndarray) -> np.ndarray:
+        """Local directions ``v`` (+z = the normal) in world coordinates."""
+        return v[..., 0:1] * self.t + v[..., 1:2] * self.b + v[..., 2:3] * self.n
+
+    def to_local(self, w: np.ndarray) -> np.ndarray:
+        """Coordinates of world directions ``w`` in the frame (inverse of ``to_world``)."""
+        return np.stack([dot(w, self.t), dot(w, self.b), dot(w, self.n)], axis=-1)
+
+    def take(self, idx) -> Frame:
+        """The frames of the rows ``idx``."""
+        return Frame(self.n[idx], self.t[idx], self.b[idx])
+
+    def tile(self, k: int) -> Frame:
+        """The frames repeated ``k`` times along the first axis (sample i after i - 1)."""
+        if k == 1:
+            return self
+        return Frame(*(np.concatenate([a] * k) for a in (self.n, self.t, self.b)))
+
+
 def to_world(v: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Map local directions ``v`` (+z = axis) into the frame whose axis is unit ``n``."""
-    t, b = orthonormal_basis(n)
-    return v[..., 0:1] * t + v[..., 1:2] * b + v[..., 2:3] * n
+    return Frame(n).to_world(v)
 
 
 def to_local(w: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Inverse of ``to_world``: coordinates of ``w`` in the frame with axis ``n``."""
-    t, b = orthonormal_basis(n)
-    return np.stack([np.sum(w * t, -1), np.sum(w * b, -1), np.sum(w * n, -1)], axis=-1)
+    return Frame(n).to_local(w)
 
 
 class Oriented(Distribution):

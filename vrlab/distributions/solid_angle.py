@@ -13,6 +13,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from .._vec import dot, norm
+
 from .base import Distribution, as_points, as_uniforms, positive_float
 from .frames import to_local, to_world
 from .surfaces import TWO_PI, Surface, _sphere_to_u, _unit
@@ -130,7 +132,7 @@ class SphereCone(Distribution):
         if not (np.all(np.isfinite(self.ref)) and np.all(np.isfinite(self.center))):
             raise ValueError("ref, center: must be finite")
         v = self.center - self.ref
-        d = np.linalg.norm(v, axis=-1)
+        d = norm(v)
         self.inside = d <= self.radius
         safe = np.where(d > 0, d, 1.0)
         self.axis = np.where((d > 0)[..., None], v / safe[..., None], np.array([0.0, 0.0, 1.0]))
@@ -149,7 +151,7 @@ class SphereCone(Distribution):
 
     def _one_minus_cos(self, w: np.ndarray) -> np.ndarray:
         diff = w - self.axis                                # |w - a|^2 / 2 = 1 - w.a
-        return 0.5 * np.sum(diff * diff, -1)
+        return 0.5 * dot(diff, diff)
 
     def pdf(self, w: np.ndarray) -> np.ndarray:
         w = as_points(w, 3, "w")
@@ -167,8 +169,8 @@ class SphereCone(Distribution):
         along w (from inside: the exit point); grazing rays are clamped onto the sphere."""
         w = self.sample(u)
         o = self.ref - self.center
-        b = np.sum(o * w, -1)
-        c = np.sum(o * o, -1) - self.radius**2
+        b = dot(o, w)
+        c = dot(o, o) - self.radius**2
         sq = np.sqrt(np.clip(b * b - c, 0.0, None))
         t = np.where(self.inside, -b + sq, -b - sq)
         y = self.ref + t[..., None] * w

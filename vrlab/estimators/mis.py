@@ -79,7 +79,7 @@ def mis_weights(q: np.ndarray, heuristic: str | Callable = "balance", *, beta: f
     if heuristic == "balance":
         s = q
     else:
-        mx = q.max(-1, keepdims=True)
+        mx = _last_axis(np.maximum, q)
         if heuristic == "power":
             r = np.divide(q, mx, out=np.zeros_like(q), where=mx > 0)  # scaled: no overflow
             s = r**beta
@@ -87,8 +87,19 @@ def mis_weights(q: np.ndarray, heuristic: str | Callable = "balance", *, beta: f
             s = ((q >= mx) & (mx > 0)).astype(float)
         else:  # cutoff
             s = np.where(q >= alpha * mx, q, 0.0)
-    total = s.sum(-1, keepdims=True)
+    total = _last_axis(np.add, s)
     return np.divide(s, total, out=np.zeros_like(s), where=total > 0)
+
+
+def _last_axis(op: np.ufunc, a: np.ndarray) -> np.ndarray:
+    """``op.reduce(a, -1, keepdims=True)``, column by column when the axis is short
+    (NumPy reduces a short last axis slowly: the renderer has K = 2 for millions of rows)."""
+    if a.shape[-1] > 8:
+        return op.reduce(a, axis=-1, keepdims=True)
+    out = a[..., 0].copy()
+    for k in range(1, a.shape[-1]):
+        op(out, a[..., k], out=out)
+    return out[..., None]
 
 
 def split_counts(n: int, fractions: np.ndarray, minimum: int = 2) -> np.ndarray:

@@ -33,6 +33,9 @@ from typing import Any
 
 import numpy as np
 
+from .._vec import dot as vdot
+from .._vec import norm as vnorm
+
 from ..distributions import GGX, CosineHemisphere, Mixture, PhongLobe
 from ..distributions.base import Distribution, as_points, as_uniforms, positive_float
 
@@ -53,7 +56,7 @@ __all__ = [
 
 def reflect(w: np.ndarray, m: np.ndarray) -> np.ndarray:
     """Mirror ``w`` about the unit axis ``m``: 2 (w·m) m - w (invariant under m -> -m)."""
-    return 2.0 * np.sum(w * m, -1, keepdims=True) * m - w
+    return 2.0 * vdot(w, m)[..., None] * m - w
 
 
 def mirror(w: np.ndarray) -> np.ndarray:
@@ -254,7 +257,7 @@ class RoughConductor(BSDFModel):
             g = np.where(a >= 1.6, 1.0, (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a))
         g = np.where(xy2 == 0, 1.0, g)
         g = np.where(z == 0, 0.0, g)
-        return np.where(np.sum(v * m, -1) * z <= 0, 0.0, g)
+        return np.where(vdot(v, m) * z <= 0, 0.0, g)
 
     def G(self, wi: np.ndarray, wo: np.ndarray, m: np.ndarray) -> np.ndarray:
         """Separable Smith shadowing-masking G1(wi, m) G1(wo, m)."""
@@ -263,7 +266,7 @@ class RoughConductor(BSDFModel):
     @staticmethod
     def _half(wo: np.ndarray, wi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         h = wo + wi
-        norm = np.linalg.norm(h, axis=-1, keepdims=True)
+        norm = vnorm(h)[..., None]
         ok = norm[..., 0] > 0
         return np.where(ok[..., None], h / np.where(norm > 0, norm, 1.0), np.array([0.0, 0.0, 1.0])), ok
 
@@ -280,7 +283,7 @@ class RoughConductor(BSDFModel):
         wo, wi = _dirs(wo, wi)
         h, ok = self._half(wo, wi)
         h = np.where((h[..., 2] < 0)[..., None], -h, h)
-        dot = np.abs(np.sum(wo * h, -1))
+        dot = np.abs(vdot(wo, h))
         ok = ok & (dot > 0)
         return np.where(ok, self.normals.pdf(h) / (4.0 * np.where(ok, dot, 1.0)), 0.0)
 
@@ -320,7 +323,7 @@ class Phong(BSDFModel):
         self._lobe = PhongLobe(e)
 
     def _cos_alpha(self, wo, wi):
-        return np.clip(np.sum(wi * mirror(wo), -1), 0.0, 1.0)
+        return np.clip(vdot(wi, mirror(wo)), 0.0, 1.0)
 
     def f(self, wo, wi):
         wo, wi = _dirs(wo, wi)
@@ -330,7 +333,7 @@ class Phong(BSDFModel):
 
     def pdf(self, wo, wi):
         wo, wi = _dirs(wo, wi)
-        ca = np.sum(wi * mirror(wo), -1)
+        ca = vdot(wi, mirror(wo))
         lobe = np.where(ca > 0, (self.exponent + 1.0) / TWO_PI * np.clip(ca, 0.0, 1.0) ** self.exponent, 0.0)
         return self.p_diffuse * self._cosine.pdf(wi) + (1.0 - self.p_diffuse) * lobe
 

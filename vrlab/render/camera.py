@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._vec import norm
+
 from .scene import Sensor
 
 __all__ = ["Camera"]
@@ -43,7 +45,7 @@ class Camera:
     def rays(self, film: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World ``(origins, unit directions)``, each ``(..., 3)``, of film positions ``(..., 2)``."""
         d = self.local_directions(film) @ self.rotation.T
-        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        d /= norm(d)[..., None]
         return np.broadcast_to(self.origin, d.shape).copy(), d
 
     def pixel_rays(self, pixels: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

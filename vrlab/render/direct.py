@@ -41,7 +41,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..distributions import CosineHemisphere, UniformHemisphere, to_local, to_world
+from .._vec import dot
+
+from ..distributions import CosineHemisphere, Frame, UniformHemisphere, to_local
 from ..estimators.mis import mis_weights
 from ..estimators.ris import Reservoir
 from ..points.base import check_int
@@ -174,7 +176,7 @@ class DirectLighting:
         self.shaded = ~np.array(black, dtype=bool)         # black diffuse reflects nothing
         self.radiance = np.array([s.emitter.radiance if s.emitter is not None else np.zeros(3)
                                   for s in shapes], float)
-        self.eps = 1e-7
+        self.eps = 1e-5              # ray offset, relative to 1 + max|p| (float32 hit decisions)
         self.lights: LightSet | None = None
         self.light_of_shape = np.full(len(shapes), -1)
         if strategy not in _BSDF_ONLY and self.is_emitter.any():
@@ -189,14 +191,15 @@ class DirectLighting:
     # ------------------------------------------------------------------ tracing
     def emitted(self, hits, d: np.ndarray) -> np.ndarray:
         """One-sided emitted radiance ``(N, 3)`` seen along ``d`` at ``hits``."""
-        front = (hits.shape >= 0) & (np.sum(hits.n * d, -1) < 0)
+        front = (hits.shape >= 0) & (dot(hits.n, d) < 0)
         return np.where(front[:, None], self.radiance[np.maximum(hits.shape, 0)], 0.0)
 
     def trace(self, p: np.ndarray, n: np.ndarray, w: np.ndarray):
         """Closest hits of rays leaving surface points ``p`` (normal ``n``) along ``w``,
         and the emission seen; the origin is offset off the surface to ``w``'s side."""
-        side = np.where(np.sum(w * n, -1) < 0, -1.0, 1.0)
-        offset = self.eps * (1.0 + np.max(np.abs(p), -1)) * side
+        side = np.where(dot(w, n) < 0, -1.0, 1.0)
+        a = np.abs(p)
+        offset = self.eps * (1.0 + np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])) * side
         hits = self.geometry.intersect(p + offset[:, None] * n, w)
         return hits, self.emitted(hits, w)
 
@@ -220,27 +223,28 @@ class DirectLighting:
         ``self.bsdfs[k]`` (BSDF group ``k``, see ``group_of_shape``)."""
         bsdf = self.bsdfs[k]
         if self.twosided[k]:
-            n = np.where((np.sum(wo * n, -1) < 0)[:, None], -n, n)
-        wo_l = to_local(wo, n)
+            n = np.where((dot(wo, n) < 0)[:, None], -n, n)
+        fr = Frame(n)                                   # one shading frame per point
+        wo_l = fr.to_local(wo)
         s, lay, n_b, n_l = self.strategy, self.layout, self.n_b, self.n_l
         if s in _BSDF_ONLY:
             warp = {"uniform": _UNIFORM, "cosine": _COSINE}.get(s)
             u2 = _stack(u, [lay.bsdf(i) for i in range(n_b)])
-            f, le, pdf, _, _ = self._bsdf_sample(bsdf, _tile(p, n_b), _tile(n, n_b), _tile(wo_l, n_b), u2, warp)
+            f, le, pdf, _, _ = self._bsdf_sample(bsdf, _tile(p, n_b), fr.tile(n_b), _tile(wo_l, n_b), u2, warp)
             return _mean_of(_safe_ratio(f * le, pdf), n_b)
         if self.lights is None:
             return np.zeros((len(p), 3))
         if s == "mixture":
-            return self._mixture(bsdf, p, n, wo_l, u)
+            return self._mixture(bsdf, p, fr, wo_l, u)
         if s == "ris":
             return self._ris(bsdf, p, n, wo_l, u)
-        tl = (_tile(p, n_l), _tile(n, n_l), _tile(wo_l, n_l))
+        tl = (_tile(p, n_l), fr.tile(n_l), _tile(wo_l, n_l))
         if n_l:
             f_l, le_l, q_l, wi_l, j = self._light_sample(bsdf, *tl, _stack(u, [lay.light(i) for i in range(n_l)]))
         if s == "light":
             return _mean_of(_safe_ratio(f_l * le_l, q_l), n_l)
         if s == "cv":
-            return self._control_variate(bsdf, p, n, tl[1], wi_l, j, f_l, le_l, q_l)
+            return self._control_variate(bsdf, p, n, wi_l, j, f_l, le_l, q_l)
         heuristic = "balance" if s == "mis-balance" else "power"
         out = np.zeros((len(p), 3))
         if n_l:
@@ -250,13 +254,13 @@ class DirectLighting:
         if n_b:
             pb = _tile(p, n_b)
             u2 = _stack(u, [lay.bsdf(i) for i in range(n_b)])
-            f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, pb, _tile(n, n_b), _tile(wo_l, n_b), u2)
+            f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, pb, fr.tile(n_b), _tile(wo_l, n_b), u2)
             q_l_at_b = self.light_pdf(pb, wi_b, hits_b)
             w_b = mis_weights(np.stack([n_l * q_l_at_b, n_b * q_b], -1), heuristic)[:, 1]
             out += _mean_of(w_b[:, None] * _safe_ratio(f_b * le_b, q_b), n_b)
         return out
 
-    def _mixture(self, bsdf, p, n, wo_l, u):
+    def _mixture(self, bsdf, p, fr, wo_l, u):
         """One sample of the mixture c p_bsdf + (1 - c) p_light, c = n_b / (n_b + n_l):
         ``u[choice] < c`` takes a BSDF sample, else a light sample; either way f / mixture
         density (the balance heuristic with one sample; Russian lecture 4)."""
@@ -265,11 +269,11 @@ class DirectLighting:
         out = np.zeros((len(p), 3))
         b = np.flatnonzero(u[:, lay.choice] < c)
         if len(b):
-            f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, p[b], n[b], wo_l[b], u[b, lay.bsdf(0)])
+            f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, p[b], fr.take(b), wo_l[b], u[b, lay.bsdf(0)])
             out[b] = _safe_ratio(f_b * le_b, c * q_b + (1 - c) * self.light_pdf(p[b], wi_b, hits_b))
         li = np.flatnonzero(u[:, lay.choice] >= c)
         if len(li):
-            f_l, le_l, q_l, wi_l, _ = self._light_sample(bsdf, p[li], n[li], wo_l[li], u[li, lay.light(0)])
+            f_l, le_l, q_l, wi_l, _ = self._light_sample(bsdf, p[li], fr.take(li), wo_l[li], u[li, lay.light(0)])
             out[li] = _safe_ratio(f_l * le_l, (1 - c) * q_l + c * bsdf.pdf(wo_l[li], wi_l))
         return out
 
@@ -297,7 +301,7 @@ class DirectLighting:
         value = bsdf.eval(wor, wi_l[pick]) * le * res.W[:, None]
         return _mean_of(value, n_l)
 
-    def _control_variate(self, bsdf, p, n, n_rows, wi_l, j, f_l, le_l, q_l):
+    def _control_variate(self, bsdf, p, n, wi_l, j, f_l, le_l, q_l):
         """F = G + (f L - g) / p with the Lambertian unoccluded control (module docstring)."""
         kd = lambertian_albedo(bsdf)
         n_l = self.n_l
@@ -309,23 +313,23 @@ class DirectLighting:
         g = np.where(ok[:, None], (kd / np.pi) * np.clip(wi_l[:, 2:3], 0.0, None) * self.lights.radiance[j], 0.0)
         return big_g + _mean_of(_safe_ratio(f_l * le_l - g, q_l), n_l)
 
-    def _bsdf_sample(self, bsdf, p, n, wo_l, u2, warp=None):
+    def _bsdf_sample(self, bsdf, p, fr, wo_l, u2, warp=None):
         if warp is not None:  # a fixed hemisphere warp (uniform or cosine) instead of the BSDF's
             wi_l = warp.sample(u2)
             pdf = warp.pdf(wi_l)
         else:
             wi_l = np.asarray(bsdf.distribution(wo_l).sample(u2))
             pdf = bsdf.pdf(wo_l, wi_l)
-        wi = to_world(wi_l, n)
-        hits, le = self.trace(p, n, wi)
+        wi = fr.to_world(wi_l)
+        hits, le = self.trace(p, fr.n, wi)
         return bsdf.eval(wo_l, wi_l), le, pdf, wi, hits
 
-    def _light_sample(self, bsdf, p, n, wo_l, u3):
+    def _light_sample(self, bsdf, p, fr, wo_l, u3):
         j, w, pdf, _ = self.lights.sample(p, u3)
-        hits, le = self.trace(p, n, w)
+        hits, le = self.trace(p, fr.n, w)
         hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
         le = np.where(((hits.shape >= 0) & (hit_light == j))[:, None], le, 0.0)
-        wi_l = to_local(w, n)
+        wi_l = fr.to_local(w)
         return bsdf.eval(wo_l, wi_l), le, pdf, wi_l, j
 
     def light_pdf(self, p: np.ndarray, w: np.ndarray, hits) -> np.ndarray:

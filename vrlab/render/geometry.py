@@ -40,7 +40,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._vec import norm
+
 from .bvh import BVH
+from .dense import closest_planes, closest_quadrics
 from .scene import Scene
 
 __all__ = ["DEFAULT_RAY_CHUNK", "Hits", "SceneGeometry"]
@@ -48,11 +51,9 @@ __all__ = ["DEFAULT_RAY_CHUNK", "Hits", "SceneGeometry"]
 DEFAULT_RAY_CHUNK = 1 << 13   # rays per block
 # (ray, primitive) pairs per culling block: cache sized, and small enough (N k P <= 2^18
 # for an (N, k) @ (k, P) product) that OpenBLAS stays single-threaded (much faster here)
-_PLANAR_ELEMS = 1 << 14
 _QUADRIC_ELEMS = 1 << 15
+DENSE_QUADRICS = 16           # up to this many quadrics are tested all-pairs in float32
 _BVH_MIN_PRIMS = 64           # planar groups at least this big are traversed with a BVH
-_TOL_SU = 1e-7                # culling slack of the (s, u) parameters
-_TOL_T = 1e-9                 # culling slack of t, relative to |o| + scene size
 _TOL_DISC = 1e-12             # culling slack of sphere discriminants, relative
 
 
@@ -67,8 +68,8 @@ class Hits(NamedTuple):
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
-    norm = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(norm > 0, norm, 1.0)
+    n = norm(v)[:, None]
+    return v / np.where(n > 0, n, 1.0)
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -76,7 +77,7 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a @ b`` of a thin ``a (N, k)``, k <= 4 (blocks: see ``_PLANAR_ELEMS``)."""
+    """``a @ b`` of a thin ``a (N, k)``, k <= 5 (blocks: see ``_QUADRIC_ELEMS``)."""
     return a @ b
 
 
@@ -124,42 +125,31 @@ class _Planar:
         self.a1 = np.cross(e2, m) / m2[:, None]
         self.a2 = np.cross(m, e1) / m2[:, None]
         self.packed = np.concatenate([v0, self.n, self.a1, self.a2], axis=1)
-        # cull matrices: [1, o] @ wo = [(v0 - o).n, (o - v0).a1, (o - v0).a2]; d @ wd likewise
+        w = np.concatenate([self.n, self.a1, self.a2])                 # float32 rows (.dense)
+        self.w32 = w.astype(np.float32)
+        self.c32 = np.sum(w * np.concatenate([v0, v0, v0]), -1, keepdims=True).astype(np.float32)
         p = len(v0)
-        self.wo = np.zeros((4, 3 * p))
-        self.wo[0] = np.concatenate([_dot(v0, self.n), -_dot(v0, self.a1), -_dot(v0, self.a2)])
-        self.wo[1:] = np.concatenate([-self.n, self.a1, self.a2]).T
-        self.wd = np.concatenate([self.n, self.a1, self.a2]).T.copy()
         self.bvh = BVH(np.stack([v0, v0 + e1, v0 + e2] + ([v0 + e1 + e2] if para else []),
                                 axis=1)) if p >= _BVH_MIN_PRIMS else None
 
     def __len__(self) -> int:
         return len(self.v0)
 
-    def candidates(self, oh, d, t_min, tol_t, sl):
-        """Conservative (ray, primitive) pairs of the block ``sl``; ``oh = [1, o]`` (see
-        the module docstring)."""
-        p = sl.stop - sl.start
-        full = p == len(self)
-        wo = self.wo if full else self.wo.reshape(4, 3, -1)[:, :, sl].reshape(4, -1)
-        wd = self.wd if full else self.wd.reshape(3, 3, -1)[:, :, sl].reshape(3, -1)
-        ow, dw = _mm(oh, wo), _mm(d, wd)
-        t, s, u = ow[:, :p], ow[:, p:2 * p], ow[:, 2 * p:]
+    def dense(self, O: np.ndarray, D: np.ndarray, t_min: float):
+        """float32 ``(t, j)`` of every ray against every primitive (:mod:`.dense`)."""
+        return closest_planes(self.w32, self.c32, self.para, O, D, t_min)
+
+    def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
+        """float64 plane t, shape and normal of the rays ``rows`` whose closest hit is
+        primitive ``j`` by the float32 pass (the in/out decision is that pass's)."""
+        q = np.take(self.packed, j, axis=0)
         with np.errstate(divide="ignore", invalid="ignore"):
-            np.divide(t, dw[:, :p], out=t)
-            ok = t > (t_min - tol_t)[:, None]
-            tmp = t * dw[:, p:2 * p]
-            s += tmp
-            np.multiply(t, dw[:, 2 * p:], out=tmp)
-            u += tmp
-            ok &= np.minimum(s, u, out=tmp) >= -_TOL_SU
-            if self.para:
-                np.maximum(s, u, out=s)
-            else:
-                s += u
-            ok &= s <= 1.0 + _TOL_SU
-        i, j = _nonzero(ok)
-        return i, j + sl.start
+            tt = -_dot(np.take(o, rows, axis=0) - q[:, :3], q[:, 3:6]) / _dot(np.take(d, rows, axis=0), q[:, 3:6])
+        ok = np.isfinite(tt) & (tt > t_min)
+        if not ok.all():
+            rows, j, tt = rows[ok], j[ok], tt[ok]
+        t[rows], shape[rows] = tt, np.take(self.shape, j)
+        normal[rows] = np.take(self.normal, j, axis=0)
 
     def exact(self, rays, t_min, i, j):
         """Exact t (inf on a miss) of the pairs ``(i, j)``; ``rays = [o, d]`` ``(N, 6)``."""
@@ -177,27 +167,13 @@ class _Planar:
         ok &= np.isfinite(t)
         return np.where(ok, t, np.inf)
 
-    def closest(self, o, d, t_min, tol_t, t, shape, normal):
-        """Update the closest hits ``t, shape, normal`` of a block of rays in place."""
-        if not len(self):
-            return
+    def closest(self, o, d, t_min, t, shape, normal):
+        """Update the closest hits ``t, shape, normal`` of a block of rays in place (BVH)."""
         rays = np.concatenate([o, d], axis=1)
-        oh = np.empty((len(o), 4))
-        oh[:, 0] = 1.0
-        oh[:, 1:] = o
-        if self.bvh is not None:
-            def test(i, j):
-                return self.exact(rays, t_min, i, j)
-            i, j, tt = self.bvh.closest(o, d, t_min, t, test)
-            _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], lambda w: self.normal[j[w]])
-            return
-        ii, jj = [], []
-        for r, sl in _blocks(len(o), len(self), _PLANAR_ELEMS):
-            i, j = self.candidates(oh[r], d[r], t_min, tol_t[r], sl)
-            ii.append(i + r.start)
-            jj.append(j)
-        i, j = _pairs(ii, jj)
-        tt = self.exact(rays, t_min, i, j)
+
+        def test(i, j):
+            return self.exact(rays, t_min, i, j)
+        i, j, tt = self.bvh.closest(o, d, t_min, t, test)
         _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], lambda w: self.normal[j[w]])
 
 
@@ -216,23 +192,50 @@ class _Quadrics:
         self.w_c = np.concatenate([-2.0 * self.c.T, np.ones((1, len(r))),
                                    [np.sum(self.c * self.c, -1) - r * r]])
         self.cmax = float(np.max(np.linalg.norm(self.c, axis=-1) + r, initial=0.0))
+        # float32 all-pairs data (.dense): spheres in world space, else unit-sphere frames
+        self.c32 = self.c.astype(np.float32)
+        gram = np.einsum("kab,kac->kbc", m, m)                   # M^T M = r^2 I for spheres
+        spheres = np.allclose(gram, (r * r)[:, None, None] * np.eye(3), rtol=1e-12, atol=0)
+        self.minv32 = None if spheres else self.minv.astype(np.float32)
+        self.r2_32 = (r * r if spheres else np.ones_like(r)).astype(np.float32)[:, None]
+        self.use_dense = len(r) <= DENSE_QUADRICS
 
     def __len__(self) -> int:
         return len(self.shape)
 
     def _local(self, o, d, i, j):
-        """Pair rays in the unit-sphere frames: ``M^-1 (o - c)``, ``M^-1 d``."""
-        minv = self.minv[j]
-        return (np.einsum("kab,kb->ka", minv, o[i] - self.c[j]),
-                np.einsum("kab,kb->ka", minv, d[i]))
+        """Pair rays in the unit-sphere frames: ``M^-1 (o - c)``, ``M^-1 d``, and ``M^-1``."""
+        minv = np.take(self.minv, j, axis=0)
+        oc = np.take(o, i, axis=0) - np.take(self.c, j, axis=0)
+        dd = np.take(d, i, axis=0)
+        ol = minv[:, :, 0] * oc[:, 0:1] + minv[:, :, 1] * oc[:, 1:2] + minv[:, :, 2] * oc[:, 2:3]
+        dl = minv[:, :, 0] * dd[:, 0:1] + minv[:, :, 1] * dd[:, 1:2] + minv[:, :, 2] * dd[:, 2:3]
+        return ol, dl, minv
+
+    def _normal(self, ol, dl, minv, j, tt):
+        x = ol + tt[:, None] * dl                                        # unit-sphere point
+        n = x[:, 0:1] * minv[:, 0] + x[:, 1:2] * minv[:, 1] + x[:, 2:3] * minv[:, 2]   # M^-T x
+        return self.sign[j, None] * _unit(n)
 
     def _fold(self, o, d, t_min, i, j, tt, t, shape, normal):
         def nrm(w):
-            ol, dl = self._local(o, d, i[w], j[w])
-            x = ol + tt[w, None] * dl                                    # unit-sphere point
-            n = np.einsum("ka,kab->kb", x, self.minv[j[w]])              # M^-T x
-            return self.sign[j[w], None] * _unit(n)
+            return self._normal(*self._local(o, d, i[w], j[w]), j[w], tt[w])
         _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], nrm)
+
+    def dense(self, O: np.ndarray, D: np.ndarray, t_min: float):
+        """float32 ``(t, j)`` of every ray against every quadric (:mod:`.dense`)."""
+        return closest_quadrics(self.c32, self.minv32, self.r2_32, O, D, t_min)
+
+    def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
+        """float64 t (stable roots; the float32 t where a grazing ray misses in float64),
+        shape and normal of the rays ``rows`` whose closest hit is quadric ``j``."""
+        ol, dl, minv = self._local(o, d, rows, j)
+        tt = _unit_sphere_hit(ol, dl, t_min)
+        tt = np.where(np.isfinite(tt), tt, t32.astype(np.float64))
+        ok = tt > t_min
+        if not ok.all():
+            rows, j, tt, ol, dl, minv = rows[ok], j[ok], tt[ok], ol[ok], dl[ok], minv[ok]
+        t[rows], shape[rows], normal[rows] = tt, self.shape[j], self._normal(ol, dl, minv, j, tt)
 
     def closest(self, o, d, t_min, t, shape, normal):
         """Update the closest hits of a block of rays in place."""
@@ -254,7 +257,7 @@ class _Quadrics:
             ii.append(i + r.start)
             jj.append(j + sl.start)
         i, j = _pairs(ii, jj)
-        tt = _unit_sphere_hit(*self._local(o, d, i, j), t_min)
+        tt = _unit_sphere_hit(*self._local(o, d, i, j)[:2], t_min)
         self._fold(o, d, t_min, i, j, tt, t, shape, normal)
 
 
@@ -376,11 +379,25 @@ class SceneGeometry:
 
     def _closest(self, o, d, t_min, t, shape, normal):
         """Update ``t``, ``shape``, ``normal`` (views of one chunk) in place."""
-        if self.planar:
-            tol_t = _TOL_T * (np.sqrt(_dot(o, o)) + self.scale) / np.maximum(np.sqrt(_dot(d, d)), 1e-300)
-            for g in self.planar:
-                g.closest(o, d, t_min, tol_t, t, shape, normal)
-        if self.quadrics is not None:
+        dense = [g for g in self.planar if g.bvh is None]
+        if self.quadrics is not None and self.quadrics.use_dense:
+            dense.append(self.quadrics)
+        if dense:                      # float32 all pairs: the winner, then its float64 hit
+            rows32 = (np.ascontiguousarray(o.T, dtype=np.float32), np.ascontiguousarray(d.T, dtype=np.float32))
+            best = np.full(len(o), np.inf, np.float32)
+            group, prim = np.full(len(o), -1), np.zeros(len(o), np.int64)
+            for k, g in enumerate(dense):
+                tg, jg = g.dense(*rows32, t_min)
+                w = np.flatnonzero(tg < best)         # strict: the earlier group keeps ties
+                best[w], group[w], prim[w] = tg[w], k, jg[w]
+            for k, g in enumerate(dense):
+                r = np.flatnonzero(group == k)
+                if len(r):
+                    g.finish(o, d, t_min, r, prim[r], best[r], t, shape, normal)
+        for g in self.planar:
+            if g.bvh is not None:
+                g.closest(o, d, t_min, t, shape, normal)
+        if self.quadrics is not None and not self.quadrics.use_dense:
             self.quadrics.closest(o, d, t_min, t, shape, normal)
         for k, c, minv, n in self.disks:
             ol, dl = (o - c) @ minv.T, d @ minv.T

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._vec import dot, norm
+
 from ..distributions import (
     AliasTable,
     BoxSurface,
@@ -45,8 +47,8 @@ def _sphere_cos_integral(center, radius, ref, n) -> tuple[np.ndarray, np.ndarray
     """``(I, valid)``: I = pi (r/d)^2 cos(theta_c) = int cos dw over a sphere's cone where
     the whole sphere is above the horizon of (``ref``, ``n``); broadcasts."""
     v = center - ref
-    d = np.linalg.norm(v, axis=-1)
-    h = np.sum(v * n, -1)
+    d = norm(v)
+    h = dot(v, n)
     valid = (d > radius) & (h >= radius)
     safe = np.where(valid, d, 1.0)
     return np.where(valid, np.pi * (radius / safe) ** 2 * h / safe, 0.0), valid
@@ -123,7 +125,7 @@ class Light:
             return w, cone.pdf(w), np.ones(len(w), bool)
         s = self.surface.solid_angle_from(ref).sample_point(u)
         if self.planar:
-            front = np.sum((ref - s.y) * self.surface.normal(s.y), -1) > 0
+            front = dot(ref - s.y, self.surface.normal(s.y)) > 0
         else:
             front = np.ones(len(s.w), bool)
         return s.w, s.pdf, front
