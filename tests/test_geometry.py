@@ -249,3 +249,58 @@ def test_degenerate_triangles_and_empty_inputs(tmp_path):
     np.testing.assert_allclose(h.n[0], [0, 0, 1])
     e = geo.intersect(np.zeros((0, 3)), np.zeros((0, 3)))
     assert e.t.shape == (0,) and e.p.shape == (0, 3) and e.n.shape == (0, 3)
+
+
+@pytest.mark.parametrize("n_spheres", [5, 24])
+def test_sphere_groups_dense_and_culled_match_reference(n_spheres):
+    """Spheres only: the float32 all-pairs path (<= DENSE_QUADRICS, world-space sphere
+    kernel) and the culled float64 path (more) against the reference; small far spheres
+    and rays from inside included."""
+    from vrlab.render.geometry import DENSE_QUADRICS
+    rng = np.random.default_rng(11)
+    c = rng.uniform(-3, 3, (n_spheres, 3))
+    r = rng.uniform(0.01, 0.5, n_spheres)
+    shapes = "".join(f'<shape type="sphere"><point name="center" x="{x}" y="{y}" z="{z}"/>'
+                     f'<float name="radius" value="{rr}"/></shape>' for (x, y, z), rr in zip(c, r))
+    sc = _scene(shapes)
+    geo = SceneGeometry(sc)
+    assert geo.quadrics.use_dense == (n_spheres <= DENSE_QUADRICS)
+    assert geo.quadrics.radius is not None                     # recognised as spheres
+    o = rng.normal(size=(3000, 3)) * 20
+    d = c[rng.integers(n_spheres, size=3000)] + rng.normal(size=(3000, 3)) * 0.3 - o
+    o[:200] = c[rng.integers(n_spheres, size=200)]             # from sphere centres: exits
+    h = _check(sc, o, d, 0.0)
+    assert np.mean(h.shape >= 0) > 0.3
+
+
+def test_near_ties_pick_the_lowest_primitive():
+    """Two coincident rectangles: the float32 pass packs the primitive index into the low
+    bits of t, so the earlier shape wins; the float64 t is exact."""
+    rect = '<shape type="rectangle"><transform name="to_world"><translate z="{z}"/></transform></shape>'
+    sc = _scene(rect.format(z=2.0) + rect.format(z=2.0) + rect.format(z=1.0 + 1e-3))
+    geo = SceneGeometry(sc)
+    h = geo.intersect(np.array([[0.1, 0.2, 5.0], [0.3, -0.4, 1.5]]), np.array([[0, 0, -1.0], [0, 0, 1.0]]))
+    np.testing.assert_array_equal(h.shape, [0, 0])
+    np.testing.assert_allclose(h.t, [3.0, 0.5], rtol=1e-14)
+    with pytest.raises(ValueError, match="t_min"):
+        geo.intersect(np.zeros((1, 3)), np.ones((1, 3)), t_min=-1.0)
+
+
+def test_frames_and_vector_helpers():
+    from vrlab._vec import dot, norm
+    from vrlab.distributions import Frame, to_local, to_world
+    rng = np.random.default_rng(4)
+    n = _unit(rng.normal(size=(50, 3)))
+    w = rng.normal(size=(50, 3))
+    np.testing.assert_allclose(dot(w, n), np.sum(w * n, -1), rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(norm(w), np.linalg.norm(w, axis=-1), rtol=1e-15)
+    fr = Frame(n)
+    loc = fr.to_local(w)
+    np.testing.assert_allclose(loc[:, 2], dot(w, n), atol=1e-14)
+    np.testing.assert_allclose(fr.to_world(loc), w, atol=1e-13)
+    np.testing.assert_allclose(to_world(to_local(w, n), n), w, atol=1e-13)
+    np.testing.assert_allclose(np.linalg.norm(loc, axis=-1), np.linalg.norm(w, axis=-1), rtol=1e-13)
+    idx = np.array([3, 7, 7, 0])
+    np.testing.assert_array_equal(fr.take(idx).to_local(w[idx]), loc[idx])
+    np.testing.assert_array_equal(fr.tile(2).to_local(np.concatenate([w, w])), np.concatenate([loc, loc]))
+    assert fr.tile(1) is fr

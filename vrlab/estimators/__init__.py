@@ -17,17 +17,18 @@ estimator                technique                                         modul
 ``RIS``                  resampled importance sampling, reservoirs         ``ris``
 =======================  ================================================  ====================
 """
-from .antithetic import Antithetic
-from .base import BiasWarning, Estimator, point_engine, support_probe, uniform_blocks
-from .control import ControlVariate, DefensiveMixture
-from .crn import CRNDifference, crn_difference
-from .importance import MonteCarlo
-from .metropolis import MetropolisHastings
-from .mis import HEURISTICS, MIS, mis_weights
-from .onesample import OneSampleMIS
-from .ris import RIS, Reservoir
-from .rqmc import RQMC
-from .stratified import Stratified
+import importlib
+
+# name -> submodule; loaded on first use (PEP 562) so that ``import vrlab.render``, which
+# needs only ``mis`` and ``ris``, does not pay for every estimator module
+_WHERE = {
+    "Antithetic": "antithetic", "BiasWarning": "base", "Estimator": "base", "point_engine": "base",
+    "support_probe": "base", "uniform_blocks": "base", "ControlVariate": "control",
+    "DefensiveMixture": "control", "CRNDifference": "crn", "crn_difference": "crn",
+    "MonteCarlo": "importance", "MetropolisHastings": "metropolis", "HEURISTICS": "mis", "MIS": "mis",
+    "mis_weights": "mis", "OneSampleMIS": "onesample", "RIS": "ris", "Reservoir": "ris", "RQMC": "rqmc",
+    "Stratified": "stratified",
+}
 
 __all__ = [
     "HEURISTICS", "MIS", "OneSampleMIS", "RIS", "Reservoir", "mis_weights",
@@ -35,3 +36,15 @@ __all__ = [
     "MetropolisHastings", "MonteCarlo", "RQMC", "Stratified", "crn_difference", "point_engine",
     "support_probe", "uniform_blocks",
 ]
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        value = getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

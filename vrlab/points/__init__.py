@@ -19,14 +19,16 @@ class                  points                          module
 Helpers: :func:`make_points` (by name), :func:`replicates` (independent randomised
 copies, seeds from ``SeedSequence.spawn``), :func:`discrepancy`, :func:`radical_inverse`.
 """
-from .base import PointSet
-from .halton import Halton, Hammersley, first_primes, radical_inverse
-from .iid import Independent
-from .lhs import LatinHypercube
-from .rotation import CranleyPatterson
-from .sobol import Sobol
-from .stratified import Stratified, balanced_strata
-from .tools import POINT_SETS, discrepancy, make_points, replicates
+import importlib
+
+# name -> submodule, loaded on first use (PEP 562: ``import vrlab.render`` needs none)
+_WHERE = {
+    "PointSet": "base", "Halton": "halton", "Hammersley": "halton", "first_primes": "halton",
+    "radical_inverse": "halton", "Independent": "iid", "LatinHypercube": "lhs",
+    "CranleyPatterson": "rotation", "Sobol": "sobol", "Stratified": "stratified",
+    "balanced_strata": "stratified", "POINT_SETS": "tools", "discrepancy": "tools",
+    "make_points": "tools", "replicates": "tools",
+}
 
 __all__ = [
     "POINT_SETS",
@@ -45,3 +47,15 @@ __all__ = [
     "radical_inverse",
     "replicates",
 ]
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        value = getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -29,27 +29,42 @@ import numpy as np
 
 __all__ = ["ELEMS", "closest_planes", "closest_quadrics"]
 
-ELEMS = 1 << 16          # (primitive, ray) pairs per block
+ELEMS = 1 << 15          # (primitive, ray) pairs per block (float32: 128 KB temporaries)
 F32 = np.float32
+BIG = np.array(0x7F000000, np.int32).view(F32)[()]   # 1.7e38 = "no hit" in the kernels
+                                                     # (low mantissa bits 0: see _pick)
 
 
 def _rows(w: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``w (K, 3) . x (3, n)`` as ``(K, n)`` by broadcasting (deterministic per element)."""
-    out = w[:, 0:1] * x[0]
-    out += w[:, 1:2] * x[1]
-    out += w[:, 2:3] * x[2]
-    return out
+    """``w (K, 3) @ x (3, n)`` as ``(K, n)`` (BLAS: about 4x faster than three broadcast
+    multiply-adds; only the float32 winner depends on it, t is recomputed in float64)."""
+    return w @ x
 
 
 def _pick(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Smallest t per column of ``t (P, n)`` and its row (the lowest row among ties);
-    row by row, as ``argmin`` over axis 0 and the gather are much slower."""
-    best, j = t[0].copy(), np.zeros(t.shape[1], np.int64)
-    for k in range(1, len(t)):
-        w = t[k] < best
-        np.copyto(best, t[k], where=w)
-        np.copyto(j, k, where=w)
-    return best, j
+    """Smallest t per column of ``t (P, n)`` (float32, >= 0, misses = ``BIG``) and its row.
+
+    The row index is packed into the low ``bits = ceil(log2 P)`` mantissa bits (the
+    int32 view of non-negative floats is monotonic), so one ``minimum.reduce`` finds
+    both; ``argmin`` over axis 0 is about 15x slower.  Candidates within a relative
+    2^(bits - 23) of each other are ordered by row, and the winner's t is recomputed in
+    float64 afterwards, so this only decides near-ties.  ``t`` is overwritten."""
+    bits = (len(t) - 1).bit_length()
+    key = t.view(np.int32)
+    if bits:
+        mask = np.int32((1 << bits) - 1)
+        key &= ~mask
+        key |= np.arange(len(t), dtype=np.int32)[:, None]
+    m = np.minimum.reduce(key, axis=0)
+    j = (m & ((1 << bits) - 1)).astype(np.int64)
+    best = (m & ~np.int32((1 << bits) - 1)).view(F32)
+    return np.where(best < BIG, best, F32(np.inf)), j
+
+
+def _miss(t: np.ndarray, bad: np.ndarray) -> np.ndarray:
+    """``t`` with the entries ``bad`` (and NaN) raised to ``BIG``, in place (``fmax`` with a
+    0 / ``BIG`` array is several times faster than ``putmask`` or ``where``)."""
+    return np.fmax(t, bad * BIG, out=t)
 
 
 def _blocks(n: int, rows: int):
@@ -78,15 +93,14 @@ def closest_planes(w: np.ndarray, c: np.ndarray, para: bool, O: np.ndarray, D: n
             s += ow[p:2 * p]
             u *= t
             u += ow[2 * p:]
-            ok = t > t_min
-            ok &= np.minimum(s, u, out=ow[p:2 * p]) >= 0
+            bad = t <= t_min
+            bad |= np.minimum(s, u, out=ow[p:2 * p]) < 0
             if para:
-                ok &= np.maximum(s, u, out=ow[2 * p:]) <= 1
+                bad |= np.maximum(s, u, out=ow[2 * p:]) > 1
             else:
                 s += u
-                ok &= s <= 1
-            np.putmask(t, ~ok, np.inf)
-            t_out[b], j_out[b] = _pick(t)
+                bad |= s > 1
+            t_out[b], j_out[b] = _pick(_miss(t, bad))
     return t_out, j_out
 
 
@@ -113,12 +127,13 @@ def _sphere_roots(ox, oy, oz, dx, dy, dz, r2, t_min):
     np.maximum(disc, 0, out=disc)
     disc *= inva
     sq = np.sqrt(disc, out=disc)
-    np.negative(b, out=b)
-    t1 = b - sq
-    t2 = np.add(b, sq, out=b)
-    t = np.where(t1 > t_min, t1, np.where(t2 > t_min, t2, np.inf))
-    np.putmask(t, miss, np.inf)
-    return t
+    t = np.negative(b, out=b)
+    t -= sq                                    # t1 = -b - sq; where t1 <= t_min: t2 = t1 + 2 sq
+    sq += sq
+    sq *= t <= t_min
+    t += sq
+    miss |= t <= t_min
+    return _miss(t, miss)
 
 
 def closest_quadrics(c: np.ndarray, minv: np.ndarray | None, r2: np.ndarray, O: np.ndarray,

@@ -21,17 +21,22 @@ the unit geometric normal, which follows Mitsuba: ``M^-T`` of the object normal 
 analytic shapes (rectangle, disk, sphere, ellipsoid), the winding ``e1 x e2`` for
 meshes (cube, obj), outward for closed shapes, and reversed by ``flip_normals``.
 
-Every group works in two passes over a block of rays: a conservative *cull* of all
-(ray, primitive) pairs with thin matrix products ``[1, o] @ W`` (plane distance and
-``s, u`` of every primitive; for quadrics the discriminant of the bounding sphere,
-``b^2 - a (|o|^2 - 2 o.c + |c|^2 - r^2)``) and component-wise arithmetic, whose
-tolerances only admit extra pairs, then an exact per-pair test (the formulas above on
-differences ``o - v0``, or the stable quadratic roots in the unit-sphere frame), so a
-ray's hit does not depend on the block it is in.  Big planar groups (``obj`` meshes)
-replace the cull by a BVH (:mod:`vrlab.render.bvh`), so memory stays bounded.  Among
-exactly equal ``t`` (coincident surfaces) the first group (parallelograms, triangles,
-quadrics, disks) and then the lowest primitive wins.  Loops run over primitive groups and
-blocks, never over single rays.
+Groups of up to a few dozen primitives (every built-in scene) are tested *all pairs* in
+float32 (:mod:`vrlab.render.dense`: one contiguous row of rays per primitive, about 2.5x
+NumPy's float64 rate), which picks the closest primitive of each ray; then t, the
+point and the normal of that primitive are recomputed in float64.  Hit/miss decisions
+are therefore float32-accurate, as in Mitsuba's scalar variants: rays should start at
+least about 1e-5 (1 + |o|) off a surface (the renderer offsets them by that much), and
+rays within float32 rounding of an edge or of a second surface may pick either.
+Larger groups keep exact float64 decisions: ``obj`` meshes of at least 64 triangles
+use a BVH (:mod:`vrlab.render.bvh`), and more than 16 quadrics (many_lights' 128
+spheres) a conservative cull of all (ray, quadric) pairs with thin matrix products
+``[d, d.o] @ W`` (the discriminant of each bounding sphere, with a tolerance that only
+admits extra pairs) followed by the stable quadratic roots of the candidate pairs.
+Among equal ``t`` (coincident surfaces; in the float32 pass, t equal to about 1e-5
+relative) the first group (parallelograms, triangles, quadrics, disks) and then the
+lowest primitive wins.  Loops run over
+primitive groups and blocks, never over single rays.
 """
 from __future__ import annotations
 
@@ -40,8 +45,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._vec import dot as _dot
 from .._vec import norm
-
 from .bvh import BVH
 from .dense import closest_planes, closest_quadrics
 from .scene import Scene
@@ -70,15 +75,6 @@ class Hits(NamedTuple):
 def _unit(v: np.ndarray) -> np.ndarray:
     n = norm(v)[:, None]
     return v / np.where(n > 0, n, 1.0)
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
-
-
-def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a @ b`` of a thin ``a (N, k)``, k <= 5 (blocks: see ``_QUADRIC_ELEMS``)."""
-    return a @ b
 
 
 def _parallelograms(tri: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
@@ -197,6 +193,7 @@ class _Quadrics:
         gram = np.einsum("kab,kac->kbc", m, m)                   # M^T M = r^2 I for spheres
         spheres = np.allclose(gram, (r * r)[:, None, None] * np.eye(3), rtol=1e-12, atol=0)
         self.minv32 = None if spheres else self.minv.astype(np.float32)
+        self.radius = r if spheres else None
         self.r2_32 = (r * r if spheres else np.ones_like(r)).astype(np.float32)[:, None]
         self.use_dense = len(r) <= DENSE_QUADRICS
 
@@ -229,6 +226,8 @@ class _Quadrics:
     def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
         """float64 t (stable roots; the float32 t where a grazing ray misses in float64),
         shape and normal of the rays ``rows`` whose closest hit is quadric ``j``."""
+        if self.radius is not None:
+            return self._finish_spheres(o, d, t_min, rows, j, t, shape, normal)
         ol, dl, minv = self._local(o, d, rows, j)
         tt = _unit_sphere_hit(ol, dl, t_min)
         tt = np.where(np.isfinite(tt), tt, t32.astype(np.float64))
@@ -236,6 +235,26 @@ class _Quadrics:
         if not ok.all():
             rows, j, tt, ol, dl, minv = rows[ok], j[ok], tt[ok], ol[ok], dl[ok], minv[ok]
         t[rows], shape[rows], normal[rows] = tt, self.shape[j], self._normal(ol, dl, minv, j, tt)
+
+    def _finish_spheres(self, o, d, t_min, rows, j, t, shape, normal):
+        """``finish`` for spheres, in world space: b = (o - c).d / |d|^2, l = o - c - b d,
+        t = -b -/+ sqrt((r^2 - |l|^2) / |d|^2) (clamped at 0: the float32 pass said hit),
+        normal = sign (o + t d - c) / r."""
+        oc = np.take(o, rows, axis=0) - np.take(self.c, j, axis=0)
+        dd = np.take(d, rows, axis=0)
+        r = np.take(self.radius, j)
+        inva = 1.0 / _dot(dd, dd)
+        b = _dot(oc, dd) * inva
+        lv = oc - b[:, None] * dd
+        sq = np.sqrt(np.maximum(r * r - _dot(lv, lv), 0.0) * inva)
+        t1 = -b - sq
+        tt = np.where(t1 > t_min, t1, sq - b)
+        ok = tt > t_min
+        if not ok.all():
+            rows, j, tt, oc, dd, r = rows[ok], j[ok], tt[ok], oc[ok], dd[ok], r[ok]
+        oc += tt[:, None] * dd
+        oc *= (np.take(self.sign, j) / r)[:, None]
+        t[rows], shape[rows], normal[rows] = tt, np.take(self.shape, j), oc
 
     def closest(self, o, d, t_min, t, shape, normal):
         """Update the closest hits of a block of rays in place."""
@@ -250,9 +269,9 @@ class _Quadrics:
         do[:, 3] = _dot(o, d)
         ii, jj = [], []
         for r, sl in _blocks(len(o), len(self), _QUADRIC_ELEMS):
-            b = _mm(do[r], self.w_b[:, sl])               # b = d.(o - c)
+            b = do[r] @ self.w_b[:, sl]                   # b = d.(o - c)
             b *= b
-            b -= _mm(ao[r], self.w_c[:, sl])              # - a (|o - c|^2 - r^2): discriminant / 4
+            b -= ao[r] @ self.w_c[:, sl]                  # - a (|o - c|^2 - r^2): discriminant / 4
             i, j = _nonzero(b >= tol[r, None])
             ii.append(i + r.start)
             jj.append(j + sl.start)
@@ -362,6 +381,8 @@ class SceneGeometry:
     def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float = 0.0,
                   chunk: int = DEFAULT_RAY_CHUNK) -> Hits:
         """Closest hits with ``t > t_min`` of the rays ``origin + t direction`` (``(N, 3)``)."""
+        if not t_min >= 0:
+            raise ValueError(f"t_min must be >= 0, got {t_min!r}")
         o = np.asarray(origin, float).reshape(-1, 3)
         d = np.asarray(direction, float).reshape(-1, 3)
         o, d = np.broadcast_arrays(o, d)

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..points import Halton, Sobol, balanced_strata
 
 PIXEL_SAMPLERS = ("independent", "stratified", "sobol", "halton")
 
@@ -40,10 +39,12 @@ class PixelSampler:
         covered = sorted(k for g in self.groups for k in g)
         self.singles = [k for k in range(self.d) if k not in covered]
         if name in ("sobol", "halton"):
+            from ..points import Halton, Sobol         # imported on first use (import time)
             cls = Sobol if name == "sobol" else Halton
             seed = int(gen.integers(2**63))  # the shared set's scrambling, drawn once
             self.base = cls(self.d, scramble=True, rng=seed).random(self.spp)
         if name == "stratified":
+            from ..points import balanced_strata
             self.grids = {}
             for g in self.groups:
                 counts = balanced_strata(self.spp, len(g))
