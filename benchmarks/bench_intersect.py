@@ -109,7 +109,7 @@ def make_rays(scene, n, rng):
     m = h.shape >= 0
     w = rng.normal(size=(m.sum(), 3))
     w *= np.where(np.sum(w * h.n[m], -1) < 0, -1.0, 1.0)[:, None]
-    p = h.p[m] + 1e-7 * (1 + np.abs(h.p[m]).max(-1, keepdims=True)) * h.n[m]
+    p = h.p[m] + 1e-5 * (1 + np.abs(h.p[m]).max(-1, keepdims=True)) * h.n[m]
     return np.concatenate([o, p]), np.concatenate([d, w])
 
 

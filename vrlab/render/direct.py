@@ -214,7 +214,11 @@ class DirectLighting:
         group = np.where(shade, self.group_of_shape[shape], -1)
         for g in np.unique(group[shade]):
             m = np.flatnonzero(group == g)
-            out[m] += self.direct(g, hits.p[m], hits.n[m], -d[m], u[m])
+            if len(m) == len(out):                 # one group everywhere: no gathers
+                out += self.direct(g, hits.p, hits.n, -d, u)
+                continue
+            rows = [np.take(a, m, axis=0) for a in (hits.p, hits.n, d, u)]
+            out[m] += self.direct(g, rows[0], rows[1], -rows[2], rows[3])
         return out
 
     # ------------------------------------------------------------------ direct lighting
