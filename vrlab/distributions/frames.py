@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._vec import dot
+from .._vec import dot, scale
 from .._vec import norm as _norm
 
 from .base import Distribution, as_points
@@ -48,7 +48,10 @@ class Frame:
 
     def to_world(self, v: np.ndarray) -> np.ndarray:
         """Local directions ``v`` (+z = the normal) in world coordinates."""
-        return v[..., 0:1] * self.t + v[..., 1:2] * self.b + v[..., 2:3] * self.n
+        out = scale(self.t, v[..., 0])
+        out += scale(self.b, v[..., 1])
+        out += scale(self.n, v[..., 2])
+        return out
 
     def to_local(self, w: np.ndarray) -> np.ndarray:
         """Coordinates of world directions ``w`` in the frame (inverse of ``to_world``)."""

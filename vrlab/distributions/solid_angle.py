@@ -13,7 +13,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .._vec import dot, norm
+from .._vec import dot, norm, scale
 
 from .base import Distribution, as_points, as_uniforms, positive_float
 from .frames import to_local, to_world
@@ -135,7 +135,9 @@ class SphereCone(Distribution):
         d = norm(v)
         self.inside = d <= self.radius
         safe = np.where(d > 0, d, 1.0)
-        self.axis = np.where((d > 0)[..., None], v / safe[..., None], np.array([0.0, 0.0, 1.0]))
+        self.axis = scale(v, 1.0 / safe)
+        if not np.all(d > 0):
+            self.axis = np.where((d > 0)[..., None], self.axis, np.array([0.0, 0.0, 1.0]))
         ratio2 = np.where(self.inside, 1.0, (self.radius / safe) ** 2)
         self.one_minus_cos = np.where(self.inside, 2.0, ratio2 / (1.0 + np.sqrt(1.0 - ratio2)))
         self.cos_max = 1.0 - self.one_minus_cos
@@ -173,7 +175,7 @@ class SphereCone(Distribution):
         c = dot(o, o) - self.radius**2
         sq = np.sqrt(np.clip(b * b - c, 0.0, None))
         t = np.where(self.inside, -b + sq, -b - sq)
-        y = self.ref + t[..., None] * w
+        y = self.ref + scale(w, t)
         return LightSample(w, y, t, self.pdf(w))
 
     def _repr_fields(self):

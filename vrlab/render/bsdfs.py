@@ -35,6 +35,7 @@ import numpy as np
 
 from .._vec import dot as vdot
 from .._vec import norm as vnorm
+from .._vec import outer3, scale
 
 from ..distributions import GGX, CosineHemisphere, Mixture, PhongLobe
 from ..distributions.base import Distribution, as_points, as_uniforms, positive_float
@@ -56,7 +57,7 @@ __all__ = [
 
 def reflect(w: np.ndarray, m: np.ndarray) -> np.ndarray:
     """Mirror ``w`` about the unit axis ``m``: 2 (w·m) m - w (invariant under m -> -m)."""
-    return 2.0 * vdot(w, m)[..., None] * m - w
+    return scale(m, 2.0 * vdot(w, m)) - w
 
 
 def mirror(w: np.ndarray) -> np.ndarray:
@@ -114,7 +115,7 @@ class BSDFModel:
     def eval(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
         """f_r(wo, wi) cos(theta_i), RGB (..., 3); zero below either horizon."""
         wo, wi = _dirs(wo, wi)
-        return self.f(wo, wi) * np.clip(wi[..., 2:3], 0.0, None)
+        return scale(self.f(wo, wi), np.clip(wi[..., 2], 0.0, None))
 
     def distribution(self, wo: np.ndarray) -> BSDFDirections:
         """A vrlab distribution of wi for this ``wo`` (see the module notes on broadcasting)."""
@@ -152,8 +153,7 @@ class Diffuse(BSDFModel):
 
     def f(self, wo, wi):
         wo, wi = _dirs(wo, wi)
-        ok = ((wo[..., 2] > 0) & (wi[..., 2] > 0))[..., None]
-        return np.where(ok, self.reflectance * INV_PI, 0.0)
+        return outer3((wo[..., 2] > 0) & (wi[..., 2] > 0), self.reflectance * INV_PI)
 
     def pdf(self, wo, wi):
         wo, wi = _dirs(wo, wi)
@@ -266,9 +266,12 @@ class RoughConductor(BSDFModel):
     @staticmethod
     def _half(wo: np.ndarray, wi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         h = wo + wi
-        norm = vnorm(h)[..., None]
-        ok = norm[..., 0] > 0
-        return np.where(ok[..., None], h / np.where(norm > 0, norm, 1.0), np.array([0.0, 0.0, 1.0])), ok
+        norm = vnorm(h)
+        ok = norm > 0
+        h = scale(h, 1.0 / np.where(ok, norm, 1.0))
+        if not ok.all():
+            h = np.where(ok[..., None], h, np.array([0.0, 0.0, 1.0]))
+        return h, ok
 
     def f(self, wo, wi):
         wo, wi = _dirs(wo, wi)
@@ -277,12 +280,12 @@ class RoughConductor(BSDFModel):
         ok = ok & (cos_o > 0) & (cos_i > 0)
         denom = 4.0 * np.where(ok, cos_o * cos_i, 1.0)
         val = np.where(ok, self.D(m) * self.G(wi, wo, m) / denom, 0.0)
-        return val[..., None] * self.specular_reflectance
+        return outer3(val, self.specular_reflectance)
 
     def pdf(self, wo, wi):
         wo, wi = _dirs(wo, wi)
         h, ok = self._half(wo, wi)
-        h = np.where((h[..., 2] < 0)[..., None], -h, h)
+        h = scale(h, np.where(h[..., 2] < 0, -1.0, 1.0))
         dot = np.abs(vdot(wo, h))
         ok = ok & (dot > 0)
         return np.where(ok, self.normals.pdf(h) / (4.0 * np.where(ok, dot, 1.0)), 0.0)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._vec import norm
+from .._vec import norm, scale
 
 from .scene import Sensor
 
@@ -45,7 +45,7 @@ class Camera:
     def rays(self, film: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World ``(origins, unit directions)``, each ``(..., 3)``, of film positions ``(..., 2)``."""
         d = self.local_directions(film) @ self.rotation.T
-        d /= norm(d)[..., None]
+        d = scale(d, 1.0 / norm(d))
         return np.broadcast_to(self.origin, d.shape).copy(), d
 
     def pixel_rays(self, pixels: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

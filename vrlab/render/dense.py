@@ -29,7 +29,7 @@ import numpy as np
 
 __all__ = ["ELEMS", "closest_planes", "closest_quadrics"]
 
-ELEMS = 1 << 15          # (primitive, ray) pairs per block (float32: 128 KB temporaries)
+ELEMS = 1 << 16          # (primitive, ray) pairs per block (float32: 256 KB temporaries)
 F32 = np.float32
 BIG = np.array(0x7F000000, np.int32).view(F32)[()]   # 1.7e38 = "no hit" in the kernels
                                                      # (low mantissa bits 0: see _pick)

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._vec import dot
+from .._vec import dot, scale
 
 from ..distributions import CosineHemisphere, Frame, UniformHemisphere, to_local
 from ..estimators.mis import mis_weights
@@ -87,7 +87,7 @@ def lambertian_albedo(bsdf: BSDFModel) -> np.ndarray:
 def _safe_ratio(num: np.ndarray, pdf: np.ndarray) -> np.ndarray:
     """num / pdf[..., None], 0 where the pdf is 0 or not finite."""
     ok = (pdf > 0) & np.isfinite(pdf)
-    return np.where(ok[..., None], num / np.where(ok, pdf, 1.0)[..., None], 0.0)
+    return scale(num, np.where(ok, 1.0 / np.where(ok, pdf, 1.0), 0.0))
 
 
 class UniformLayout:
@@ -192,7 +192,7 @@ class DirectLighting:
     def emitted(self, hits, d: np.ndarray) -> np.ndarray:
         """One-sided emitted radiance ``(N, 3)`` seen along ``d`` at ``hits``."""
         front = (hits.shape >= 0) & (dot(hits.n, d) < 0)
-        return np.where(front[:, None], self.radiance[np.maximum(hits.shape, 0)], 0.0)
+        return scale(np.take(self.radiance, np.maximum(hits.shape, 0), axis=0), front)
 
     def trace(self, p: np.ndarray, n: np.ndarray, w: np.ndarray):
         """Closest hits of rays leaving surface points ``p`` (normal ``n``) along ``w``,
@@ -200,7 +200,7 @@ class DirectLighting:
         side = np.where(dot(w, n) < 0, -1.0, 1.0)
         a = np.abs(p)
         offset = self.eps * (1.0 + np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])) * side
-        hits = self.geometry.intersect(p + offset[:, None] * n, w)
+        hits = self.geometry.intersect(p + scale(n, offset), w)
         return hits, self.emitted(hits, w)
 
     def radiance_of(self, o: np.ndarray, d: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -227,7 +227,7 @@ class DirectLighting:
         ``self.bsdfs[k]`` (BSDF group ``k``, see ``group_of_shape``)."""
         bsdf = self.bsdfs[k]
         if self.twosided[k]:
-            n = np.where((dot(wo, n) < 0)[:, None], -n, n)
+            n = scale(n, np.where(dot(wo, n) < 0, -1.0, 1.0))
         fr = Frame(n)                                   # one shading frame per point
         wo_l = fr.to_local(wo)
         s, lay, n_b, n_l = self.strategy, self.layout, self.n_b, self.n_l
@@ -254,14 +254,14 @@ class DirectLighting:
         if n_l:
             q_b_at_l = bsdf.pdf(tl[2], wi_l) if n_b else np.zeros_like(q_l)
             w_l = mis_weights(np.stack([n_l * q_l, n_b * q_b_at_l], -1), heuristic)[:, 0]
-            out += _mean_of(w_l[:, None] * _safe_ratio(f_l * le_l, q_l), n_l)
+            out += _mean_of(scale(_safe_ratio(f_l * le_l, q_l), w_l), n_l)
         if n_b:
             pb = _tile(p, n_b)
             u2 = _stack(u, [lay.bsdf(i) for i in range(n_b)])
             f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, pb, fr.tile(n_b), _tile(wo_l, n_b), u2)
             q_l_at_b = self.light_pdf(pb, wi_b, hits_b)
             w_b = mis_weights(np.stack([n_l * q_l_at_b, n_b * q_b], -1), heuristic)[:, 1]
-            out += _mean_of(w_b[:, None] * _safe_ratio(f_b * le_b, q_b), n_b)
+            out += _mean_of(scale(_safe_ratio(f_b * le_b, q_b), w_b), n_b)
         return out
 
     def _mixture(self, bsdf, p, fr, wo_l, u):
@@ -301,8 +301,8 @@ class DirectLighting:
         pick = res.y[:, 0].astype(np.int64)
         hits, le = self.trace(pr, nr, w[pick])
         hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
-        le = np.where(((hits.shape >= 0) & (hit_light == j[pick]))[:, None], le, 0.0)
-        value = bsdf.eval(wor, wi_l[pick]) * le * res.W[:, None]
+        le = scale(le, (hits.shape >= 0) & (hit_light == j[pick]))
+        value = scale(bsdf.eval(wor, wi_l[pick]) * le, res.W)
         return _mean_of(value, n_l)
 
     def _control_variate(self, bsdf, p, n, wi_l, j, f_l, le_l, q_l):
@@ -332,7 +332,7 @@ class DirectLighting:
         j, w, pdf, _ = self.lights.sample(p, u3)
         hits, le = self.trace(p, fr.n, w)
         hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
-        le = np.where(((hits.shape >= 0) & (hit_light == j))[:, None], le, 0.0)
+        le = scale(le, (hits.shape >= 0) & (hit_light == j))
         wi_l = fr.to_local(w)
         return bsdf.eval(wo_l, wi_l), le, pdf, wi_l, j
 

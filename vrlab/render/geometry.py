@@ -46,7 +46,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._vec import dot as _dot
-from .._vec import norm
+from .._vec import norm, scale
 from .bvh import BVH
 from .dense import closest_planes, closest_quadrics
 from .scene import Scene
@@ -73,8 +73,8 @@ class Hits(NamedTuple):
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
-    n = norm(v)[:, None]
-    return v / np.where(n > 0, n, 1.0)
+    n = norm(v)
+    return scale(v, 1.0 / np.where(n > 0, n, 1.0))
 
 
 def _parallelograms(tri: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
@@ -245,16 +245,15 @@ class _Quadrics:
         r = np.take(self.radius, j)
         inva = 1.0 / _dot(dd, dd)
         b = _dot(oc, dd) * inva
-        lv = oc - b[:, None] * dd
+        lv = oc - scale(dd, b)
         sq = np.sqrt(np.maximum(r * r - _dot(lv, lv), 0.0) * inva)
         t1 = -b - sq
         tt = np.where(t1 > t_min, t1, sq - b)
         ok = tt > t_min
         if not ok.all():
             rows, j, tt, oc, dd, r = rows[ok], j[ok], tt[ok], oc[ok], dd[ok], r[ok]
-        oc += tt[:, None] * dd
-        oc *= (np.take(self.sign, j) / r)[:, None]
-        t[rows], shape[rows], normal[rows] = tt, np.take(self.shape, j), oc
+        oc += scale(dd, tt)
+        t[rows], shape[rows], normal[rows] = tt, np.take(self.shape, j), scale(oc, np.take(self.sign, j) / r)
 
     def closest(self, o, d, t_min, t, shape, normal):
         """Update the closest hits of a block of rays in place."""
@@ -395,7 +394,7 @@ class SceneGeometry:
             self._closest(np.ascontiguousarray(o[sl]), np.ascontiguousarray(d[sl]), t_min,
                           t[sl], shape[sl], normal[sl])
         hit = shape >= 0
-        p = np.where(hit[:, None], o + np.where(hit, t, 0.0)[:, None] * d, 0.0)
+        p = scale(o + scale(d, np.where(hit, t, 0.0)), hit)
         return Hits(t, shape, p, normal)
 
     def _closest(self, o, d, t_min, t, shape, normal):
