@@ -9,9 +9,10 @@ smallest float32 ``t > t_min`` per ray (inf on a miss) and the index of the prim
 :class:`~vrlab.render.geometry.SceneGeometry` recomputes t in float64 for the winner.
 
 * planes ``x = v0 + s e1 + u e2``: with the unit normal n and the dual basis a1, a2 of
-  (e1, e2) stacked as rows ``W = [n; a1; a2]`` and ``c = W v0``,
-  ``t = -(n.o - n.v0) / n.d``, ``s = a1.o - a1.v0 + t a1.d``, ``u`` likewise; a hit
-  needs s, u in [0, 1] (parallelograms) or s, u >= 0, s + u <= 1 (triangles);
+  (e1, e2), ``t = (n.v0 - n.o) / n.d``, ``s = a1.o - a1.v0 + t a1.d``, ``u`` likewise
+  (two small matrix products give every row); a hit needs s, u in [0, 1]
+  (parallelograms, tested as max(|s - 1/2|, |u - 1/2|) <= 1/2) or s, u >= 0, s + u <= 1
+  (triangles);
 * spheres: b = (o - c).d / |d|^2, l = (o - c) - b d (the point of closest approach),
   disc = r^2 - |l|^2 and t = -b -/+ sqrt(disc / |d|^2).  The perpendicular form keeps
   small, far spheres accurate in float32 (Haines et al., "Precision improvements for
@@ -27,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ELEMS", "closest_planes", "closest_quadrics"]
+__all__ = ["ELEMS", "closest_planes", "closest_quadrics", "plane_rows"]
 
 ELEMS = 1 << 16          # (primitive, ray) pairs per block (float32: 256 KB temporaries)
 F32 = np.float32
@@ -36,7 +37,7 @@ BIG = np.array(0x7F000000, np.int32).view(F32)[()]   # 1.7e38 = "no hit" in the 
 
 
 def _rows(w: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``w (K, 3) @ x (3, n)`` as ``(K, n)`` (BLAS: about 4x faster than three broadcast
+    """``w (K, k) @ x (k, n)`` as ``(K, n)`` (BLAS: about 4x faster than broadcast
     multiply-adds; only the float32 winner depends on it, t is recomputed in float64)."""
     return w @ x
 
@@ -73,31 +74,43 @@ def _blocks(n: int, rows: int):
         yield slice(a, min(a + step, n))
 
 
-def closest_planes(w: np.ndarray, c: np.ndarray, para: bool, O: np.ndarray, D: np.ndarray,
+def plane_rows(n: np.ndarray, a1: np.ndarray, a2: np.ndarray, v0: np.ndarray, para: bool):
+    """float32 ``(wo (3P, 4), wd (3P, 3))`` for :func:`closest_planes`: ``wo @ [o; 1]`` gives
+    the rows ``n.v0 - n.o``, ``a1.o - a1.v0 - h`` and ``a2.o - a2.v0 - h`` (h = 1/2 for
+    parallelograms, so s and u come out centred, else 0) and ``wd @ d`` gives n.d, a1.d, a2.d."""
+    h = 0.5 if para else 0.0
+    c = np.concatenate([np.sum(n * v0, -1), -np.sum(a1 * v0, -1) - h, -np.sum(a2 * v0, -1) - h])
+    wd = np.concatenate([n, a1, a2])
+    wo = np.concatenate([np.concatenate([-n, a1, a2]), c[:, None]], axis=1)
+    return wo.astype(F32), wd.astype(F32)
+
+
+def closest_planes(wo: np.ndarray, wd: np.ndarray, para: bool, O: np.ndarray, D: np.ndarray,
                    t_min: float) -> tuple[np.ndarray, np.ndarray]:
-    """``(t, j)`` of P planar primitives: ``w (3P, 3)`` rows n, a1, a2 and ``c = w v0``
-    (``(3P, 1)``), all float32; parallelograms if ``para`` else triangles."""
+    """``(t, j)`` of P planar primitives (``wo``, ``wd`` from :func:`plane_rows`) for rays
+    ``O (4, N)`` (origins with a row of ones) and ``D (3, N)``; parallelograms if ``para``
+    (hit: |s - 1/2|, |u - 1/2| <= 1/2) else triangles (s, u >= 0, s + u <= 1)."""
     n = O.shape[1]
-    p = len(w) // 3
+    p = len(wd) // 3
     t_out, j_out = np.empty(n, F32), np.empty(n, np.int64)
     with np.errstate(divide="ignore", invalid="ignore"):
         for b in _blocks(n, 3 * p):
-            ow = _rows(w, O[:, b])
-            ow -= c
-            dw = _rows(w, D[:, b])
+            ow = _rows(wo, O[:, b])
+            dw = _rows(wd, D[:, b])
             t = ow[:p]
             t /= dw[:p]
-            np.negative(t, out=t)
             s, u = dw[p:2 * p], dw[2 * p:]
             s *= t
             s += ow[p:2 * p]
             u *= t
             u += ow[2 * p:]
             bad = t <= t_min
-            bad |= np.minimum(s, u, out=ow[p:2 * p]) < 0
             if para:
-                bad |= np.maximum(s, u, out=ow[2 * p:]) > 1
+                np.abs(s, out=s)
+                np.abs(u, out=u)
+                bad |= np.maximum(s, u, out=s) > 0.5
             else:
+                bad |= np.minimum(s, u, out=ow[p:2 * p]) < 0
                 s += u
                 bad |= s > 1
             t_out[b], j_out[b] = _pick(_miss(t, bad))

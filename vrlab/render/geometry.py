@@ -48,7 +48,7 @@ import numpy as np
 from .._vec import dot as _dot
 from .._vec import norm, scale
 from .bvh import BVH
-from .dense import closest_planes, closest_quadrics
+from .dense import closest_planes, closest_quadrics, plane_rows
 from .scene import Scene
 
 __all__ = ["DEFAULT_RAY_CHUNK", "Hits", "SceneGeometry"]
@@ -121,9 +121,7 @@ class _Planar:
         self.a1 = np.cross(e2, m) / m2[:, None]
         self.a2 = np.cross(m, e1) / m2[:, None]
         self.packed = np.concatenate([v0, self.n, self.a1, self.a2], axis=1)
-        w = np.concatenate([self.n, self.a1, self.a2])                 # float32 rows (.dense)
-        self.w32 = w.astype(np.float32)
-        self.c32 = np.sum(w * np.concatenate([v0, v0, v0]), -1, keepdims=True).astype(np.float32)
+        self.rows32 = plane_rows(self.n, self.a1, self.a2, v0, para)      # float32 (.dense)
         p = len(v0)
         self.bvh = BVH(np.stack([v0, v0 + e1, v0 + e2] + ([v0 + e1 + e2] if para else []),
                                 axis=1)) if p >= _BVH_MIN_PRIMS else None
@@ -133,7 +131,7 @@ class _Planar:
 
     def dense(self, O: np.ndarray, D: np.ndarray, t_min: float):
         """float32 ``(t, j)`` of every ray against every primitive (:mod:`.dense`)."""
-        return closest_planes(self.w32, self.c32, self.para, O, D, t_min)
+        return closest_planes(*self.rows32, self.para, O, D, t_min)
 
     def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
         """float64 plane t, shape and normal of the rays ``rows`` whose closest hit is
@@ -221,7 +219,7 @@ class _Quadrics:
 
     def dense(self, O: np.ndarray, D: np.ndarray, t_min: float):
         """float32 ``(t, j)`` of every ray against every quadric (:mod:`.dense`)."""
-        return closest_quadrics(self.c32, self.minv32, self.r2_32, O, D, t_min)
+        return closest_quadrics(self.c32, self.minv32, self.r2_32, O[:3], D, t_min)
 
     def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
         """float64 t (stable roots; the float32 t where a grazing ray misses in float64),
@@ -403,7 +401,9 @@ class SceneGeometry:
         if self.quadrics is not None and self.quadrics.use_dense:
             dense.append(self.quadrics)
         if dense:                      # float32 all pairs: the winner, then its float64 hit
-            rows32 = (np.ascontiguousarray(o.T, dtype=np.float32), np.ascontiguousarray(d.T, dtype=np.float32))
+            o4 = np.ones((4, len(o)), np.float32)             # [o; 1] and d as float32 rows
+            o4[:3] = o.T
+            rows32 = (o4, np.ascontiguousarray(d.T, dtype=np.float32))
             best = np.full(len(o), np.inf, np.float32)
             group, prim = np.full(len(o), -1), np.zeros(len(o), np.int64)
             for k, g in enumerate(dense):
