@@ -42,7 +42,6 @@ from __future__ import annotations
 import numpy as np
 
 from .._vec import dot, scale
-
 from ..distributions import CosineHemisphere, Frame, UniformHemisphere, to_local
 from ..estimators.mis import mis_weights
 from ..estimators.ris import Reservoir
