@@ -1,6 +1,8 @@
 """SceneGeometry.intersect against a plain per-primitive reference (vrlab.render.geometry, bvh)."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -304,3 +306,18 @@ def test_frames_and_vector_helpers():
     np.testing.assert_array_equal(fr.take(idx).to_local(w[idx]), loc[idx])
     np.testing.assert_array_equal(fr.tile(2).to_local(np.concatenate([w, w])), np.concatenate([loc, loc]))
     assert fr.tile(1) is fr
+
+
+def test_ray_inside_a_plane_does_not_block_hits_behind():
+    """A ray lying in a rectangle's plane gives t = 0/0 = NaN for it; that must be a miss
+    (not t = 0), so the rectangle behind is found."""
+    sc = _scene('<shape type="rectangle"/>'
+                '<shape type="rectangle"><transform name="to_world"><rotate y="1" angle="-90"/>'
+                '<translate x="3"/></transform></shape>'
+                '<shape type="sphere"><point name="center" x="0" y="5" z="0"/><float name="radius" value="1"/></shape>')
+    geo = SceneGeometry(sc)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                      # and no floating-point warnings
+        h = geo.intersect(np.array([[-5.0, 0.0, 0.0], [0.0, 5.0, 5.0]]), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0]]))
+    np.testing.assert_array_equal(h.shape, [1, 2])
+    np.testing.assert_allclose(h.t, [8.0, 4.0])

@@ -4,7 +4,8 @@ For a few primitives (the built-in scenes have 2-18 planar ones and up to a few
 quadrics) testing every (primitive, ray) pair is faster in NumPy than culling, if the
 arrays are laid out ``(primitives, rays)`` so that every ufunc runs over a long
 contiguous row, and in float32 (about 2.5x the float64 element rate on the 2-core test
-machine).  Rays come as rows ``O, D`` of shape ``(3, N)``.  Each kernel returns the
+machine).  Rays come as rows: origins ``O`` (``(4, N)`` with a row of ones for planes,
+``(3, N)`` for quadrics) and directions ``D (3, N)``.  Each kernel returns the
 smallest float32 ``t > t_min`` per ray (inf on a miss) and the index of the primitive;
 :class:`~vrlab.render.geometry.SceneGeometry` recomputes t in float64 for the winner.
 
@@ -21,8 +22,11 @@ smallest float32 ``t > t_min`` per ray (inf on a miss) and the index of the prim
   ``M^-1 (o - c)``, ``M^-1 d``.
 
 Rays are processed in blocks of about ``ELEMS`` pairs so that the temporaries stay in
-the cache.  Every value is computed per pair, so a ray's result does not depend on the
-block it is in.
+the cache.  Values are computed per pair; only the BLAS products could in principle round
+differently for different block widths, and they only feed the float32 choice of the
+primitive (the tests compare different chunkings bit for bit).  A NaN t (0/0: a ray
+lying in a plane) counts as a miss: the int32 view of x86's default NaN is negative and
+would otherwise win the packed minimum.
 """
 from __future__ import annotations
 
@@ -104,7 +108,8 @@ def closest_planes(wo: np.ndarray, wd: np.ndarray, para: bool, O: np.ndarray, D:
             s += ow[p:2 * p]
             u *= t
             u += ow[2 * p:]
-            bad = t <= t_min
+            bad = t > t_min
+            np.logical_not(bad, out=bad)               # NaN (0/0: a ray inside the plane) is a miss
             if para:
                 np.abs(s, out=s)
                 np.abs(u, out=u)
@@ -145,7 +150,7 @@ def _sphere_roots(ox, oy, oz, dx, dy, dz, r2, t_min):
     sq += sq
     sq *= t <= t_min
     t += sq
-    miss |= t <= t_min
+    miss |= ~(t > t_min)                       # NaN is a miss too
     return _miss(t, miss)
 
 
