@@ -17,7 +17,7 @@ estimator                technique                                         modul
 ``RIS``                  resampled importance sampling, reservoirs         ``ris``
 =======================  ================================================  ====================
 """
-import importlib
+from .._lazy import lazy_attributes
 
 # name -> submodule; loaded on first use (PEP 562) so that ``import vrlab.render``, which
 # needs only ``mis`` and ``ris``, does not pay for every estimator module
@@ -38,13 +38,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
-    if name in _WHERE:
-        value = getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_attributes(__name__, _WHERE, __all__)

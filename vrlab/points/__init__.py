@@ -19,7 +19,7 @@ class                  points                          module
 Helpers: :func:`make_points` (by name), :func:`replicates` (independent randomised
 copies, seeds from ``SeedSequence.spawn``), :func:`discrepancy`, :func:`radical_inverse`.
 """
-import importlib
+from .._lazy import lazy_attributes
 
 # name -> submodule, loaded on first use (PEP 562: ``import vrlab.render`` needs none)
 _WHERE = {
@@ -49,13 +49,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str):
-    if name in _WHERE:
-        value = getattr(importlib.import_module(f".{_WHERE[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_attributes(__name__, _WHERE, __all__)
