@@ -14,7 +14,6 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .._vec import dot, norm, scale
-
 from .base import Distribution, as_points, as_uniforms, positive_float
 from .frames import to_local, to_world
 from .surfaces import TWO_PI, Surface, _sphere_to_u, _unit
@@ -68,9 +67,13 @@ class SolidAngleFromArea(Distribution):
     def _directions(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         y = self.surface.sample(u)
         v = y - self.ref
-        dist = np.linalg.norm(v, axis=-1)
-        w = v / np.where(dist > 0, dist, 1.0)[..., None]
-        return w, y, dist
+        dist = norm(v)
+        return scale(v, 1.0 / np.where(dist > 0, dist, 1.0)), y, dist
+
+    def _term(self, y: np.ndarray, w: np.ndarray, dist2: np.ndarray) -> np.ndarray:
+        """p_A(y) |y - ref|^2 / |cos theta| of points ``y`` met along unit ``w`` (0 at grazing)."""
+        cos = np.abs(dot(self.surface.normal(y), w))
+        return np.where(cos > 0, self.surface.pdf(y) * dist2 / np.where(cos > 0, cos, 1.0), 0.0)
 
     def sample(self, u: np.ndarray) -> np.ndarray:
         return self._directions(u)[0]
@@ -81,10 +84,13 @@ class SolidAngleFromArea(Distribution):
         hit = np.isfinite(t)
         tt = np.where(hit, t, 0.0)
         y = self.ref[..., None, :] + tt[..., None] * w[..., None, :]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            cos = np.abs(np.sum(self.surface.normal(y) * w[..., None, :], -1))
-            term = self.surface.pdf(y) * tt * tt / cos
-        return np.sum(np.where(hit, term, 0.0), -1)
+        return np.sum(np.where(hit, self._term(y, w[..., None, :], tt * tt), 0.0), -1)
+
+    def pdf_at(self, y: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """``pdf(w)`` for a surface met once per direction (``max_hits == 1``), given the
+        point ``y`` where the ray (ref, w) meets it: no intersection needed."""
+        v = y - self.ref
+        return self._term(y, scale(w, 1.0 / norm(w)), dot(v, v))
 
     def sample_pdf(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         s = self.sample_point(u)
@@ -92,8 +98,11 @@ class SolidAngleFromArea(Distribution):
 
     def sample_point(self, u: np.ndarray) -> LightSample:
         """``LightSample(w, y, dist, pdf)``: direction, sampled light point, its distance
-        from ``ref`` and the solid-angle pdf of ``w`` (sum over all hits)."""
+        from ``ref`` and the solid-angle pdf of ``w`` (sum over all hits; for surfaces met
+        once per direction, the sampled point's own term)."""
         w, y, dist = self._directions(u)
+        if getattr(self.surface, "max_hits", 2) == 1:
+            return LightSample(w, y, dist, self._term(y, w, dist * dist))
         return LightSample(w, y, dist, self.pdf(w))
 
     def _repr_fields(self):

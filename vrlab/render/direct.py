@@ -339,7 +339,7 @@ class DirectLighting:
         """P_k p_k(w): selection probability x solid-angle pdf of the light ``hits`` belong to
         (0 where no light is hit)."""
         j = np.where(hits.shape >= 0, self.light_of_shape[np.maximum(hits.shape, 0)], -1)
-        return self.lights.pdf(p, w, j, hits.p, hits.n)
+        return self.lights.pdf(p, w, j, hits.p)
 
 
 def __getattr__(name: str):

@@ -20,8 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._vec import dot, norm, scale
-
+from .._vec import dot, norm
 from ..distributions import (
     AliasTable,
     BoxSurface,
@@ -123,31 +122,21 @@ class Light:
             cone = SphereCone(self.sphere[0], self.sphere[1], ref)
             w = cone.sample(u)
             return w, cone.pdf(w), np.ones(len(w), bool)
-        if self.planar:                    # one hit per direction: the sampled point itself
-            y = self.surface.sample(u)
-            v = y - ref
-            dist = norm(v)
-            w = scale(v, 1.0 / np.where(dist > 0, dist, 1.0))
-            nrm = self.surface.normal(y)
-            return w, self._planar_pdf(dist * dist, dot(nrm, w)), dot(v, nrm) < 0
         s = self.surface.solid_angle_from(ref).sample_point(u)
-        return s.w, s.pdf, np.ones(len(s.w), bool)
+        if self.planar:
+            front = dot(ref - s.y, self.surface.normal(s.y)) > 0
+        else:
+            front = np.ones(len(s.w), bool)
+        return s.w, s.pdf, front
 
-    def _planar_pdf(self, dist2: np.ndarray, cos: np.ndarray) -> np.ndarray:
-        """p_w = p_A d^2 / |cos theta_l| with p_A = 1 / area (0 at grazing angles)."""
-        cos = np.abs(cos)
-        return np.where(cos > 0, dist2 / (self.area * np.where(cos > 0, cos, 1.0)), 0.0)
-
-    def pdf(self, ref: np.ndarray, w: np.ndarray, hit_p: np.ndarray | None = None,
-            hit_n: np.ndarray | None = None) -> np.ndarray:
-        """Solid-angle pdf of directions ``w`` from ``ref``.  For planar lights, ``hit_p`` /
-        ``hit_n`` (the point and normal where the rays ``(ref, w)`` met this light, from the
-        renderer's trace) replace a second intersection."""
+    def pdf(self, ref: np.ndarray, w: np.ndarray, hit_p: np.ndarray | None = None) -> np.ndarray:
+        """Solid-angle pdf of directions ``w`` from ``ref``.  For planar lights, ``hit_p``
+        (where the rays ``(ref, w)`` met this light, from the renderer's trace) replaces a
+        second intersection."""
         if self.sphere is not None:
             return SphereCone(self.sphere[0], self.sphere[1], ref).pdf(w)
         if self.planar and hit_p is not None:
-            v = hit_p - ref
-            return self._planar_pdf(dot(v, v), dot(hit_n, w) / norm(w))
+            return self.surface.solid_angle_from(ref).pdf_at(hit_p, w)
         return self.surface.solid_angle_from(ref).pdf(w)
 
     def cos_integral(self, ref: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -224,10 +213,9 @@ class LightSet:
             w[m], pdf[m], front[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
         return j, w, pdf * self.selection.pmf(j), front
 
-    def pdf(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray, hit_p: np.ndarray | None = None,
-            hit_n: np.ndarray | None = None) -> np.ndarray:
-        """P_j p_j(w) for light indices ``j`` (-1: no light, density 0); ``hit_p``/``hit_n``:
-        where each ray met light j, if known (see :meth:`Light.pdf`)."""
+    def pdf(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray, hit_p: np.ndarray | None = None) -> np.ndarray:
+        """P_j p_j(w) for light indices ``j`` (-1: no light, density 0); ``hit_p``: where
+        each ray met light j, if known (see :meth:`Light.pdf`)."""
         out = np.zeros(len(ref))
         has = j >= 0
         sph = has & self.is_sphere[np.maximum(j, 0)]
@@ -236,8 +224,7 @@ class LightSet:
             out[m] = SphereCone(self.centers[j[m]], self.radii[j[m]], ref[m]).pdf(w[m])
         for i in np.unique(j[has & ~sph]):
             m = np.flatnonzero(j == i)
-            hit = (None, None) if hit_p is None else (hit_p[m], hit_n[m])
-            out[m] = self.lights[i].pdf(ref[m], w[m], *hit)
+            out[m] = self.lights[i].pdf(ref[m], w[m], None if hit_p is None else hit_p[m])
         return out * np.where(has, self.selection.pmf(np.maximum(j, 0)), 0.0)
 
     def cos_integrals(self, ref: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
