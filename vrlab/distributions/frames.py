@@ -12,7 +12,6 @@ import numpy as np
 
 from .._vec import dot, scale
 from .._vec import norm as _norm
-
 from .base import Distribution, as_points
 
 

@@ -37,16 +37,11 @@ from ..points.base import check_int
 from .base import DEFAULT_CHUNK, Estimator, check_n
 
 
-def _is_scipy_engine_class(points: Any) -> bool:
-    from scipy.stats import qmc  # imported here: scipy.stats costs ~0.8 s to import
-
-    return isinstance(points, type) and issubclass(points, qmc.QMCEngine)
-
-
-def _is_scipy_engine(points: Any) -> bool:
+def _qmc_engine_type() -> type:
+    """``scipy.stats.qmc.QMCEngine`` (imported on use: scipy.stats costs ~0.8 s to import)."""
     from scipy.stats import qmc
 
-    return isinstance(points, qmc.QMCEngine)
+    return qmc.QMCEngine
 
 
 def t_interval(estimate: Estimate, level: float = 0.95) -> tuple:
@@ -112,9 +107,9 @@ class RQMC(Estimator):
             template = make_points(points, d, rng=0)
         elif isinstance(points, type) and issubclass(points, PointSet):
             template = points(d, rng=0)
-        elif _is_scipy_engine_class(points):
+        elif isinstance(points, type) and issubclass(points, _qmc_engine_type()):
             return replicates(points, R, rng=rng, d=d), "scipy"
-        elif _is_scipy_engine(points):
+        elif isinstance(points, _qmc_engine_type()):
             raise TypeError("points: a scipy.stats.qmc engine instance cannot be re-randomized; pass its class "
                             "or a factory rng -> engine")
         elif isinstance(points, np.ndarray):

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .._rng import unit_seed  # noqa: F401  (re-exported: the lab's seed per work unit)
+from .._rng import unit_seed
 from . import registry
 
 CORE_COLUMNS = ["estimator", "integrand", "n", "rep", "value", "stderr", "exact", "error", "seconds",

@@ -36,7 +36,6 @@ import numpy as np
 from .._vec import dot as vdot
 from .._vec import norm as vnorm
 from .._vec import outer3, scale
-
 from ..distributions import GGX, CosineHemisphere, Mixture, PhongLobe
 from ..distributions.base import Distribution, as_points, as_uniforms, positive_float
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 import numpy as np
 
 from .._vec import norm, scale
-
 from .scene import Sensor
 
 __all__ = ["Camera"]
