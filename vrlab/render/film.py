@@ -16,6 +16,7 @@ from typing import Callable
 
 import numpy as np
 
+from .._alloc import keep_freed_memory
 from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Moments
 from ..points.base import check_int
@@ -34,6 +35,7 @@ class _Job:
 
     def __init__(self, scene, spp, strategy, pixel_sampler, light_selection, chunk_pixels, root, options,
                  integrator: DirectLighting | None = None):
+        keep_freed_memory()             # reuse freed ray temporaries (see vrlab._alloc)
         self.integrator = integrator or DirectLighting(scene, strategy, light_selection, **options)
         self.spp, self.root, self.chunk = spp, root, chunk_pixels
         self.width, self.n_pixels = scene.sensor.width, scene.sensor.width * scene.sensor.height
