@@ -16,17 +16,26 @@ from typing import Any
 import numpy as np
 
 
+def as_float(x: Any) -> np.ndarray:
+    """``x`` as a float64 array, or as it is if it is a float32 array (the renderer's
+    vectors are float32; everything else computes in float64)."""
+    x = np.asarray(x)
+    return x if x.dtype == np.float32 else x.astype(np.float64, copy=False)
+
+
 def as_points(x: Any, k: int, name: str = "x") -> np.ndarray:
-    """Check that ``x`` holds points of a ``k``-dimensional domain: shape ``(..., k)``."""
-    x = np.asarray(x, dtype=float)
+    """Check that ``x`` holds points of a ``k``-dimensional domain: shape ``(..., k)``
+    (float64, or float32 kept: see :func:`as_float`)."""
+    x = as_float(x)
     if x.ndim == 0 or x.shape[-1] != k:
         raise ValueError(f"{name}: expected shape (..., {k}), got {x.shape}")
     return x
 
 
 def as_uniforms(u: Any, dim_u: int) -> np.ndarray:
-    """Check that ``u`` has shape ``(..., dim_u)`` (values are not range-checked: hot path)."""
-    u = np.asarray(u, dtype=float)
+    """Check that ``u`` has shape ``(..., dim_u)`` (values are not range-checked: hot path;
+    float32 is kept, see :func:`as_float`)."""
+    u = as_float(u)
     if u.ndim == 0 or u.shape[-1] != dim_u:
         raise ValueError(f"u: expected uniforms of shape (..., {dim_u}), got {u.shape}")
     return u

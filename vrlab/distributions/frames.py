@@ -12,7 +12,7 @@ import numpy as np
 
 from .._vec import dot, scale
 from .._vec import norm as _norm
-from .base import Distribution, as_points
+from .base import Distribution, as_float, as_points
 
 
 def normalize(v: np.ndarray, name: str = "axis") -> np.ndarray:
@@ -26,9 +26,10 @@ def normalize(v: np.ndarray, name: str = "axis") -> np.ndarray:
 
 def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Tangent ``t`` and bitangent ``b`` with ``(t, b, n)`` right-handed, for unit ``n``."""
-    n = np.asarray(n, dtype=float)
+    n = as_float(n)
     nx, ny, nz = n[..., 0], n[..., 1], n[..., 2]
-    s = np.where(nz >= 0.0, 1.0, -1.0)
+    one = n.dtype.type(1.0)
+    s = np.where(nz >= 0.0, one, -one)
     a = -1.0 / (s + nz)
     b = nx * ny * a
     t = np.stack([1.0 + s * nx * nx * a, s * b, -s * nx], axis=-1)
@@ -42,7 +43,7 @@ class Frame:
     three per shading point)."""
 
     def __init__(self, n: np.ndarray, t: np.ndarray | None = None, b: np.ndarray | None = None):
-        self.n = np.asarray(n, dtype=float)
+        self.n = as_float(n)
         self.t, self.b = orthonormal_basis(self.n) if t is None else (t, b)
 
     def to_world(self, v: np.ndarray) -> np.ndarray:

@@ -37,6 +37,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from .._rng import RNGLike, as_generator
+from ..distributions.base import as_float
 from ..estimate import Estimate, Moments
 from .base import DEFAULT_CHUNK, Estimator, check_n, point_engine, support_probe
 
@@ -72,7 +73,7 @@ def mis_weights(q: np.ndarray, heuristic: str | Callable = "balance", *, beta: f
     a callable ``q -> w``.  Where every q_k is 0 all weights are 0.
     """
     _check_heuristic(heuristic, HEURISTICS[:4])
-    q = np.asarray(q, dtype=float)
+    q = as_float(q)                     # float64, or the renderer's float32
     if callable(heuristic):
         return np.broadcast_to(np.asarray(heuristic(q), dtype=float), q.shape)
     beta, alpha = _check_beta_alpha(beta, alpha)

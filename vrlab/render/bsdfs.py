@@ -64,6 +64,12 @@ def mirror(w: np.ndarray) -> np.ndarray:
     return w * np.array([-1.0, -1.0, 1.0])
 
 
+def _sign(x: np.ndarray) -> np.ndarray:
+    """-1 where ``x < 0``, else 1, in ``x``'s dtype."""
+    one = x.dtype.type(1.0)
+    return np.where(x < 0, -one, one)
+
+
 def _rgb(value: Any, name: str) -> np.ndarray:
     v = np.asarray(value, dtype=float)
     if v.ndim == 0:
@@ -152,7 +158,7 @@ class Diffuse(BSDFModel):
 
     def f(self, wo, wi):
         wo, wi = _dirs(wo, wi)
-        return outer3((wo[..., 2] > 0) & (wi[..., 2] > 0), self.reflectance * INV_PI)
+        return outer3((wo[..., 2] > 0) & (wi[..., 2] > 0), self.reflectance * INV_PI, wo.dtype)
 
     def pdf(self, wo, wi):
         wo, wi = _dirs(wo, wi)
@@ -269,7 +275,7 @@ class RoughConductor(BSDFModel):
         ok = norm > 0
         h = scale(h, 1.0 / np.where(ok, norm, 1.0))
         if not ok.all():
-            h = np.where(ok[..., None], h, np.array([0.0, 0.0, 1.0]))
+            h = np.where(ok[..., None], h, np.array([0.0, 0.0, 1.0], h.dtype))
         return h, ok
 
     def f(self, wo, wi):
@@ -279,12 +285,12 @@ class RoughConductor(BSDFModel):
         ok = ok & (cos_o > 0) & (cos_i > 0)
         denom = 4.0 * np.where(ok, cos_o * cos_i, 1.0)
         val = np.where(ok, self.D(m) * self.G(wi, wo, m) / denom, 0.0)
-        return outer3(val, self.specular_reflectance)
+        return outer3(val, self.specular_reflectance, val.dtype)
 
     def pdf(self, wo, wi):
         wo, wi = _dirs(wo, wi)
         h, ok = self._half(wo, wi)
-        h = scale(h, np.where(h[..., 2] < 0, -1.0, 1.0))
+        h = scale(h, _sign(h[..., 2]))
         dot = np.abs(vdot(wo, h))
         ok = ok & (dot > 0)
         return np.where(ok, self.normals.pdf(h) / (4.0 * np.where(ok, dot, 1.0)), 0.0)

@@ -24,7 +24,8 @@ meshes (cube, obj), outward for closed shapes, and reversed by ``flip_normals``.
 Groups of up to a few dozen primitives (every built-in scene) are tested *all pairs* in
 float32 (:mod:`vrlab.render.dense`: one contiguous row of rays per primitive, about 2.5x
 NumPy's float64 rate), which picks the closest primitive of each ray; then t, the
-point and the normal of that primitive are recomputed in float64.  Hit/miss decisions
+point and the normal of that primitive are recomputed in float64, except for float32
+rays (the renderer's), which keep the float32 t and get float32 points and normals.  Hit/miss decisions
 are therefore float32-accurate, as in Mitsuba's scalar variants: rays should start at
 least about 1e-5 (1 + |o|) off a surface (the renderer offsets them by that much), and
 rays within float32 rounding of an edge or of a second surface may pick either.
@@ -53,7 +54,7 @@ from .scene import Scene
 
 __all__ = ["DEFAULT_RAY_CHUNK", "Hits", "SceneGeometry"]
 
-DEFAULT_RAY_CHUNK = 1 << 13   # rays per block
+DEFAULT_RAY_CHUNK = 1 << 15   # rays per block
 # (ray, primitive) pairs per culling block: cache sized, and small enough (N k P <= 2^18
 # for an (N, k) @ (k, P) product) that OpenBLAS stays single-threaded (much faster here)
 _QUADRIC_ELEMS = 1 << 15
@@ -70,6 +71,11 @@ class Hits(NamedTuple):
     shape: np.ndarray
     p: np.ndarray
     n: np.ndarray
+
+
+def _take64(a: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The rows ``rows`` of ``a`` as float64 (the float64 finish of float32 rays)."""
+    return np.take(a, rows, axis=0).astype(np.float64, copy=False)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -117,6 +123,7 @@ class _Planar:
         self.para = para
         self.v0, self.e1, self.e2 = v0, e1, e2
         self.normal, self.shape = normal[keep], shape[keep]
+        self.normal32 = self.normal.astype(np.float32)
         self.n = m / np.sqrt(m2)[:, None]
         self.a1 = np.cross(e2, m) / m2[:, None]
         self.a2 = np.cross(m, e1) / m2[:, None]
@@ -138,12 +145,17 @@ class _Planar:
         primitive ``j`` by the float32 pass (the in/out decision is that pass's)."""
         q = np.take(self.packed, j, axis=0)
         with np.errstate(divide="ignore", invalid="ignore"):
-            tt = -_dot(np.take(o, rows, axis=0) - q[:, :3], q[:, 3:6]) / _dot(np.take(d, rows, axis=0), q[:, 3:6])
+            tt = -_dot(_take64(o, rows) - q[:, :3], q[:, 3:6]) / _dot(_take64(d, rows), q[:, 3:6])
         ok = np.isfinite(tt) & (tt > t_min)
         if not ok.all():
             rows, j, tt = rows[ok], j[ok], tt[ok]
         t[rows], shape[rows] = tt, np.take(self.shape, j)
         normal[rows] = np.take(self.normal, j, axis=0)
+
+    def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal):
+        """``finish`` for float32 rays: the float32 pass's t and the primitive's normal."""
+        t[rows], shape[rows] = t32, np.take(self.shape, j)
+        normal[rows] = np.take(self.normal32, j, axis=0)
 
     def exact(self, rays, t_min, i, j):
         """Exact t (inf on a miss) of the pairs ``(i, j)``; ``rays = [o, d]`` ``(N, 6)``."""
@@ -192,6 +204,7 @@ class _Quadrics:
         spheres = np.allclose(gram, (r * r)[:, None, None] * np.eye(3), rtol=1e-12, atol=0)
         self.minv32 = None if spheres else self.minv.astype(np.float32)
         self.radius = r if spheres else None
+        self.inv_r32 = (self.sign / r).astype(np.float32)       # sign / r (spheres' finish32)
         self.r2_32 = (r * r if spheres else np.ones_like(r)).astype(np.float32)[:, None]
         self.use_dense = len(r) <= DENSE_QUADRICS
 
@@ -201,8 +214,8 @@ class _Quadrics:
     def _local(self, o, d, i, j):
         """Pair rays in the unit-sphere frames: ``M^-1 (o - c)``, ``M^-1 d``, and ``M^-1``."""
         minv = np.take(self.minv, j, axis=0)
-        oc = np.take(o, i, axis=0) - np.take(self.c, j, axis=0)
-        dd = np.take(d, i, axis=0)
+        oc = _take64(o, i) - np.take(self.c, j, axis=0)
+        dd = _take64(d, i)
         ol = minv[:, :, 0] * oc[:, 0:1] + minv[:, :, 1] * oc[:, 1:2] + minv[:, :, 2] * oc[:, 2:3]
         dl = minv[:, :, 0] * dd[:, 0:1] + minv[:, :, 1] * dd[:, 1:2] + minv[:, :, 2] * dd[:, 2:3]
         return ol, dl, minv
@@ -234,12 +247,22 @@ class _Quadrics:
             rows, j, tt, ol, dl, minv = rows[ok], j[ok], tt[ok], ol[ok], dl[ok], minv[ok]
         t[rows], shape[rows], normal[rows] = tt, self.shape[j], self._normal(ol, dl, minv, j, tt)
 
+    def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal):
+        """``finish`` for float32 rays: spheres keep the float32 pass's t, normal = sign
+        (o + t d - c) / r in float32; ellipsoids take the float64 ``finish``."""
+        if self.radius is None:
+            return self.finish(o, d, t_min, rows, j, t32, t, shape, normal)
+        x = np.take(o, rows, axis=0)
+        x += scale(np.take(d, rows, axis=0), t32)
+        x -= np.take(self.c32, j, axis=0)
+        t[rows], shape[rows], normal[rows] = t32, np.take(self.shape, j), scale(x, np.take(self.inv_r32, j))
+
     def _finish_spheres(self, o, d, t_min, rows, j, t, shape, normal):
         """``finish`` for spheres, in world space: b = (o - c).d / |d|^2, l = o - c - b d,
         t = -b -/+ sqrt((r^2 - |l|^2) / |d|^2) (clamped at 0: the float32 pass said hit),
         normal = sign (o + t d - c) / r."""
-        oc = np.take(o, rows, axis=0) - np.take(self.c, j, axis=0)
-        dd = np.take(d, rows, axis=0)
+        oc = _take64(o, rows) - np.take(self.c, j, axis=0)
+        dd = _take64(d, rows)
         r = np.take(self.radius, j)
         inva = 1.0 / _dot(dd, dd)
         b = _dot(oc, dd) * inva
@@ -377,22 +400,27 @@ class SceneGeometry:
     # ------------------------------------------------------------------ intersection
     def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float = 0.0,
                   chunk: int = DEFAULT_RAY_CHUNK) -> Hits:
-        """Closest hits with ``t > t_min`` of the rays ``origin + t direction`` (``(N, 3)``)."""
+        """Closest hits with ``t > t_min`` of the rays ``origin + t direction`` (``(N, 3)``).
+
+        float32 rays give float32 points and normals (t is float64 either way; it and the
+        normal are computed in float64 from the float32 ray), anything else float64."""
         if not t_min >= 0:
             raise ValueError(f"t_min must be >= 0, got {t_min!r}")
-        o = np.asarray(origin, float).reshape(-1, 3)
-        d = np.asarray(direction, float).reshape(-1, 3)
-        o, d = np.broadcast_arrays(o, d)
+        o, d = np.asarray(origin), np.asarray(direction)
+        dt = np.float32 if o.dtype == d.dtype == np.float32 else np.float64
+        o, d = np.broadcast_arrays(o.astype(dt, copy=False).reshape(-1, 3), d.astype(dt, copy=False).reshape(-1, 3))
         n_rays = len(d)
         t = np.full(n_rays, np.inf)
         shape = np.full(n_rays, -1, dtype=np.int64)
-        normal = np.zeros((n_rays, 3))
+        normal = np.zeros((n_rays, 3), dt)
         for a in range(0, n_rays, chunk):
             sl = slice(a, min(a + chunk, n_rays))
             self._closest(np.ascontiguousarray(o[sl]), np.ascontiguousarray(d[sl]), t_min,
                           t[sl], shape[sl], normal[sl])
         hit = shape >= 0
-        p = scale(o + scale(d, np.where(hit, t, 0.0)), hit)
+        p = o + scale(d, np.where(hit, t, 0.0).astype(dt, copy=False))
+        if not hit.all():
+            p[~hit] = 0.0
         return Hits(t, shape, p, normal)
 
     def _closest(self, o, d, t_min, t, shape, normal):
@@ -412,13 +440,17 @@ class SceneGeometry:
                 best[w], group[w], prim[w] = tg[w], k, jg[w]
             for k, g in enumerate(dense):
                 r = np.flatnonzero(group == k)
-                if len(r):
+                if len(r) and o.dtype == np.float32:       # float32 rays: float32 hits
+                    g.finish32(o, d, t_min, r, prim[r], best[r], t, shape, normal)
+                elif len(r):
                     g.finish(o, d, t_min, r, prim[r], best[r], t, shape, normal)
-        for g in self.planar:
-            if g.bvh is not None:
-                g.closest(o, d, t_min, t, shape, normal)
+        exact = [g for g in self.planar if g.bvh is not None]
         if self.quadrics is not None and not self.quadrics.use_dense:
-            self.quadrics.closest(o, d, t_min, t, shape, normal)
+            exact.append(self.quadrics)
+        if exact or self.disks:        # float64 decisions: float64 rays
+            o, d = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
+        for g in exact:
+            g.closest(o, d, t_min, t, shape, normal)
         for k, c, minv, n in self.disks:
             ol, dl = (o - c) @ minv.T, d @ minv.T
             with np.errstate(divide="ignore", invalid="ignore"):
