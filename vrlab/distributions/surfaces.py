@@ -237,7 +237,7 @@ class RectangleSurface(Surface):
 
     def sample(self, u: np.ndarray) -> np.ndarray:
         u = as_uniforms(u, 2)
-        return self.corner + u[..., 0:1] * self.edge1 + u[..., 1:2] * self.edge2
+        return u @ self._edges + self.corner          # corner + u1 e1 + u2 e2
 
     def pdf(self, x: np.ndarray) -> np.ndarray:
         x = as_points(x, 3)

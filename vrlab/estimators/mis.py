@@ -77,30 +77,22 @@ def mis_weights(q: np.ndarray, heuristic: str | Callable = "balance", *, beta: f
     if callable(heuristic):
         return np.broadcast_to(np.asarray(heuristic(q), dtype=float), q.shape)
     beta, alpha = _check_beta_alpha(beta, alpha)
+    # techniques on the first axis: NumPy is slow on a short last axis (the renderer has
+    # K = 2 for millions of rows), fast on rows of a contiguous (K, ...) array
+    qk = np.ascontiguousarray(np.moveaxis(q, -1, 0))
     if heuristic == "balance":
-        s = q
+        s = qk
     else:
-        mx = _last_axis(np.maximum, q)
+        mx = np.maximum.reduce(qk, axis=0)
         if heuristic == "power":
-            r = np.divide(q, mx, out=np.zeros_like(q), where=mx > 0)  # scaled: no overflow
+            r = np.divide(qk, mx, out=np.zeros_like(qk), where=mx > 0)  # scaled: no overflow
             s = r**beta
         elif heuristic == "maximum":
-            s = ((q >= mx) & (mx > 0)).astype(float)
+            s = ((qk >= mx) & (mx > 0)).astype(qk.dtype)
         else:  # cutoff
-            s = np.where(q >= alpha * mx, q, 0.0)
-    total = _last_axis(np.add, s)
-    return np.divide(s, total, out=np.zeros_like(s), where=total > 0)
-
-
-def _last_axis(op: np.ufunc, a: np.ndarray) -> np.ndarray:
-    """``op.reduce(a, -1, keepdims=True)``, column by column when the axis is short
-    (NumPy reduces a short last axis slowly: the renderer has K = 2 for millions of rows)."""
-    if a.shape[-1] > 8:
-        return op.reduce(a, axis=-1, keepdims=True)
-    out = a[..., 0].copy()
-    for k in range(1, a.shape[-1]):
-        op(out, a[..., k], out=out)
-    return out[..., None]
+            s = np.where(qk >= alpha * mx, qk, 0.0)
+    total = np.add.reduce(s, axis=0)
+    return np.moveaxis(np.divide(s, total, out=np.zeros_like(s), where=total > 0), 0, -1)
 
 
 def split_counts(n: int, fractions: np.ndarray, minimum: int = 2) -> np.ndarray:

@@ -226,11 +226,12 @@ class DirectLighting:
         shape = np.maximum(hits.shape, 0)
         shade = (hits.shape >= 0) & self.shaded[shape]
         group = np.where(shade, self.group_of_shape[shape], -1)
-        for g in np.unique(group[shade]):
-            m = np.flatnonzero(group == g)
-            if len(m) == len(out):                 # one group everywhere: no gathers
+        counts = np.bincount(group + 1, minlength=len(self.bsdfs) + 1)[1:]
+        for g in np.flatnonzero(counts):
+            if counts[g] == len(out):              # one group everywhere: no gathers
                 out += self.direct(g, hits.p, hits.n, -d, u)
                 continue
+            m = np.flatnonzero(group == g)
             rows = [np.take(a, m, axis=0) for a in (hits.p, hits.n, d, u)]
             out[m] += self.direct(g, rows[0], rows[1], -rows[2], rows[3])
         return out
@@ -267,14 +268,14 @@ class DirectLighting:
         out = np.zeros((len(p), 3), F32)
         if n_l:
             q_b_at_l = bsdf.pdf(tl[2], wi_l) if n_b else np.zeros_like(q_l)
-            w_l = mis_weights(np.stack([n_l * q_l, n_b * q_b_at_l], -1), heuristic)[:, 0]
+            w_l = mis_weights(np.stack([n_l * q_l, n_b * q_b_at_l]).T, heuristic)[:, 0]    # (N, 2) views
             out += _mean_of(scale(_safe_ratio(f_l * le_l, q_l), w_l), n_l)
         if n_b:
             pb = _tile(p, n_b)
             u2 = _stack(u, [lay.bsdf(i) for i in range(n_b)])
             f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, pb, fr.tile(n_b), _tile(wo_l, n_b), u2)
             q_l_at_b = self.light_pdf(pb, wi_b, hits_b).astype(F32)
-            w_b = mis_weights(np.stack([n_l * q_l_at_b, n_b * q_b], -1), heuristic)[:, 1]
+            w_b = mis_weights(np.stack([n_l * q_l_at_b, n_b * q_b]).T, heuristic)[:, 1]
             out += _mean_of(scale(_safe_ratio(f_b * le_b, q_b), w_b), n_b)
         return out
 

@@ -432,12 +432,13 @@ class SceneGeometry:
             o4 = np.ones((4, len(o)), np.float32)             # [o; 1] and d as float32 rows
             o4[:3] = o.T
             rows32 = (o4, np.ascontiguousarray(d.T, dtype=np.float32))
-            best = np.full(len(o), np.inf, np.float32)
-            group, prim = np.full(len(o), -1), np.zeros(len(o), np.int64)
             for k, g in enumerate(dense):
                 tg, jg = g.dense(*rows32, t_min)
-                w = np.flatnonzero(tg < best)         # strict: the earlier group keeps ties
-                best[w], group[w], prim[w] = tg[w], k, jg[w]
+                if k == 0:
+                    best, prim, group = tg, jg, np.where(tg < np.inf, 0, -1)
+                else:                                 # strict: the earlier group keeps ties
+                    closer = tg < best
+                    best, prim, group = np.where(closer, tg, best), np.where(closer, jg, prim), np.where(closer, k, group)
             for k, g in enumerate(dense):
                 r = np.flatnonzero(group == k)
                 if len(r) and o.dtype == np.float32:       # float32 rays: float32 hits

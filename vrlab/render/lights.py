@@ -161,6 +161,14 @@ class Light:
         return np.where(valid, integral, 0.0), valid
 
 
+def _rows_by_light(j: np.ndarray, which: np.ndarray):
+    """``(i, rows)`` for each light i with ``which[i]`` that occurs in ``j`` (-1: none);
+    rows is ``slice(None)`` when every row is light i (no gathers)."""
+    counts = np.bincount(j + 1, minlength=len(which) + 1)[1:]
+    for i in np.flatnonzero(counts * which):
+        yield i, (slice(None) if counts[i] == len(j) else np.flatnonzero(j == i))
+
+
 class LightSet:
     """All lights of a scene and the selection probabilities P_j (see the module docstring)."""
 
@@ -199,17 +207,20 @@ class LightSet:
         direction towards it (``u3[:, 1:3]``), pdf = P_j p_j(w) in solid angle, and
         whether the sampled point faces ``ref``."""
         j = self.selection.sample(u3[:, 0])
+        n = len(ref)
+        if len(self.lights) == 1 and not self.is_sphere[0]:     # no gathers
+            w, pdf, front = self.lights[0].sample(ref, u3[:, 1:3])
+            return j, w.astype(ref.dtype, copy=False), pdf * self.selection.pmf(j), front
         w = np.zeros_like(ref)
-        pdf = np.zeros(len(ref))
-        front = np.ones(len(ref), bool)
+        pdf = np.zeros(n)
+        front = np.ones(n, bool)
         sph = self.is_sphere[j]
         if sph.any():                            # all sphere lights in one batched cone
             m = slice(None) if sph.all() else np.flatnonzero(sph)
             cone = SphereCone(self.centers[j[m]], self.radii[j[m]], ref[m])
             w[m] = cone.sample(u3[m, 1:3])
             pdf[m] = 1.0 / cone.solid_angle
-        for i in np.unique(j[~sph]):
-            m = np.flatnonzero(j == i)
+        for i, m in _rows_by_light(j, ~self.is_sphere):
             w[m], pdf[m], front[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
         return j, w, pdf * self.selection.pmf(j), front
 
@@ -220,10 +231,9 @@ class LightSet:
         has = j >= 0
         sph = has & self.is_sphere[np.maximum(j, 0)]
         if sph.any():
-            m = np.flatnonzero(sph)
+            m = slice(None) if sph.all() else np.flatnonzero(sph)
             out[m] = SphereCone(self.centers[j[m]], self.radii[j[m]], ref[m]).pdf(w[m])
-        for i in np.unique(j[has & ~sph]):
-            m = np.flatnonzero(j == i)
+        for i, m in _rows_by_light(j, ~self.is_sphere):
             out[m] = self.lights[i].pdf(ref[m], w[m], None if hit_p is None else hit_p[m])
         return out * np.where(has, self.selection.pmf(np.maximum(j, 0)), 0.0)
 
