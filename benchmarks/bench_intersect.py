@@ -21,7 +21,8 @@ except ImportError:  # run from a checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from vrlab.render import builtin_scene_path, load_scene, render
 from vrlab.render.camera import Camera
-from vrlab.render.geometry import SceneGeometry, _unit_sphere_hit
+from vrlab.render.geometry import SceneGeometry
+from vrlab.render.groups import unit_sphere_hit
 
 SCENES = ("furnace", "veach_mis", "cornell_box", "many_lights", "box_ellipsoid")
 
@@ -78,7 +79,7 @@ class OldGeometry:
             better = tt < t
             t[better], shape[better] = tt[better], self.ids[j[better] + a]
         for k, c, minv in self.quadrics:
-            tt = _unit_sphere_hit((o - c) @ minv.T, d @ minv.T, 0.0)
+            tt = unit_sphere_hit((o - c) @ minv.T, d @ minv.T, 0.0)
             better = tt < t
             t[better], shape[better] = tt[better], k
         for k, c, minv in self.disks:

@@ -258,7 +258,7 @@ def test_sphere_groups_dense_and_culled_match_reference(n_spheres):
     """Spheres only: the float32 all-pairs path (<= DENSE_QUADRICS, world-space sphere
     kernel) and the culled float64 path (more) against the reference; small far spheres
     and rays from inside included."""
-    from vrlab.render.geometry import DENSE_QUADRICS
+    from vrlab.render.groups import DENSE_QUADRICS
     rng = np.random.default_rng(11)
     c = rng.uniform(-3, 3, (n_spheres, 3))
     r = rng.uniform(0.01, 0.5, n_spheres)
@@ -348,3 +348,36 @@ def test_float32_rays_give_float32_hits_close_to_the_reference(ellipsoid):
     np.testing.assert_allclose(h.n[same], n[same], atol=2e-5)
     np.testing.assert_allclose(h.p[same], o32[same] + h.t[same, None].astype(np.float32) * d32[same], atol=1e-5)
     assert np.all(h.p[h.shape < 0] == 0) and np.all(h.n[h.shape < 0] == 0)
+
+
+def test_cube_slab_test_axis_parallel_and_inside_rays():
+    """Cubes are tested by slabs (dense.closest_boxes): rays parallel to the faces (d_k = 0,
+    some exactly in a face's plane), rays from inside (they leave through a face) and the
+    face found for the normal agree with the per-triangle reference."""
+    sc = _scene('<shape type="cube"><transform name="to_world"><scale x="0.5" y="1" z="2"/>'
+                '<translate x="0.25"/></transform></shape>'
+                '<shape type="rectangle"><transform name="to_world"><translate z="-3"/></transform></shape>')
+    geo = SceneGeometry(sc)
+    assert geo.planar[0].kernel.box_faces.shape == (1, 6)
+    rng = np.random.default_rng(4)
+    n = 3000
+    d = np.zeros((n, 3))
+    d[np.arange(n), rng.integers(0, 3, n)] = rng.choice([-1.0, 1.0], n)    # along the axes
+    o = rng.uniform(-3, 3, (n, 3))
+    o[:300, 0] = 0.75                                    # in the plane of the +x face
+    o[300:600] = rng.uniform(-0.2, 0.2, (300, 3)) + [0.25, 0, 0]           # inside the cube
+    d[600:1000] = rng.normal(size=(400, 3))
+    o[600:1000] = rng.uniform(-0.2, 0.2, (400, 3)) + [0.25, 0, 0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for dt in (np.float64, np.float32):
+            h = geo.intersect(o.astype(dt), d.astype(dt))
+            t, k, nrm = reference(sc, o.astype(dt).astype(float), d.astype(dt).astype(float))
+            inplane = np.zeros(n, bool)
+            inplane[:300] = d[:300, 0] == 0               # exactly in a face plane: either answer
+            ok = ~inplane
+            np.testing.assert_array_equal(h.shape[ok], k[ok])
+            hit = ok & (k >= 0)
+            np.testing.assert_allclose(h.t[hit], t[hit], rtol=1e-6, atol=1e-6)
+            np.testing.assert_allclose(h.n[hit], nrm[hit], atol=1e-6)
+            assert np.all(h.shape[300:1000] == 0)          # from inside: always the cube

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ELEMS", "closest_planes", "closest_quadrics", "plane_rows"]
+__all__ = ["ELEMS", "DensePlanar", "box_rows", "closest_boxes", "closest_planes", "closest_quadrics", "plane_rows"]
 
 ELEMS = 1 << 16          # (primitive, ray) pairs per block (float32: 256 KB temporaries)
 F32 = np.float32
@@ -174,3 +174,89 @@ def closest_quadrics(c: np.ndarray, minv: np.ndarray | None, r2: np.ndarray, O: 
                       for k in range(3)]
             t_out[b], j_out[b] = _pick(_sphere_roots(*oc, *dd, r2, t_min))
     return t_out, j_out
+
+
+def box_rows(minv: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """float32 ``(wo (3B, 4), wd (3B, 3))`` for :func:`closest_boxes`: ``wo @ [o; 1]`` gives
+    the rows of ``M^-1 (o - c)`` and ``wd @ d`` those of ``M^-1 d`` (box b is
+    ``|M_b^-1 (x - c_b)|_inf <= 1``, Mitsuba's ``cube`` under its ``to_world``)."""
+    wd = minv.reshape(-1, 3)
+    wo = np.concatenate([wd, -np.einsum("bkj,bj->bk", minv, c).reshape(-1, 1)], axis=1)
+    return wo.astype(F32), wd.astype(F32)
+
+
+def closest_boxes(wo: np.ndarray, wd: np.ndarray, O: np.ndarray, D: np.ndarray,
+                  t_min: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(t, j)`` of B boxes by the slab test (Kay & Kajiya 1986) in each box's frame:
+    per axis k, t1,2 = (-+1 - o_k) / d_k; t_near = max_k min(t1, t2), t_far = min_k
+    max(t1, t2); a hit needs t_near <= t_far, t = t_near if it is > t_min (from outside)
+    else t_far (from inside).  fmin/fmax drop the NaN of 0 * inf (a ray parallel to a
+    slab, on its boundary); NaN t is a miss."""
+    n = O.shape[1]
+    nb = len(wd) // 3
+    t_out, j_out = np.empty(n, F32), np.empty(n, np.int64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for b in _blocks(n, 3 * nb):
+            ol = _rows(wo, O[:, b])
+            inv = np.divide(1.0, _rows(wd, D[:, b]))
+            t1 = np.subtract(-1.0, ol)
+            t1 *= inv
+            t2 = np.subtract(1.0, ol, out=ol)
+            t2 *= inv
+            tn = np.fmin(t1, t2, out=inv).reshape(nb, 3, -1)
+            tf = np.fmax(t1, t2, out=t2).reshape(nb, 3, -1)
+            near = np.fmax(np.fmax(tn[:, 0], tn[:, 1]), tn[:, 2])
+            far = np.fmin(np.fmin(tf[:, 0], tf[:, 1]), tf[:, 2])
+            t = np.where(near > t_min, near, far)
+            bad = t > t_min
+            np.logical_not(bad, out=bad)
+            bad |= near > far
+            t_out[b], j_out[b] = _pick(_miss(t, bad))
+    return t_out, j_out
+
+
+class DensePlanar:
+    """float32 all-pairs test of a planar group (:class:`~vrlab.render.groups.Planar`):
+    plane rows of its primitives, except the six faces of each box (``boxes``: a list of
+    ``(face primitive indices (6,) by face code 2 k + (side > 0), M^-1, c)``), which one slab
+    test replaces (a third of the rows and of the work).  ``closest`` returns ``(t, j)``
+    with j the group's primitive, or ``n_prims + b`` for box b, whose face
+    :meth:`faces` finds for the winners only; a plane wins a tie against a box."""
+
+    def __init__(self, n, a1, a2, v0, para: bool, boxes=()):
+        self.para, self.n_prims = para, len(v0)
+        in_box = np.concatenate([f for f, _, _ in boxes] or [np.zeros(0, np.int64)])
+        self.plane_ids = np.setdiff1d(np.arange(len(v0)), in_box)
+        ids = self.plane_ids
+        self.rows = plane_rows(n[ids], a1[ids], a2[ids], v0[ids], para) if len(ids) else None
+        self.box_faces = np.array([f for f, _, _ in boxes], np.int64).reshape(-1, 6)
+        self.box_minv = np.array([m for _, m, _ in boxes], float).reshape(-1, 3, 3)
+        self.box_c = np.array([c for _, _, c in boxes], float).reshape(-1, 3)
+        self.box_rows = box_rows(self.box_minv, self.box_c) if boxes else None
+
+    def closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray]:
+        if self.rows is not None:
+            t, j = closest_planes(*self.rows, self.para, O, D, t_min)
+            j = self.plane_ids[j]
+        else:
+            t, j = np.full(O.shape[1], np.inf, F32), np.zeros(O.shape[1], np.int64)
+        if self.box_rows is not None:
+            tb, jb = closest_boxes(*self.box_rows, O, D, t_min)
+            closer = tb < t
+            t, j = np.where(closer, tb, t), np.where(closer, self.n_prims + jb, j)
+        return t, j
+
+    def faces(self, o: np.ndarray, d: np.ndarray, rows: np.ndarray, t: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """``j`` (of the rays ``rows`` of ``o``, ``d``, hit at ``t``) with each box winner
+        ``n_prims + b`` replaced by the face of box b that the ray meets: the face code
+        2 k + (x_k > 0) of the largest |x_k| of the local hit point x = M^-1 (o + t d - c)."""
+        box = np.flatnonzero(j >= self.n_prims)
+        if not len(box):
+            return j
+        b, r = j[box] - self.n_prims, rows[box]
+        x = o[r] + t[box, None].astype(np.float64) * d[r] - self.box_c[b]
+        x = np.einsum("mkj,mj->mk", self.box_minv[b], x)
+        axis = np.argmax(np.abs(x), -1)
+        j = j.copy()
+        j[box] = self.box_faces[b, 2 * axis + (x[np.arange(len(b)), axis] > 0)]
+        return j

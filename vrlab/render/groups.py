@@ -1,0 +1,338 @@
+"""Primitive groups of :class:`~vrlab.render.geometry.SceneGeometry` (see its module
+docstring): planar primitives (parallelograms and triangles, with the slab test for
+cubes) and quadrics, each with a float32 all-pairs pass (:mod:`.dense`) and its float64
+or float32 finish, a BVH for big meshes and a conservative cull for many quadrics."""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from .._vec import dot as _dot
+from .._vec import norm, scale
+from .bvh import BVH
+from .dense import DensePlanar, closest_quadrics
+
+__all__ = ["DENSE_QUADRICS", "Planar", "Quadrics", "parallelograms", "unit", "unit_sphere_hit"]
+
+# (ray, primitive) pairs per culling block: cache sized, and small enough (N k P <= 2^18
+# for an (N, k) @ (k, P) product) that OpenBLAS stays single-threaded (much faster here)
+_QUADRIC_ELEMS = 1 << 15
+DENSE_QUADRICS = 16           # up to this many quadrics are tested all-pairs in float32
+_BVH_MIN_PRIMS = 64           # planar groups at least this big are traversed with a BVH
+_TOL_DISC = 1e-12             # culling slack of sphere discriminants, relative
+
+
+def _take64(a: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The rows ``rows`` of ``a`` as float64 (the float64 finish of float32 rays)."""
+    return np.take(a, rows, axis=0).astype(np.float64, copy=False)
+
+
+def unit(v: np.ndarray) -> np.ndarray:
+    """Unit vectors along the rows of ``v`` (zero rows stay zero)."""
+    n = norm(v)
+    return scale(v, 1.0 / np.where(n > 0, n, 1.0))
+
+
+def _box_faces(v0, e1, e2, shape, boxes: dict) -> list:
+    """For each cube (shape index -> ``to_world``) whose six faces are parallelograms of
+    this group: ``(face indices by code 2 k + (side > 0), M^-1, c)`` for the slab test."""
+    out = []
+    for k, m in boxes.items():
+        rows = np.flatnonzero(shape == k)
+        lin, c = m[:3, :3], m[:3, 3]
+        if len(rows) != 6 or abs(np.linalg.det(lin)) < 1e-300:
+            continue
+        minv = np.linalg.inv(lin)
+        x = (v0[rows] + 0.5 * (e1[rows] + e2[rows]) - c) @ minv.T        # face centres, local
+        axis = np.argmax(np.abs(x), -1)
+        code = 2 * axis + (x[np.arange(6), axis] > 0)
+        if sorted(code.tolist()) == list(range(6)):
+            faces = np.empty(6, np.int64)
+            faces[code] = rows
+            out.append((faces, minv, c))
+    return out
+
+
+def parallelograms(tri: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Split triangles ``(T, 3, 3)`` into parallelograms ``(corner, e1, e2)`` made of
+    consecutive pairs ``(p0, p1, p2), (p0, p2, y)`` or ``(y, p0, p2)`` with ``y = p0 + p2 - p1``
+    (fan-triangulated quads, also reversed), and the indices of the triangles left over.
+    Returns ``(para (Q, 4, 3): corner, e1, e2, winding normal of the first triangle), rest``."""
+    a, b = tri[:-1], tri[1:]
+    p0, p1, p2 = a[:, 0], a[:, 1], a[:, 2]
+
+    def near(x, y):
+        return np.all(np.abs(x - y) <= tol, axis=-1)
+
+    fan = near(b[:, 0], p0) & near(b[:, 1], p2)
+    rev = near(b[:, 1], p0) & near(b[:, 2], p2)
+    y = np.where(fan[:, None], b[:, 2], b[:, 0])
+    ok = (fan | rev) & near(y, p0 + p2 - p1)
+    used = np.zeros(len(tri), bool)
+    first = []
+    for k in np.flatnonzero(ok):       # greedy, non-overlapping pairs
+        if not used[k]:
+            used[k] = used[k + 1] = True
+            first.append(k)
+    first = np.array(first, int)
+    p0, p1, p2 = tri[first, 0], tri[first, 1], tri[first, 2]
+    n = unit(np.cross(p1 - p0, p2 - p0))
+    para = np.stack([p1, p0 - p1, p2 - p1, n], axis=1) if len(first) else np.zeros((0, 4, 3))
+    return para, np.flatnonzero(~used)
+
+
+class Planar:
+    """Parallelograms (``para=True``) or triangles ``v0 + s e1 + u e2`` with their
+    normals and shape indices; see the module docstring for the formulas."""
+
+    def __init__(self, v0, e1, e2, normal, shape, para: bool, boxes: dict | None = None):
+        m = np.cross(e1, e2)
+        m2 = np.sum(m * m, -1)
+        keep = m2 > 0                                  # degenerate ones are never hit
+        v0, e1, e2, m, m2 = v0[keep], e1[keep], e2[keep], m[keep], m2[keep]
+        self.para = para
+        self.v0, self.e1, self.e2 = v0, e1, e2
+        self.normal, self.shape = normal[keep], shape[keep]
+        self.normal32 = self.normal.astype(np.float32)
+        self.n = m / np.sqrt(m2)[:, None]
+        self.a1 = np.cross(e2, m) / m2[:, None]
+        self.a2 = np.cross(m, e1) / m2[:, None]
+        self.packed = np.concatenate([v0, self.n, self.a1, self.a2], axis=1)
+        self.kernel = DensePlanar(self.n, self.a1, self.a2, v0, para, _box_faces(v0, e1, e2, self.shape, boxes or {}))
+        p = len(v0)
+        self.bvh = BVH(np.stack([v0, v0 + e1, v0 + e2] + ([v0 + e1 + e2] if para else []),
+                                axis=1)) if p >= _BVH_MIN_PRIMS else None
+
+    def __len__(self) -> int:
+        return len(self.v0)
+
+    def dense(self, O: np.ndarray, D: np.ndarray, t_min: float):
+        """float32 ``(t, j)`` of every ray against every primitive (:mod:`.dense`)."""
+        return self.kernel.closest(O, D, t_min)
+
+    def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
+        """float64 plane t, shape and normal of the rays ``rows`` whose closest hit is
+        primitive ``j`` by the float32 pass (the in/out decision is that pass's)."""
+        j = self.kernel.faces(o, d, rows, t32, j)
+        q = np.take(self.packed, j, axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tt = -_dot(_take64(o, rows) - q[:, :3], q[:, 3:6]) / _dot(_take64(d, rows), q[:, 3:6])
+        ok = np.isfinite(tt) & (tt > t_min)
+        if not ok.all():
+            rows, j, tt = rows[ok], j[ok], tt[ok]
+        t[rows], shape[rows] = tt, np.take(self.shape, j)
+        normal[rows] = np.take(self.normal, j, axis=0)
+
+    def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal):
+        """``finish`` for float32 rays: the float32 pass's t and the primitive's normal."""
+        j = self.kernel.faces(o, d, rows, t32, j)
+        t[rows], shape[rows] = t32, np.take(self.shape, j)
+        normal[rows] = np.take(self.normal32, j, axis=0)
+
+    def exact(self, rays, t_min, i, j):
+        """Exact t (inf on a miss) of the pairs ``(i, j)``; ``rays = [o, d]`` ``(N, 6)``."""
+        r, q = rays[i], self.packed[j]            # [o, d], [v0, n, a1, a2]
+        oc = r[:, :3] - q[:, :3]
+        dd, n = r[:, 3:], q[:, 3:6]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = _dot(oc, n)
+            t /= _dot(dd, n)
+            np.negative(t, out=t)
+            oc += t[:, None] * dd                 # hit point - v0
+            s, u = _dot(oc, q[:, 6:9]), _dot(oc, q[:, 9:])
+            ok = (t > t_min) & (np.minimum(s, u) >= 0.0)
+            ok &= (np.maximum(s, u) <= 1.0) if self.para else (s + u <= 1.0)
+        ok &= np.isfinite(t)
+        return np.where(ok, t, np.inf)
+
+    def closest(self, o, d, t_min, t, shape, normal):
+        """Update the closest hits ``t, shape, normal`` of a block of rays in place (BVH)."""
+        rays = np.concatenate([o, d], axis=1)
+
+        def test(i, j):
+            return self.exact(rays, t_min, i, j)
+        i, j, tt = self.bvh.closest(o, d, t_min, t, test)
+        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], lambda w: self.normal[j[w]])
+
+
+class Quadrics:
+    """Ellipsoids ``x = c + M s``, ``|s| = 1``, culled with their bounding spheres
+    (a BVH of their boxes was about 2x slower for the 128 small spheres of many_lights)."""
+
+    def __init__(self, quad):
+        self.shape = np.array([q[0] for q in quad], int)
+        self.c = np.array([q[1] for q in quad], float).reshape(-1, 3)
+        self.minv = np.array([q[2] for q in quad], float).reshape(-1, 3, 3)
+        self.sign = np.array([q[3] for q in quad], float)
+        m = np.linalg.inv(self.minv)
+        r = np.linalg.norm(m, ord=2, axis=(1, 2))                # bounding sphere radius
+        self.w_b = np.concatenate([-self.c.T, np.ones((1, len(r)))])
+        self.w_c = np.concatenate([-2.0 * self.c.T, np.ones((1, len(r))),
+                                   [np.sum(self.c * self.c, -1) - r * r]])
+        self.cmax = float(np.max(np.linalg.norm(self.c, axis=-1) + r, initial=0.0))
+        # float32 all-pairs data (.dense): spheres in world space, else unit-sphere frames
+        self.c32 = self.c.astype(np.float32)
+        gram = np.einsum("kab,kac->kbc", m, m)                   # M^T M = r^2 I for spheres
+        spheres = np.allclose(gram, (r * r)[:, None, None] * np.eye(3), rtol=1e-12, atol=0)
+        self.minv32 = None if spheres else self.minv.astype(np.float32)
+        self.radius = r if spheres else None
+        self.inv_r32 = (self.sign / r).astype(np.float32)       # sign / r (spheres' finish32)
+        self.r2_32 = (r * r if spheres else np.ones_like(r)).astype(np.float32)[:, None]
+        self.use_dense = len(r) <= DENSE_QUADRICS
+
+    def __len__(self) -> int:
+        return len(self.shape)
+
+    def _local(self, o, d, i, j):
+        """Pair rays in the unit-sphere frames: ``M^-1 (o - c)``, ``M^-1 d``, and ``M^-1``."""
+        minv = np.take(self.minv, j, axis=0)
+        oc = _take64(o, i) - np.take(self.c, j, axis=0)
+        dd = _take64(d, i)
+        ol = minv[:, :, 0] * oc[:, 0:1] + minv[:, :, 1] * oc[:, 1:2] + minv[:, :, 2] * oc[:, 2:3]
+        dl = minv[:, :, 0] * dd[:, 0:1] + minv[:, :, 1] * dd[:, 1:2] + minv[:, :, 2] * dd[:, 2:3]
+        return ol, dl, minv
+
+    def _normal(self, ol, dl, minv, j, tt):
+        x = ol + tt[:, None] * dl                                        # unit-sphere point
+        n = x[:, 0:1] * minv[:, 0] + x[:, 1:2] * minv[:, 1] + x[:, 2:3] * minv[:, 2]   # M^-T x
+        return self.sign[j, None] * unit(n)
+
+    def _fold(self, o, d, t_min, i, j, tt, t, shape, normal):
+        def nrm(w):
+            return self._normal(*self._local(o, d, i[w], j[w]), j[w], tt[w])
+        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], nrm)
+
+    def dense(self, O: np.ndarray, D: np.ndarray, t_min: float):
+        """float32 ``(t, j)`` of every ray against every quadric (:mod:`.dense`)."""
+        return closest_quadrics(self.c32, self.minv32, self.r2_32, O[:3], D, t_min)
+
+    def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
+        """float64 t (stable roots; the float32 t where a grazing ray misses in float64),
+        shape and normal of the rays ``rows`` whose closest hit is quadric ``j``."""
+        if self.radius is not None:
+            return self._finish_spheres(o, d, t_min, rows, j, t, shape, normal)
+        ol, dl, minv = self._local(o, d, rows, j)
+        tt = unit_sphere_hit(ol, dl, t_min)
+        tt = np.where(np.isfinite(tt), tt, t32.astype(np.float64))
+        ok = tt > t_min
+        if not ok.all():
+            rows, j, tt, ol, dl, minv = rows[ok], j[ok], tt[ok], ol[ok], dl[ok], minv[ok]
+        t[rows], shape[rows], normal[rows] = tt, self.shape[j], self._normal(ol, dl, minv, j, tt)
+
+    def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal):
+        """``finish`` for float32 rays: spheres keep the float32 pass's t, normal = sign
+        (o + t d - c) / r in float32; ellipsoids take the float64 ``finish``."""
+        if self.radius is None:
+            return self.finish(o, d, t_min, rows, j, t32, t, shape, normal)
+        x = np.take(o, rows, axis=0)
+        x += scale(np.take(d, rows, axis=0), t32)
+        x -= np.take(self.c32, j, axis=0)
+        t[rows], shape[rows], normal[rows] = t32, np.take(self.shape, j), scale(x, np.take(self.inv_r32, j))
+
+    def _finish_spheres(self, o, d, t_min, rows, j, t, shape, normal):
+        """``finish`` for spheres, in world space: b = (o - c).d / |d|^2, l = o - c - b d,
+        t = -b -/+ sqrt((r^2 - |l|^2) / |d|^2) (clamped at 0: the float32 pass said hit),
+        normal = sign (o + t d - c) / r."""
+        oc = _take64(o, rows) - np.take(self.c, j, axis=0)
+        dd = _take64(d, rows)
+        r = np.take(self.radius, j)
+        inva = 1.0 / _dot(dd, dd)
+        b = _dot(oc, dd) * inva
+        lv = oc - scale(dd, b)
+        sq = np.sqrt(np.maximum(r * r - _dot(lv, lv), 0.0) * inva)
+        t1 = -b - sq
+        tt = np.where(t1 > t_min, t1, sq - b)
+        ok = tt > t_min
+        if not ok.all():
+            rows, j, tt, oc, dd, r = rows[ok], j[ok], tt[ok], oc[ok], dd[ok], r[ok]
+        oc += scale(dd, tt)
+        t[rows], shape[rows], normal[rows] = tt, np.take(self.shape, j), scale(oc, np.take(self.sign, j) / r)
+
+    def closest(self, o, d, t_min, t, shape, normal):
+        """Update the closest hits of a block of rays in place."""
+        a, oo = _dot(d, d), _dot(o, o)
+        tol = -_TOL_DISC * a * (np.sqrt(oo) + self.cmax) ** 2
+        ao = np.empty((len(o), 5))                        # a [o, |o|^2, 1]
+        np.multiply(o, a[:, None], out=ao[:, :3])
+        ao[:, 3] = a * oo
+        ao[:, 4] = a
+        do = np.empty((len(o), 4))                        # [d, d.o]
+        do[:, :3] = d
+        do[:, 3] = _dot(o, d)
+        ii, jj = [], []
+        for r, sl in _blocks(len(o), len(self), _QUADRIC_ELEMS):
+            b = do[r] @ self.w_b[:, sl]                   # b = d.(o - c)
+            b *= b
+            b -= ao[r] @ self.w_c[:, sl]                  # - a (|o - c|^2 - r^2): discriminant / 4
+            i, j = _nonzero(b >= tol[r, None])
+            ii.append(i + r.start)
+            jj.append(j + sl.start)
+        i, j = _pairs(ii, jj)
+        tt = unit_sphere_hit(*self._local(o, d, i, j)[:2], t_min)
+        self._fold(o, d, t_min, i, j, tt, t, shape, normal)
+
+
+def _blocks(n_rays: int, n_prims: int, elems: int):
+    """(ray slice, primitive slice) blocks of about ``elems`` pairs (cache sized)."""
+    pb = min(n_prims, elems // 64)
+    rb = max(64, elems // max(pb, 1))
+    for a in range(0, n_rays, rb):
+        for b in range(0, n_prims, pb):
+            yield slice(a, min(a + rb, n_rays)), slice(b, min(b + pb, n_prims))
+
+
+def _nonzero(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.nonzero`` of a C-contiguous 2-d mask (4x faster via the flat indices)."""
+    return np.divmod(np.flatnonzero(mask), mask.shape[1])
+
+
+def _pairs(ii: list, jj: list) -> tuple[np.ndarray, np.ndarray]:
+    """Concatenated (ray, primitive) pairs of all blocks, sorted by ray, then primitive."""
+    i, j = np.concatenate(ii), np.concatenate(jj)
+    if len(i) > 1 and np.any(i[1:] < i[:-1]):
+        s = np.lexsort((j, i))
+        i, j = i[s], j[s]
+    return i, j
+
+
+def _firsts(i: np.ndarray) -> np.ndarray:
+    """Mask of the first element of each run of equal values in ``i``."""
+    f = np.empty(len(i), bool)
+    f[:1] = True
+    np.not_equal(i[1:], i[:-1], out=f[1:])
+    return f
+
+
+def _update(t, shape, normal, i, tt, shape_of: Callable, normal_of: Callable) -> None:
+    """Fold pair hits ``(ray i, t tt)`` (``i`` ascending) into the closest hits; a tie
+    keeps the earlier hit (the first pair, or the hit already stored)."""
+    w = np.flatnonzero(tt < t[i])
+    if not len(w):
+        return
+    iw, tw = i[w], tt[w]
+    starts = np.flatnonzero(_firsts(iw))
+    best = np.minimum.reduceat(tw, starts)
+    win = np.flatnonzero(tw == np.repeat(best, np.diff(np.append(starts, len(iw)))))
+    win = win[_firsts(iw[win])]                                # first of ties
+    rows = iw[win]
+    t[rows] = tw[win]
+    shape[rows] = shape_of(w[win])
+    normal[rows] = normal_of(w[win])
+
+
+def unit_sphere_hit(o: np.ndarray, d: np.ndarray, t_min: float) -> np.ndarray:
+    """Smallest t > t_min with |o + t d| = 1, inf if none (stable quadratic roots)."""
+    a = _dot(d, d)
+    b = _dot(o, d)
+    c = _dot(o, o) - 1.0
+    disc = b * b - a * c
+    hit = disc >= 0.0
+    sq = np.sqrt(np.where(hit, disc, 0.0))
+    q = -(b + np.where(b >= 0.0, sq, -sq))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = q / a
+        t2 = np.where(q != 0.0, c / np.where(q != 0.0, q, 1.0), t1)
+    lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
+    t = np.where(lo > t_min, lo, np.where(hi > t_min, hi, np.inf))
+    return np.where(hit & np.isfinite(t), t, np.inf)
