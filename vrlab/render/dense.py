@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._vec import scale
+
 __all__ = ["ELEMS", "DensePlanar", "box_rows", "closest_boxes", "closest_planes", "closest_quadrics", "plane_rows"]
 
 ELEMS = 1 << 16          # (primitive, ray) pairs per block (float32: 256 KB temporaries)
@@ -250,13 +252,20 @@ class DensePlanar:
         """``j`` (of the rays ``rows`` of ``o``, ``d``, hit at ``t``) with each box winner
         ``n_prims + b`` replaced by the face of box b that the ray meets: the face code
         2 k + (x_k > 0) of the largest |x_k| of the local hit point x = M^-1 (o + t d - c)."""
-        box = np.flatnonzero(j >= self.n_prims)
-        if not len(box):
+        if self.box_rows is None:
             return j
-        b, r = j[box] - self.n_prims, rows[box]
-        x = o[r] + t[box, None].astype(np.float64) * d[r] - self.box_c[b]
-        x = np.einsum("mkj,mj->mk", self.box_minv[b], x)
-        axis = np.argmax(np.abs(x), -1)
         j = j.copy()
-        j[box] = self.box_faces[b, 2 * axis + (x[np.arange(len(b)), axis] > 0)]
+        for b in range(len(self.box_c)):                # a few boxes: one product each
+            box = np.flatnonzero(j == self.n_prims + b)
+            if not len(box):
+                continue
+            r = rows[box]
+            x = np.take(o, r, axis=0) + scale(np.take(d, r, axis=0), t[box]) - self.box_c[b]
+            x = x @ self.box_minv[b].T
+            a = np.abs(x)
+            x0, x1 = a[:, 0] >= a[:, 1], a[:, 0] >= a[:, 2]
+            x1x2 = a[:, 1] >= a[:, 2]
+            axis = np.where(x0 & x1, 0, np.where(~x0 & x1x2, 1, 2))
+            side = np.where(axis == 0, x[:, 0], np.where(axis == 1, x[:, 1], x[:, 2])) > 0
+            j[box] = self.box_faces[b][2 * axis + side]
         return j

@@ -127,6 +127,8 @@ class Planar:
     def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal):
         """``finish`` for float32 rays: the float32 pass's t and the primitive's normal."""
         j = self.kernel.faces(o, d, rows, t32, j)
+        if len(rows) == len(t):                        # every ray: no scatter
+            rows = slice(None)
         t[rows], shape[rows] = t32, np.take(self.shape, j)
         normal[rows] = np.take(self.normal32, j, axis=0)
 
