@@ -151,3 +151,15 @@ def test_to_dict_is_plain_json():
     assert back["value"] == pytest.approx(4.0) and back["n"] == 5 and back["n_evals"] == 10
     assert back["method"] == "test" and back["alpha"] == 1.5
     assert set(back) >= {"value", "stderr", "n", "n_evals", "seconds", "method", "variance"}
+
+
+def test_samples_along_another_axis():
+    # Moments.add(values, axis=k) equals moving the samples to the last axis first
+    rng = np.random.default_rng(3)
+    v = rng.standard_exponential((40, 17, 3))
+    a = Moments().add(v, axis=1)
+    b = Moments().add(np.moveaxis(v, 1, -1))
+    assert a.count == b.count == 17
+    np.testing.assert_allclose(a.mean, b.mean, rtol=1e-13)
+    np.testing.assert_allclose(a.m2, b.m2, rtol=1e-12)
+    np.testing.assert_allclose(a.variance, np.var(v, axis=1, ddof=1), rtol=1e-12)

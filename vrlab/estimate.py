@@ -27,15 +27,17 @@ class Moments:
         self.mean: np.ndarray | float = 0.0
         self.m2: np.ndarray | float = 0.0
 
-    def add(self, values: np.ndarray) -> "Moments":
-        """Merge a block of samples ``values (*batch, m)``."""
+    def add(self, values: np.ndarray, axis: int = -1) -> "Moments":
+        """Merge a block of samples ``values (*batch, m)``, or with the samples along
+        ``axis`` (no transposed copy, e.g. the renderer's ``(pixels, spp, 3)``)."""
         v = np.asarray(values, dtype=float)
-        m = v.shape[-1]
+        m = v.shape[axis]
         if m == 0:
             return self
-        mean_b = v.mean(axis=-1)
-        m2_b = np.sum((v - mean_b[..., None]) ** 2, axis=-1)
-        return self.merge_stats(m, mean_b, m2_b)
+        mean_b = v.mean(axis=axis)
+        dev = v - np.expand_dims(mean_b, axis)
+        dev *= dev
+        return self.merge_stats(m, mean_b, dev.sum(axis=axis))
 
     def merge_stats(self, n_b: int, mean_b, m2_b) -> "Moments":
         if self.count == 0:

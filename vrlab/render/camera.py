@@ -41,18 +41,29 @@ class Camera:
         y = (1.0 - 2.0 * film[..., 1] / self.height) * self.tan_y
         return np.stack([x, y, np.ones_like(x)], -1)
 
-    def rays(self, film: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World ``(origins, unit directions)``, each ``(..., 3)``, of film positions ``(..., 2)``."""
-        d = self.local_directions(film) @ self.rotation.T
+    def rays(self, film: np.ndarray, dtype=np.float64) -> tuple[np.ndarray, np.ndarray]:
+        """World ``(origins, unit directions)``, each ``(..., 3)`` of ``dtype`` (the renderer
+        uses float32), of film positions ``(..., 2)``."""
+        film = np.asarray(film, dtype)
+        x = (1.0 - 2.0 * film[..., 0] / self.width) * self.tan_x
+        y = (1.0 - 2.0 * film[..., 1] / self.height) * self.tan_y
+        rot = self.rotation.astype(dtype)
+        d = np.empty(x.shape + (3,), dtype)
+        for k in range(3):                     # rotation @ (x, y, 1), column by column
+            np.multiply(x, rot[k, 0], out=d[..., k])
+            d[..., k] += y * rot[k, 1]
+            d[..., k] += rot[k, 2]
         d = scale(d, 1.0 / norm(d))
-        return np.broadcast_to(self.origin, d.shape).copy(), d
+        o = np.empty_like(d)
+        o[...] = self.origin
+        return o, d
 
-    def pixel_rays(self, pixels: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def pixel_rays(self, pixels: np.ndarray, u: np.ndarray, dtype=np.float64) -> tuple[np.ndarray, np.ndarray]:
         """Rays through pixels ``(..., 2)`` = ``(row, column)`` at sub-pixel uniforms ``u (..., 2)``
         (``u[..., 0]`` along the row, i.e. x; ``u[..., 1]`` down the column, i.e. y)."""
         pixels = np.asarray(pixels)
         film = np.stack([pixels[..., 1] + u[..., 0], pixels[..., 0] + u[..., 1]], -1)
-        return self.rays(film)
+        return self.rays(film, dtype)
 
     def pixel_centers(self) -> tuple[np.ndarray, np.ndarray]:
         """Rays ``(H, W, 3)`` through the pixel centres."""

@@ -53,7 +53,7 @@ from ..estimators.ris import Reservoir
 from ..points.base import check_int
 from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor, _sign
 from .camera import Camera
-from .geometry import SceneGeometry
+from .geometry import Hits, SceneGeometry
 from .lights import LIGHT_SELECTIONS, LightSet, luminance
 from .pixel_samplers import PIXEL_SAMPLERS  # noqa: F401  (re-exported for the CLI)
 from .scene import BSDF, Scene
@@ -64,6 +64,7 @@ STRATEGIES = ("uniform", "cosine", "bsdf", "light", "mis-balance", "mis-power", 
 _BSDF_ONLY = ("uniform", "cosine", "bsdf")
 DIMS = 8                      # uniforms per pixel sample with one BSDF and one light sample
 F32 = np.float32
+SHADOW_EPS = 1e-4             # a blocker must be this much closer (relative) than the emitter
 _BELOW_ONE = np.nextafter(F32(1), F32(0))    # the largest float32 below 1
 _COSINE = CosineHemisphere()
 _UNIFORM = UniformHemisphere()
@@ -170,6 +171,11 @@ class DirectLighting:
         self.strategy, self.n_l, self.n_b, self.ris_candidates = strategy, n_l, n_b, m
         self.layout = UniformLayout(n_b, n_l, m if strategy == "ris" else 0)
         self.geometry = SceneGeometry(scene)
+        emits = np.array([s.emitter is not None for s in scene.shapes], bool)
+        # rays leaving a surface only need the first emitter they meet and whether a
+        # non-emitter blocks it: two smaller geometries (see ``trace``)
+        self.emitter_geometry = SceneGeometry(scene, np.flatnonzero(emits))
+        self.blocker_geometry = SceneGeometry(scene, np.flatnonzero(~emits))
         self.camera = Camera(scene.sensor)
         shapes = scene.shapes
         # shapes with identical BSDFs are shaded together (one batch per distinct BSDF)
@@ -205,16 +211,32 @@ class DirectLighting:
         front = (hits.shape >= 0) & (dot(hits.n, d) < 0)
         return scale(np.take(self.radiance, np.maximum(hits.shape, 0), axis=0), front)
 
-    def trace(self, p: np.ndarray, n: np.ndarray, w: np.ndarray):
-        """Closest hits of rays leaving surface points ``p`` (normal ``n``) along ``w``,
-        and the emission seen; the origin is offset off the surface to ``w``'s side."""
+    def trace(self, p: np.ndarray, n: np.ndarray, w: np.ndarray) -> tuple[Hits, np.ndarray]:
+        """The emitter seen by rays leaving surface points ``p`` (normal ``n``) along ``w``
+        and its emission: ``(hits, L_e)`` with ``hits`` the first *emitter* hit of each ray
+        (shape -1 where there is none or where a non-emitter blocks it, i.e. is closer by
+        more than ``SHADOW_EPS`` relative).  Direct lighting needs nothing else from these
+        rays, so only the emitters are intersected in full and the blockers only for rays
+        that reach an emitter, without their hit data.  The origin is offset off the
+        surface to ``w``'s side."""
         a = np.abs(p)
         offset = np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
         offset += 1.0
         offset *= self.eps
         offset *= _sign(dot(w, n))
-        hits = self.geometry.intersect(p + scale(n, offset), w)
-        return hits, self.emitted(hits, w)
+        o = p + scale(n, offset)
+        hits = self.emitter_geometry.intersect(o, w)
+        le = self.emitted(hits, w)
+        seen = np.flatnonzero(hits.shape >= 0)
+        if len(seen) and self.blocker_geometry.n_shapes:
+            if len(seen) < len(o):
+                tb = self.blocker_geometry.distance(np.take(o, seen, axis=0), np.take(w, seen, axis=0))
+            else:
+                tb = self.blocker_geometry.distance(o, w)
+            hidden = seen[tb < hits.t[seen] * (1.0 - SHADOW_EPS)]
+            hits.shape[hidden] = -1
+            le[hidden] = 0.0
+        return hits, le
 
     def radiance_of(self, o: np.ndarray, d: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Radiance samples ``(N, 3)`` of rays ``(N, 3)`` with their uniforms ``u (N, dims)``."""

@@ -27,7 +27,7 @@ from .scene import Scene
 __all__ = ["TILE_PIXELS", "default_workers", "render"]
 
 TILE_PIXELS = 1024           # pixels per work unit (fixed: it defines the random streams)
-_RAYS_PER_CHUNK = 1 << 16    # camera rays per block
+_RAYS_PER_CHUNK = 5 << 14    # block size budget (1024 pixels x 64 spp of mis-power: one block per tile)
 
 
 class _Job:
@@ -53,9 +53,9 @@ class _Job:
             idx = np.arange(c, min(c + self.chunk, b))
             pix = np.stack(np.divmod(idx, self.width), -1)
             u = self.sampler.draw(len(pix), gen)
-            o, d = integ.camera.pixel_rays(pix[:, None, :], u[..., :2])
+            o, d = integ.camera.pixel_rays(pix[:, None, :], u[..., :2], np.float32)
             values = integ.radiance_of(o.reshape(-1, 3), d.reshape(-1, 3), u.reshape(-1, integ.dims))
-            mom = Moments().add(np.moveaxis(values.reshape(len(pix), spp, 3), 1, -1))
+            mom = Moments().add(values.reshape(len(pix), spp, 3), axis=1)
             mean[idx - a] = mom.mean
             with np.errstate(invalid="ignore"):
                 err[idx - a] = np.sqrt(mom.variance / spp)

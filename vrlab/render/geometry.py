@@ -43,6 +43,7 @@ primitive groups and blocks, never over single rays.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -69,12 +70,15 @@ class Hits(NamedTuple):
 
 
 class SceneGeometry:
-    """All shapes of ``scene`` as arrays of primitives (see the module docstring)."""
+    """All shapes of ``scene`` as arrays of primitives (see the module docstring), or only
+    the shapes ``only`` (indices into ``scene.shapes``, which the hits report)."""
 
-    def __init__(self, scene: Scene):
+    def __init__(self, scene: Scene, only: Sequence[int] | None = None):
         para, tris, quad, disk, pts, boxes = [], [], [], [], [np.zeros(3)], {}
         self._n_tri = 0
-        for k, s in enumerate(scene.shapes):
+        self.n_shapes = len(scene.shapes) if only is None else len(only)
+        for k in range(len(scene.shapes)) if only is None else [int(i) for i in only]:
+            s = scene.shapes[k]
             pts.append(s.center)
             if s.type in ("rectangle", "cube", "obj"):
                 t = s.triangles()
@@ -141,13 +145,32 @@ class SceneGeometry:
             self._closest(np.ascontiguousarray(o[sl]), np.ascontiguousarray(d[sl]), t_min,
                           t[sl], shape[sl], normal[sl])
         hit = shape >= 0
-        p = o + scale(d, np.where(hit, t, 0.0).astype(dt, copy=False))
-        if not hit.all():
-            p[~hit] = 0.0
-        return Hits(t, shape, p, normal)
+        p = scale(d, np.where(hit, t, 0.0).astype(dt, copy=False))
+        p += o
+        return Hits(t, shape, p if hit.all() else scale(p, hit), normal)
 
-    def _closest(self, o, d, t_min, t, shape, normal):
-        """Update ``t``, ``shape``, ``normal`` (views of one chunk) in place."""
+    def distance(self, origin: np.ndarray, direction: np.ndarray, t_min: float = 0.0,
+                 chunk: int = DEFAULT_RAY_CHUNK) -> np.ndarray:
+        """t of the closest hit of each ray (inf on a miss) without its shape, point or
+        normal: for float32 rays the float32 pass's t (no finish), else ``intersect().t``."""
+        o, d = np.asarray(origin), np.asarray(direction)
+        if not o.dtype == d.dtype == np.float32:
+            return self.intersect(o, d, t_min, chunk).t
+        if not t_min >= 0:
+            raise ValueError(f"t_min must be >= 0, got {t_min!r}")
+        o, d = np.broadcast_arrays(o.reshape(-1, 3), d.reshape(-1, 3))
+        n_rays = len(d)
+        t = np.full(n_rays, np.inf)
+        shape, normal = np.full(n_rays, -1, dtype=np.int64), np.zeros((n_rays, 3), np.float32)
+        for a in range(0, n_rays, chunk):
+            sl = slice(a, min(a + chunk, n_rays))
+            self._closest(np.ascontiguousarray(o[sl]), np.ascontiguousarray(d[sl]), t_min,
+                          t[sl], shape[sl], normal[sl], finish=False)
+        return t
+
+    def _closest(self, o, d, t_min, t, shape, normal, finish: bool = True):
+        """Update ``t``, ``shape``, ``normal`` (views of one chunk) in place; with
+        ``finish=False`` (float32 rays) the dense groups only set t."""
         dense = [g for g in self.planar if g.bvh is None]
         if self.quadrics is not None and self.quadrics.use_dense:
             dense.append(self.quadrics)
@@ -162,7 +185,9 @@ class SceneGeometry:
                 else:                                 # strict: the earlier group keeps ties
                     closer = tg < best
                     best, prim, group = np.where(closer, tg, best), np.where(closer, jg, prim), np.where(closer, k, group)
-            for k, g in enumerate(dense):
+            if not finish:
+                t[...] = best
+            for k, g in enumerate(dense if finish else []):
                 r = np.flatnonzero(group == k)
                 if len(r) and o.dtype == np.float32:       # float32 rays: float32 hits
                     g.finish32(o, d, t_min, r, prim[r], best[r], t, shape, normal)
