@@ -14,7 +14,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .._vec import dot, norm, scale
-from .base import Distribution, as_points, as_uniforms, positive_float
+from .base import Distribution, as_float, as_points, as_uniforms, positive_float
 from .frames import to_local, to_world
 from .surfaces import TWO_PI, Surface, _sphere_to_u, _unit
 
@@ -130,7 +130,7 @@ class SphereCone(Distribution):
 
     def __init__(self, center: Any, radius: Any, ref: np.ndarray):
         self.center = as_points(center, 3, "center")
-        r = np.asarray(radius, dtype=float)
+        r = as_float(radius)
         if r.ndim == 0:
             self.radius = positive_float(radius, "radius")
         elif not (np.all(np.isfinite(r)) and np.all(r > 0)):
@@ -146,7 +146,7 @@ class SphereCone(Distribution):
         safe = np.where(d > 0, d, 1.0)
         self.axis = scale(v, 1.0 / safe)
         if not np.all(d > 0):
-            self.axis = np.where((d > 0)[..., None], self.axis, np.array([0.0, 0.0, 1.0]))
+            self.axis = np.where((d > 0)[..., None], self.axis, np.array([0.0, 0.0, 1.0], d.dtype))
         ratio2 = np.where(self.inside, 1.0, (self.radius / safe) ** 2)
         self.one_minus_cos = np.where(self.inside, 2.0, ratio2 / (1.0 + np.sqrt(1.0 - ratio2)))
         self.cos_max = 1.0 - self.one_minus_cos
@@ -177,15 +177,17 @@ class SphereCone(Distribution):
 
     def sample_point(self, u: np.ndarray) -> LightSample:
         """``LightSample(w, y, dist, pdf)`` with y the first (visible) point of the sphere
-        along w (from inside: the exit point); grazing rays are clamped onto the sphere."""
+        along w (from inside: the exit point); grazing rays are clamped onto the sphere.
+        ``pdf`` is 1 / solid angle: a sample lies in the cone by construction (recomputing
+        ``pdf(w)`` could round a sample at the cone's edge out of it)."""
         w = self.sample(u)
         o = self.ref - self.center
         b = dot(o, w)
-        c = dot(o, o) - self.radius**2
-        sq = np.sqrt(np.clip(b * b - c, 0.0, None))
+        perp = o - scale(w, b)                              # r^2 - |perp|^2: no cancellation
+        sq = np.sqrt(np.clip(self.radius**2 - dot(perp, perp), 0.0, None))
         t = np.where(self.inside, -b + sq, -b - sq)
         y = self.ref + scale(w, t)
-        return LightSample(w, y, t, self.pdf(w))
+        return LightSample(w, y, t, np.broadcast_to(1.0 / self.solid_angle, t.shape))
 
     def _repr_fields(self):
         return {"radius": self.radius, "ref_shape": self.ref.shape}

@@ -181,17 +181,25 @@ class GGX(_Direction):
         h = as_points(h, 3, "h")
         z = h[..., 2]
         a2 = self.alpha**2
-        z2 = z * z
-        # alpha^2 / (pi (z^2 (alpha^2 - 1) + 1)^2) is the same D without tan; stable at z -> 1
-        denom = z2 * (a2 - 1.0) + 1.0
+        # alpha^2 / (pi (z^2 (alpha^2 - 1) + 1)^2) is the same D without tan; for unit h,
+        # z^2 (alpha^2 - 1) + 1 = x^2 + y^2 + alpha^2 z^2, which does not cancel at z -> 1
+        # (it would lose 1e-7 / alpha^2 relative in float32)
+        denom = h[..., 0] * h[..., 0]
+        denom += h[..., 1] * h[..., 1]
+        denom += a2 * (z * z)
         return np.where(z > 0.0, a2 / (np.pi * denom * denom), 0.0)
 
     def sample(self, u):
         u = as_uniforms(u, 2)
         a2 = self.alpha**2
-        # cos^2 theta = 1 / (1 + tan^2 theta) = (1 - u1) / (1 - u1 + alpha^2 u1)
-        z2 = (1.0 - u[..., 0]) / (1.0 - u[..., 0] + a2 * u[..., 0])
-        return _from_z_phi(np.sqrt(z2), TWO_PI * u[..., 1])
+        # cos^2 theta = 1 / (1 + tan^2 theta) = (1 - u1) / (1 - u1 + alpha^2 u1) and
+        # sin^2 theta = alpha^2 u1 / (same): sin from its own formula, not sqrt(1 - cos^2)
+        # (which cancels near the pole: a float32 sample would snap to rings there)
+        one_minus = 1.0 - u[..., 0]
+        inv = 1.0 / (one_minus + a2 * u[..., 0])
+        r = np.sqrt(a2 * u[..., 0] * inv)
+        phi = TWO_PI * u[..., 1]
+        return np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(one_minus * inv)], axis=-1)
 
     def pdf(self, h):
         h = as_points(h, 3, "h")

@@ -32,6 +32,15 @@ settings, Mitsuba's defaults 1 and 1):
   shapes), that light's control is 0 and the sample is plain light sampling.  Where
   nothing is occluded the estimate of the Lambertian part is exact.
 
+Rays: camera rays are intersected with the whole scene.  Rays leaving a surface only
+need the emitter they reach.  BSDF samples (:meth:`DirectLighting.trace`) intersect the
+emitters in full and test the other shapes for a closer hit (distance only) where they
+reach one; light samples towards spheres, rectangles and disks
+(:meth:`DirectLighting.shadow`) know the light's first point y and only test that no
+other shape is in front of it.  A blocker must be closer than the emitter by
+``SHADOW_EPS`` = 1e-4 (relative; Mitsuba likewise shortens its shadow rays by a relative
+epsilon).
+
 Precision: rays, hit points, frames, BSDF values and MIS weights are float32, as in
 Mitsuba's scalar variants (NumPy runs float32 2-3x faster); light selection and light
 sampling (cone angles of small spheres, area-to-solid-angle pdfs) are computed in float64
@@ -219,12 +228,7 @@ class DirectLighting:
         rays, so only the emitters are intersected in full and the blockers only for rays
         that reach an emitter, without their hit data.  The origin is offset off the
         surface to ``w``'s side."""
-        a = np.abs(p)
-        offset = np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
-        offset += 1.0
-        offset *= self.eps
-        offset *= _sign(dot(w, n))
-        o = p + scale(n, offset)
+        o = self._origin(p, n, w)
         hits = self.emitter_geometry.intersect(o, w)
         le = self.emitted(hits, w)
         seen = np.flatnonzero(hits.shape >= 0)
@@ -237,6 +241,35 @@ class DirectLighting:
             hits.shape[hidden] = -1
             le[hidden] = 0.0
         return hits, le
+
+    def _origin(self, p: np.ndarray, n: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """Ray origins off the surface points ``p`` (normal ``n``) to ``w``'s side, by
+        ``eps`` (1 + max|p_k|) (float32 hit decisions)."""
+        a = np.abs(p)
+        offset = np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
+        offset += 1.0
+        offset *= self.eps
+        offset *= _sign(dot(w, n))
+        return p + scale(n, offset)
+
+    def shadow(self, p: np.ndarray, n: np.ndarray, w: np.ndarray, y: np.ndarray, j: np.ndarray,
+               front: np.ndarray) -> np.ndarray:
+        """Emission ``(N, 3)`` of light ``j`` seen from ``p`` along ``w`` when ``y`` is the
+        light's first point along w (``LightSet.sample`` with ``simple`` lights): L_e,j
+        where it faces ``p`` (``front``), no non-emitter is closer than y by more than
+        ``SHADOW_EPS`` (relative; a distance query without hit data) and the first
+        emitter met is light j itself (decided by index, not distance: near a sphere's
+        silhouette its float32 t is too rough to compare)."""
+        o = self._origin(p, n, w)
+        t_max = dot(y - o, w)
+        t_max *= 1.0 - SHADOW_EPS
+        visible = front
+        if self.blocker_geometry.n_shapes:
+            visible = visible & (self.blocker_geometry.distance(o, w) >= t_max)
+        if self.emitter_geometry.n_shapes > 1:      # another emitter in front of light j
+            te, se = self.emitter_geometry.distance(o, w, with_shape=True)
+            visible &= (se == self.lights.shape_of_light[j]) | (te >= t_max)
+        return scale(np.take(self.lights.radiance32, j, axis=0), visible)
 
     def radiance_of(self, o: np.ndarray, d: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Radiance samples ``(N, 3)`` of rays ``(N, 3)`` with their uniforms ``u (N, dims)``."""
@@ -325,7 +358,7 @@ class DirectLighting:
         rows = len(blocks)
         pr, nr, wor = _tile(p, n_l), _tile(n, n_l), _tile(wo_l, n_l)
         cand_ref = np.repeat(pr, M, axis=0)
-        j, w, pdf, front = lights.sample(cand_ref, blocks[:, :3 * M].reshape(-1, 3))
+        j, w, pdf, front, y = lights.sample(cand_ref, blocks[:, :3 * M].reshape(-1, 3))
         # local frames once per shading point, broadcast over its M candidates
         wi_l = to_local(w.reshape(rows, M, 3), nr[:, None, :]).reshape(-1, 3)
         f_c = bsdf.eval(wor[:, None, :], wi_l.reshape(rows, M, 3)).reshape(-1, 3)
@@ -336,9 +369,12 @@ class DirectLighting:
         res = Reservoir.empty((rows,), 1).update(idx, weight.reshape(rows, M), blocks[:, 3 * M:],
                                                  target.reshape(rows, M))
         pick = res.y[:, 0].astype(np.int64)
-        hits, le = self.trace(pr, nr, w[pick])
-        hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
-        le = scale(le, (hits.shape >= 0) & (hit_light == j[pick]))
+        if lights.simple:
+            le = self.shadow(pr, nr, w[pick].astype(pr.dtype), y[pick], j[pick], front[pick])
+        else:
+            hits, le = self.trace(pr, nr, w[pick])
+            hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
+            le = scale(le, (hits.shape >= 0) & (hit_light == j[pick]))
         value = scale(bsdf.eval(wor, wi_l[pick]) * le, res.W)
         return _mean_of(value, n_l)
 
@@ -367,11 +403,14 @@ class DirectLighting:
         return bsdf.eval(wo_l, wi_l), le, pdf, wi, hits
 
     def _light_sample(self, bsdf, p, fr, wo_l, u3):
-        j, w, pdf, _ = self.lights.sample(p, u3)
+        j, w, pdf, front, y = self.lights.sample(p, u3)
         pdf = pdf.astype(F32)
-        hits, le = self.trace(p, fr.n, w)
-        hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
-        le = scale(le, (hits.shape >= 0) & (hit_light == j))
+        if self.lights.simple:                  # the light's first point is known
+            le = self.shadow(p, fr.n, w, y, j, front)
+        else:
+            hits, le = self.trace(p, fr.n, w)
+            hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
+            le = scale(le, (hits.shape >= 0) & (hit_light == j))
         wi_l = fr.to_local(w)
         return bsdf.eval(wo_l, wi_l), le, pdf, wi_l, j
 

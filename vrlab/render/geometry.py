@@ -150,12 +150,14 @@ class SceneGeometry:
         return Hits(t, shape, p if hit.all() else scale(p, hit), normal)
 
     def distance(self, origin: np.ndarray, direction: np.ndarray, t_min: float = 0.0,
-                 chunk: int = DEFAULT_RAY_CHUNK) -> np.ndarray:
-        """t of the closest hit of each ray (inf on a miss) without its shape, point or
-        normal: for float32 rays the float32 pass's t (no finish), else ``intersect().t``."""
+                 chunk: int = DEFAULT_RAY_CHUNK, with_shape: bool = False):
+        """t of the closest hit of each ray (inf on a miss), and with ``with_shape`` the
+        shape hit (-1 on a miss), without the point or normal: for float32 rays the
+        float32 pass's t (no finish), else ``intersect()``'s."""
         o, d = np.asarray(origin), np.asarray(direction)
         if not o.dtype == d.dtype == np.float32:
-            return self.intersect(o, d, t_min, chunk).t
+            h = self.intersect(o, d, t_min, chunk)
+            return (h.t, h.shape) if with_shape else h.t
         if not t_min >= 0:
             raise ValueError(f"t_min must be >= 0, got {t_min!r}")
         o, d = np.broadcast_arrays(o.reshape(-1, 3), d.reshape(-1, 3))
@@ -166,11 +168,11 @@ class SceneGeometry:
             sl = slice(a, min(a + chunk, n_rays))
             self._closest(np.ascontiguousarray(o[sl]), np.ascontiguousarray(d[sl]), t_min,
                           t[sl], shape[sl], normal[sl], finish=False)
-        return t
+        return (t, shape) if with_shape else t
 
     def _closest(self, o, d, t_min, t, shape, normal, finish: bool = True):
         """Update ``t``, ``shape``, ``normal`` (views of one chunk) in place; with
-        ``finish=False`` (float32 rays) the dense groups only set t."""
+        ``finish=False`` (float32 rays) the dense groups only set t and the shape."""
         dense = [g for g in self.planar if g.bvh is None]
         if self.quadrics is not None and self.quadrics.use_dense:
             dense.append(self.quadrics)
@@ -187,6 +189,10 @@ class SceneGeometry:
                     best, prim, group = np.where(closer, tg, best), np.where(closer, jg, prim), np.where(closer, k, group)
             if not finish:
                 t[...] = best
+                for k, g in enumerate(dense):
+                    r = np.flatnonzero(group == k) if len(dense) > 1 else slice(None)
+                    shape[r] = g.shape_of(prim[r])
+                shape[best == np.inf] = -1
             for k, g in enumerate(dense if finish else []):
                 r = np.flatnonzero(group == k)
                 if len(r) and o.dtype == np.float32:       # float32 rays: float32 hits

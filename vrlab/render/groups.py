@@ -100,6 +100,7 @@ class Planar:
         self.a2 = np.cross(m, e1) / m2[:, None]
         self.packed = np.concatenate([v0, self.n, self.a1, self.a2], axis=1)
         self.kernel = DensePlanar(self.n, self.a1, self.a2, v0, para, _box_faces(v0, e1, e2, self.shape, boxes or {}))
+        self.shape_ext = np.concatenate([self.shape, self.shape[self.kernel.box_faces[:, 0]]])   # + boxes
         p = len(v0)
         self.bvh = BVH(np.stack([v0, v0 + e1, v0 + e2] + ([v0 + e1 + e2] if para else []),
                                 axis=1)) if p >= _BVH_MIN_PRIMS else None
@@ -123,6 +124,10 @@ class Planar:
             rows, j, tt = rows[ok], j[ok], tt[ok]
         t[rows], shape[rows] = tt, np.take(self.shape, j)
         normal[rows] = np.take(self.normal, j, axis=0)
+
+    def shape_of(self, j: np.ndarray) -> np.ndarray:
+        """Shape index of the dense pass's primitives ``j`` (box winners included)."""
+        return np.take(self.shape_ext, j)
 
     def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal):
         """``finish`` for float32 rays: the float32 pass's t and the primitive's normal."""
@@ -221,6 +226,10 @@ class Quadrics:
         if not ok.all():
             rows, j, tt, ol, dl, minv = rows[ok], j[ok], tt[ok], ol[ok], dl[ok], minv[ok]
         t[rows], shape[rows], normal[rows] = tt, self.shape[j], self._normal(ol, dl, minv, j, tt)
+
+    def shape_of(self, j: np.ndarray) -> np.ndarray:
+        """Shape index of the dense pass's quadrics ``j``."""
+        return np.take(self.shape, j)
 
     def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal):
         """``finish`` for float32 rays: spheres keep the float32 pass's t, normal = sign

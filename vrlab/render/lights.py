@@ -95,6 +95,7 @@ class Light:
         self.type = shape.type
         self.sphere = None
         self.planar = shape.type in ("rectangle", "disk")   # one hit per direction: facing is a function of w
+        self.sign = -1.0 if shape.flip_normals else 1.0
         self.corners = None
         if shape.type == "sphere":
             self.sphere = shape.sphere()
@@ -115,19 +116,20 @@ class Light:
                              "strategy 'cosine' or 'bsdf', or rectangle/cube/disk/sphere/ellipsoid lights")
         self.area = self.surface.area
 
-    def sample(self, ref: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Directions ``(m, 3)`` from ``ref (m, 3)``, their solid-angle pdf ``(m,)`` and
-        whether the sampled point faces ``ref`` (always True for closed shapes)."""
+    def sample(self, ref: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``(w, pdf, front, y)``: directions ``(m, 3)`` from ``ref (m, 3)``, their solid-angle
+        pdf ``(m,)``, whether the light emits towards ``ref`` there and ``y``, the light's
+        first point along w (for spheres, rectangles and disks; NaN for cubes and
+        ellipsoids, where the sampled point may lie behind the first one)."""
         if self.sphere is not None:
             cone = SphereCone(self.sphere[0], self.sphere[1], ref)
-            w = cone.sample(u)
-            return w, cone.pdf(w), np.ones(len(w), bool)
+            s = cone.sample_point(u)
+            front = self.sign * dot(s.y - self.sphere[0], s.w) < 0
+            return s.w, s.pdf, front, s.y
         s = self.surface.solid_angle_from(ref).sample_point(u)
         if self.planar:
-            front = dot(ref - s.y, self.surface.normal(s.y)) > 0
-        else:
-            front = np.ones(len(s.w), bool)
-        return s.w, s.pdf, front
+            return s.w, s.pdf, dot(ref - s.y, self.surface.normal(s.y)) > 0, s.y
+        return s.w, s.pdf, np.ones(len(s.w), bool), np.full_like(s.y, np.nan)
 
     def pdf(self, ref: np.ndarray, w: np.ndarray, hit_p: np.ndarray | None = None) -> np.ndarray:
         """Solid-angle pdf of directions ``w`` from ``ref``.  For planar lights, ``hit_p``
@@ -181,12 +183,18 @@ class LightSet:
             if s.emitter is not None:
                 self.light_of_shape[k] = len(self.lights)
                 self.lights.append(Light(s))
+        self.shape_of_light = np.flatnonzero(self.light_of_shape >= 0)
         if not self.lights:
             raise ValueError("the scene has no emitters to sample")
         self.radiance = np.array([l.radiance for l in self.lights])
+        self.radiance32 = self.radiance.astype(np.float32)
         self.is_sphere = np.array([l.sphere is not None for l in self.lights])
         self.centers = np.array([l.sphere[0] if l.sphere is not None else np.zeros(3) for l in self.lights])
         self.radii = np.array([l.sphere[1] if l.sphere is not None else 1.0 for l in self.lights])
+        self.signs = np.array([l.sign for l in self.lights])
+        self.centers32, self.radii32 = self.centers.astype(np.float32), self.radii.astype(np.float32)
+        #: every light is a sphere, rectangle or disk: ``sample`` gives the first point y
+        self.simple = all(l.sphere is not None or l.planar for l in self.lights)
         if selection == "uniform":
             weights = np.ones(len(self.lights))
         else:
@@ -203,26 +211,29 @@ class LightSet:
         return self.lights[j]
 
     def sample(self, ref: np.ndarray, u3: np.ndarray) -> tuple[np.ndarray, ...]:
-        """``(j, w, pdf, front)`` for uniforms ``u3 (m, 3)``: light j ~ P (``u3[:, 0]``), a
-        direction towards it (``u3[:, 1:3]``), pdf = P_j p_j(w) in solid angle, and
-        whether the sampled point faces ``ref``."""
+        """``(j, w, pdf, front, y)`` for uniforms ``u3 (m, 3)``: light j ~ P (``u3[:, 0]``),
+        a direction towards it (``u3[:, 1:3]``), pdf = P_j p_j(w) in solid angle, whether
+        light j emits towards ``ref`` there and its first point y along w (see
+        :meth:`Light.sample`)."""
         j = self.selection.sample(u3[:, 0])
         n = len(ref)
         if len(self.lights) == 1 and not self.is_sphere[0]:     # no gathers
-            w, pdf, front = self.lights[0].sample(ref, u3[:, 1:3])
-            return j, w.astype(ref.dtype, copy=False), pdf * self.selection.pmf(j), front
+            w, pdf, front, y = self.lights[0].sample(ref, u3[:, 1:3])
+            return j, w.astype(ref.dtype, copy=False), pdf * self.selection.pmf(j), front, y
         w = np.zeros_like(ref)
         pdf = np.zeros(n)
         front = np.ones(n, bool)
+        y = np.full((n, 3), np.nan)
         sph = self.is_sphere[j]
         if sph.any():                            # all sphere lights in one batched cone
             m = slice(None) if sph.all() else np.flatnonzero(sph)
-            cone = SphereCone(self.centers[j[m]], self.radii[j[m]], ref[m])
-            w[m] = cone.sample(u3[m, 1:3])
-            pdf[m] = 1.0 / cone.solid_angle
+            jm = j[m]
+            s = self._cones(jm, ref[m]).sample_point(u3[m, 1:3].astype(ref.dtype))
+            w[m], pdf[m], y[m] = s.w, s.pdf, s.y
+            front[m] = self.signs[jm] * dot(s.y - self.centers[jm], s.w) < 0
         for i, m in _rows_by_light(j, ~self.is_sphere):
-            w[m], pdf[m], front[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
-        return j, w, pdf * self.selection.pmf(j), front
+            w[m], pdf[m], front[m], y[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
+        return j, w, pdf * self.selection.pmf(j), front, y
 
     def pdf(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray, hit_p: np.ndarray | None = None) -> np.ndarray:
         """P_j p_j(w) for light indices ``j`` (-1: no light, density 0); ``hit_p``: where
@@ -232,10 +243,16 @@ class LightSet:
         sph = has & self.is_sphere[np.maximum(j, 0)]
         if sph.any():
             m = slice(None) if sph.all() else np.flatnonzero(sph)
-            out[m] = SphereCone(self.centers[j[m]], self.radii[j[m]], ref[m]).pdf(w[m])
+            out[m] = self._cones(j[m], ref[m]).pdf(w[m])
         for i, m in _rows_by_light(j, ~self.is_sphere):
             out[m] = self.lights[i].pdf(ref[m], w[m], None if hit_p is None else hit_p[m])
         return out * np.where(has, self.selection.pmf(np.maximum(j, 0)), 0.0)
+
+    def _cones(self, j: np.ndarray, ref: np.ndarray) -> SphereCone:
+        """The cones of sphere lights ``j`` from ``ref``, in ``ref``'s precision (float32
+        for the renderer: the cone formulas are stable, see ``SphereCone``)."""
+        f32 = ref.dtype == np.float32
+        return SphereCone((self.centers32 if f32 else self.centers)[j], (self.radii32 if f32 else self.radii)[j], ref)
 
     def cos_integrals(self, ref: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(I, valid)``, both ``(m, lights)``: every light's closed-form unoccluded
