@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .base import Distribution, as_points, as_uniforms
+from .base import Distribution, as_float, as_points, as_uniforms
 from .frames import to_local, to_world  # noqa: F401
 
 if TYPE_CHECKING:
@@ -48,7 +48,7 @@ _T_EPS = 1e-9  # hits closer than _T_EPS * (bounding radius) are ignored (self-i
 # ----------------------------------------------------------------------------- helpers
 
 def _vector3(v: Any, name: str) -> np.ndarray:
-    a = np.asarray(v, dtype=float)
+    a = as_float(v)                                  # float64, or float32 kept
     if a.shape != (3,):
         raise ValueError(f"{name}: expected a 3-vector, got shape {a.shape}")
     if not np.all(np.isfinite(a)):

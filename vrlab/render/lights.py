@@ -97,12 +97,15 @@ class Light:
         self.planar = shape.type in ("rectangle", "disk")   # one hit per direction: facing is a function of w
         self.sign = -1.0 if shape.flip_normals else 1.0
         self.corners = None
+        self.surface32 = None           # a float32 copy for float32 reference points (rectangles)
         if shape.type == "sphere":
             self.sphere = shape.sphere()
             self.area = 4 * np.pi * self.sphere[1] ** 2
             return
         if shape.type == "rectangle":
             self.surface = RectangleSurface.from_matrix(shape.to_world, shape.flip_normals)
+            self.surface32 = RectangleSurface(*(np.float32(a) for a in (self.surface.corner, self.surface.edge1,
+                                                                       self.surface.edge2)))
             c, e1, e2, _ = shape.rectangle()
             self.corners = np.array([c, c + e1, c + e1 + e2, c + e2])
         elif shape.type == "cube":
@@ -126,9 +129,12 @@ class Light:
             s = cone.sample_point(u)
             front = self.sign * dot(s.y - self.sphere[0], s.w) < 0
             return s.w, s.pdf, front, s.y
-        s = self.surface.solid_angle_from(ref).sample_point(u)
+        surface = self._surface(ref)
+        if surface is self.surface32:
+            u = np.minimum(u.astype(np.float32), np.float32(1 - 2**-24))
+        s = surface.solid_angle_from(ref).sample_point(u)
         if self.planar:
-            return s.w, s.pdf, dot(ref - s.y, self.surface.normal(s.y)) > 0, s.y
+            return s.w, s.pdf, dot(ref - s.y, surface.normal(s.y)) > 0, s.y
         return s.w, s.pdf, np.ones(len(s.w), bool), np.full_like(s.y, np.nan)
 
     def pdf(self, ref: np.ndarray, w: np.ndarray, hit_p: np.ndarray | None = None) -> np.ndarray:
@@ -138,8 +144,12 @@ class Light:
         if self.sphere is not None:
             return SphereCone(self.sphere[0], self.sphere[1], ref).pdf(w)
         if self.planar and hit_p is not None:
-            return self.surface.solid_angle_from(ref).pdf_at(hit_p, w)
+            return self._surface(ref).solid_angle_from(ref).pdf_at(hit_p, w)
         return self.surface.solid_angle_from(ref).pdf(w)
+
+    def _surface(self, ref: np.ndarray) -> Surface:
+        """The surface in ``ref``'s precision (float32 for the renderer's rectangles)."""
+        return self.surface32 if ref.dtype == np.float32 and self.surface32 is not None else self.surface
 
     def cos_integral(self, ref: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(I, valid)``: I = int cos(theta) dw over the directions from ``ref`` (normal
