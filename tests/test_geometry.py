@@ -381,3 +381,28 @@ def test_cube_slab_test_axis_parallel_and_inside_rays():
             np.testing.assert_allclose(h.t[hit], t[hit], rtol=1e-6, atol=1e-6)
             np.testing.assert_allclose(h.n[hit], nrm[hit], atol=1e-6)
             assert np.all(h.shape[300:1000] == 0)          # from inside: always the cube
+
+
+@pytest.mark.parametrize("ellipsoid", [True, False])
+def test_distance_queries_match_intersect(ellipsoid):
+    """``distance`` (shadow and occlusion queries: t, optionally the shape, no hit data)
+    gives intersect's t and shape, for float32 rays (dense pass only, with and without
+    the primitive index) and float64 rays, and for a subset of the shapes (``only``)."""
+    shapes = SHAPES if ellipsoid else "\n".join(l for l in SHAPES.splitlines() if "ellipsoid" not in l
+                                               and "radii" not in l)
+    sc = _scene(shapes)
+    rng = np.random.default_rng(12)
+    for only in (None, [0, 2, 4, 5]):
+        geo = SceneGeometry(sc, only)
+        o, d = _rays(rng, sc, 3000, SceneGeometry(sc))
+        for dt in (np.float32, np.float64):
+            h = geo.intersect(o.astype(dt), d.astype(dt))
+            t, s = geo.distance(o.astype(dt), d.astype(dt), with_shape=True)
+            np.testing.assert_array_equal(s, h.shape)
+            np.testing.assert_allclose(t, h.t, rtol=1e-5 if dt is np.float32 else 0,   # float32 t: ~1e-7 |o|
+                                       atol=1e-6 if dt is np.float32 else 0)
+            # without the primitive index t keeps the low mantissa bits that _pick packs it in
+            np.testing.assert_allclose(geo.distance(o.astype(dt), d.astype(dt)), t,
+                                       rtol=2e-6 if dt is np.float32 else 0)
+        if only is not None:
+            assert set(np.unique(h.shape)) <= {-1, *only}

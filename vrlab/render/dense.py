@@ -48,14 +48,18 @@ def _rows(w: np.ndarray, x: np.ndarray) -> np.ndarray:
     return w @ x
 
 
-def _pick(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _pick(t: np.ndarray, index: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """Smallest t per column of ``t (P, n)`` (float32, >= 0, misses = ``BIG``) and its row.
 
     The row index is packed into the low ``bits = ceil(log2 P)`` mantissa bits (the
     int32 view of non-negative floats is monotonic), so one ``minimum.reduce`` finds
     both; ``argmin`` over axis 0 is about 15x slower.  Candidates within a relative
     2^(bits - 23) of each other are ordered by row, and the winner's t is recomputed in
-    float64 afterwards, so this only decides near-ties.  ``t`` is overwritten."""
+    float64 afterwards, so this only decides near-ties.  ``t`` is overwritten.  Without
+    ``index`` (distance queries) the row is not needed: ``(t, None)``."""
+    if not index:
+        m = np.minimum.reduce(t, axis=0)
+        return np.where(m < BIG, m, F32(np.inf)), None
     bits = (len(t) - 1).bit_length()
     key = t.view(np.int32)
     if bits:
@@ -92,13 +96,14 @@ def plane_rows(n: np.ndarray, a1: np.ndarray, a2: np.ndarray, v0: np.ndarray, pa
 
 
 def closest_planes(wo: np.ndarray, wd: np.ndarray, para: bool, O: np.ndarray, D: np.ndarray,
-                   t_min: float) -> tuple[np.ndarray, np.ndarray]:
+                   t_min: float, index: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """``(t, j)`` of P planar primitives (``wo``, ``wd`` from :func:`plane_rows`) for rays
     ``O (4, N)`` (origins with a row of ones) and ``D (3, N)``; parallelograms if ``para``
-    (hit: |s - 1/2|, |u - 1/2| <= 1/2) else triangles (s, u >= 0, s + u <= 1)."""
+    (hit: |s - 1/2|, |u - 1/2| <= 1/2) else triangles (s, u >= 0, s + u <= 1); j is None
+    without ``index``."""
     n = O.shape[1]
     p = len(wd) // 3
-    t_out, j_out = np.empty(n, F32), np.empty(n, np.int64)
+    t_out, j_out = np.empty(n, F32), np.empty(n, np.int64) if index else None
     with np.errstate(divide="ignore", invalid="ignore"):
         for b in _blocks(n, 3 * p):
             ow = _rows(wo, O[:, b])
@@ -110,17 +115,18 @@ def closest_planes(wo: np.ndarray, wd: np.ndarray, para: bool, O: np.ndarray, D:
             s += ow[p:2 * p]
             u *= t
             u += ow[2 * p:]
-            bad = t > t_min
-            np.logical_not(bad, out=bad)               # NaN (0/0: a ray inside the plane) is a miss
+            ok = t > t_min                             # NaN (0/0: a ray inside the plane) is a miss
             if para:
                 np.abs(s, out=s)
                 np.abs(u, out=u)
-                bad |= np.maximum(s, u, out=s) > 0.5
+                ok &= np.maximum(s, u, out=s) <= 0.5
             else:
-                bad |= np.minimum(s, u, out=ow[p:2 * p]) < 0
+                ok &= np.minimum(s, u, out=ow[p:2 * p]) >= 0
                 s += u
-                bad |= s > 1
-            t_out[b], j_out[b] = _pick(_miss(t, bad))
+                ok &= s <= 1
+            t_out[b], jb = _pick(np.where(ok, t, BIG), index)
+            if index:
+                j_out[b] = jb
     return t_out, j_out
 
 
@@ -157,7 +163,7 @@ def _sphere_roots(ox, oy, oz, dx, dy, dz, r2, t_min):
 
 
 def closest_quadrics(c: np.ndarray, minv: np.ndarray | None, r2: np.ndarray, O: np.ndarray,
-                     D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray]:
+                     D: np.ndarray, t_min: float, index: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """``(t, j)`` of Q quadrics, float32: centres ``c (Q, 3)``; spheres (``minv`` None,
     squared radii ``r2 (Q, 1)``) or ellipsoids (``minv (Q, 3, 3)``, ``r2`` = 1)."""
     n = O.shape[1]
@@ -174,8 +180,10 @@ def closest_quadrics(c: np.ndarray, minv: np.ndarray | None, r2: np.ndarray, O: 
                       for k in range(3)]
                 dd = [minv[:, k, 0:1] * d[0] + minv[:, k, 1:2] * d[1] + minv[:, k, 2:3] * d[2]
                       for k in range(3)]
-            t_out[b], j_out[b] = _pick(_sphere_roots(*oc, *dd, r2, t_min))
-    return t_out, j_out
+            t_out[b], jb = _pick(_sphere_roots(*oc, *dd, r2, t_min), index)
+            if index:
+                j_out[b] = jb
+    return t_out, j_out if index else None
 
 
 def box_rows(minv: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -188,7 +196,7 @@ def box_rows(minv: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def closest_boxes(wo: np.ndarray, wd: np.ndarray, O: np.ndarray, D: np.ndarray,
-                  t_min: float) -> tuple[np.ndarray, np.ndarray]:
+                  t_min: float, index: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """``(t, j)`` of B boxes by the slab test (Kay & Kajiya 1986) in each box's frame:
     per axis k, t1,2 = (-+1 - o_k) / d_k; t_near = max_k min(t1, t2), t_far = min_k
     max(t1, t2); a hit needs t_near <= t_far, t = t_near if it is > t_min (from outside)
@@ -213,8 +221,10 @@ def closest_boxes(wo: np.ndarray, wd: np.ndarray, O: np.ndarray, D: np.ndarray,
             bad = t > t_min
             np.logical_not(bad, out=bad)
             bad |= near > far
-            t_out[b], j_out[b] = _pick(_miss(t, bad))
-    return t_out, j_out
+            t_out[b], jb = _pick(_miss(t, bad), index)
+            if index:
+                j_out[b] = jb
+    return t_out, j_out if index else None
 
 
 class DensePlanar:
@@ -236,14 +246,17 @@ class DensePlanar:
         self.box_c = np.array([c for _, _, c in boxes], float).reshape(-1, 3)
         self.box_rows = box_rows(self.box_minv, self.box_c) if boxes else None
 
-    def closest(self, O: np.ndarray, D: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray]:
+    def closest(self, O: np.ndarray, D: np.ndarray, t_min: float,
+                index: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
         if self.rows is not None:
-            t, j = closest_planes(*self.rows, self.para, O, D, t_min)
-            j = self.plane_ids[j]
+            t, j = closest_planes(*self.rows, self.para, O, D, t_min, index)
+            j = self.plane_ids[j] if index else None
         else:
             t, j = np.full(O.shape[1], np.inf, F32), np.zeros(O.shape[1], np.int64)
         if self.box_rows is not None:
-            tb, jb = closest_boxes(*self.box_rows, O, D, t_min)
+            tb, jb = closest_boxes(*self.box_rows, O, D, t_min, index)
+            if not index:
+                return np.minimum(t, tb), None
             closer = tb < t
             t, j = np.where(closer, tb, t), np.where(closer, self.n_prims + jb, j)
         return t, j

@@ -167,12 +167,14 @@ class SceneGeometry:
         for a in range(0, n_rays, chunk):
             sl = slice(a, min(a + chunk, n_rays))
             self._closest(np.ascontiguousarray(o[sl]), np.ascontiguousarray(d[sl]), t_min,
-                          t[sl], shape[sl], normal[sl], finish=False)
+                          t[sl], shape[sl], normal[sl], finish=False, shapes=with_shape)
         return (t, shape) if with_shape else t
 
-    def _closest(self, o, d, t_min, t, shape, normal, finish: bool = True):
+    def _closest(self, o, d, t_min, t, shape, normal, finish: bool = True, shapes: bool = True):
         """Update ``t``, ``shape``, ``normal`` (views of one chunk) in place; with
-        ``finish=False`` (float32 rays) the dense groups only set t and the shape."""
+        ``finish=False`` (float32 rays) the dense groups only set t and, with ``shapes``,
+        the shape."""
+        index = finish or shapes
         dense = [g for g in self.planar if g.bvh is None]
         if self.quadrics is not None and self.quadrics.use_dense:
             dense.append(self.quadrics)
@@ -180,19 +182,23 @@ class SceneGeometry:
             o4 = np.ones((4, len(o)), np.float32)             # [o; 1] and d as float32 rows
             o4[:3] = o.T
             rows32 = (o4, np.ascontiguousarray(d.T, dtype=np.float32))
+            best = None
             for k, g in enumerate(dense):
-                tg, jg = g.dense(*rows32, t_min)
-                if k == 0:
+                tg, jg = g.dense(*rows32, t_min, index)
+                if not index:
+                    best = tg if best is None else np.minimum(best, tg)
+                elif k == 0:
                     best, prim, group = tg, jg, np.where(tg < np.inf, 0, -1)
                 else:                                 # strict: the earlier group keeps ties
                     closer = tg < best
                     best, prim, group = np.where(closer, tg, best), np.where(closer, jg, prim), np.where(closer, k, group)
             if not finish:
                 t[...] = best
-                for k, g in enumerate(dense):
-                    r = np.flatnonzero(group == k) if len(dense) > 1 else slice(None)
-                    shape[r] = g.shape_of(prim[r])
-                shape[best == np.inf] = -1
+                if shapes:
+                    for k, g in enumerate(dense):
+                        r = np.flatnonzero(group == k) if len(dense) > 1 else slice(None)
+                        shape[r] = g.shape_of(prim[r])
+                    shape[best == np.inf] = -1
             for k, g in enumerate(dense if finish else []):
                 r = np.flatnonzero(group == k)
                 if len(r) and o.dtype == np.float32:       # float32 rays: float32 hits

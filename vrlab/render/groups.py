@@ -108,9 +108,9 @@ class Planar:
     def __len__(self) -> int:
         return len(self.v0)
 
-    def dense(self, O: np.ndarray, D: np.ndarray, t_min: float):
+    def dense(self, O: np.ndarray, D: np.ndarray, t_min: float, index: bool = True):
         """float32 ``(t, j)`` of every ray against every primitive (:mod:`.dense`)."""
-        return self.kernel.closest(O, D, t_min)
+        return self.kernel.closest(O, D, t_min, index)
 
     def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
         """float64 plane t, shape and normal of the rays ``rows`` whose closest hit is
@@ -210,9 +210,9 @@ class Quadrics:
             return self._normal(*self._local(o, d, i[w], j[w]), j[w], tt[w])
         _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], nrm)
 
-    def dense(self, O: np.ndarray, D: np.ndarray, t_min: float):
+    def dense(self, O: np.ndarray, D: np.ndarray, t_min: float, index: bool = True):
         """float32 ``(t, j)`` of every ray against every quadric (:mod:`.dense`)."""
-        return closest_quadrics(self.c32, self.minv32, self.r2_32, O[:3], D, t_min)
+        return closest_quadrics(self.c32, self.minv32, self.r2_32, O[:3], D, t_min, index)
 
     def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
         """float64 t (stable roots; the float32 t where a grazing ray misses in float64),
