@@ -13,8 +13,9 @@ gracefully without mitsuba.
 
     python benchmarks/bench_mitsuba.py [--width 128 --height 96 --spp 64 --ref-spp 4096 --repeat 3]
 
-Each configuration runs ``--repeat`` times and the run with the shortest whole-process
-time is reported, for Mitsuba and vrlab alike.  vrlab's children import it from this
+Each configuration runs ``--repeat`` times, interleaved with the others (round after
+round, since this machine's speed drifts over minutes), and the run with the shortest
+whole-process time is reported, for Mitsuba and vrlab alike.  vrlab's children import it from this
 checkout after its bytecode is compiled (``compileall``), as in an installed package:
 with ``PYTHONDONTWRITEBYTECODE`` set, every child would otherwise recompile every module
 (about 0.1 s).
@@ -95,19 +96,6 @@ def vrlab_subprocess(name, w, h, spp, strategy, selection, m, workers, tmp):
     return np.load(out), dt, wall
 
 
-def _fastest(run, repeat):
-    """``(image, render s, process s)`` of the run with the shortest process time (the
-    same seed every time, so the images agree; render s comes from that run too)."""
-    best = None
-    for _ in range(max(1, repeat)):
-        r = run()
-        if r[0] is None:
-            return r
-        if best is None or r[2] < best[2]:
-            best = r
-    return best
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser()
     ap.add_argument("--width", type=int, default=128)
@@ -135,22 +123,36 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.scenes:
             ref, _ = mitsuba_render("scalar_rgb", name, w, h, args.ref_spp, seed=12345)
-            base = None
-            for v in args.variants:
-                img, dt, wall = _fastest(lambda: mitsuba_subprocess(v, name, w, h, spp, tmp), args.repeat)
-                if img is None:
-                    rows.append((name, f"mitsuba {v}", None, None, None, dt))
-                    continue
-                rows.append((name, f"mitsuba {v}", dt, samples / dt, relmse(img, ref), wall))
-                if v == "scalar_rgb":
-                    base = rows[-1]
+            # every configuration of the scene once per round, round after round: the
+            # machine's speed drifts over minutes, so each keeps its fastest whole process
+            configs = [(f"mitsuba {v}", (lambda v=v: mitsuba_subprocess(v, name, w, h, spp, tmp)))
+                       for v in args.variants]
             for strategy, selection, m in VRLAB_RUNS.get(name, [("mis-power", "uniform", 8)]):
                 label = strategy + (f"/{selection}" if strategy in ("light", "ris") else "") + \
                     (f" M={m}" if strategy == "ris" else "")
-                for k in args.workers:
-                    img, dt, wall = _fastest(lambda: vrlab_subprocess(name, w, h, spp, strategy, selection, m, k,
-                                                                      tmp), args.repeat)
-                    rows.append((name, f"vrlab {label} w={k}", dt, samples / dt, relmse(img, ref), wall))
+                configs += [(f"vrlab {label} w={k}",
+                             (lambda s=strategy, sel=selection, m=m, k=k:
+                              vrlab_subprocess(name, w, h, spp, s, sel, m, k, tmp)))
+                            for k in args.workers]
+            best, failed = {}, {}
+            for _ in range(max(1, args.repeat)):
+                for label, run in configs:
+                    if label in failed:
+                        continue
+                    r = run()
+                    if r[0] is None:
+                        failed[label] = r[1]
+                    elif label not in best or r[2] < best[label][2]:
+                        best[label] = r
+            base = None
+            for label, _ in configs:
+                if label in failed:
+                    rows.append((name, label, None, None, None, failed[label]))
+                    continue
+                img, dt, wall = best[label]
+                rows.append((name, label, dt, samples / dt, relmse(img, ref), wall))
+                if label == "mitsuba scalar_rgb":
+                    base = rows[-1]
             rows.append((name, "--ratios vs scalar", base))
     print(f"mitsuba {mi.__version__}; {w}x{h}, {spp} spp; reference: mitsuba scalar_rgb {args.ref_spp} spp")
     print("render s: the render call (Mitsuba after a 1-spp warm-up); process s: the whole child process "

@@ -122,11 +122,19 @@ def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *,
             collect([job.tile(t)])
     else:
         import multiprocessing as mp
-        ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+        global _WORKER_JOB
+        fork = "fork" in mp.get_all_start_methods()
+        ctx = mp.get_context("fork" if fork else "spawn")
         batches = [tiles[i::4 * workers] for i in range(4 * workers)]
-        with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker, initargs=(args,)) as pool:
-            for res in pool.map(_run_tiles, [b for b in batches if b]):
-                collect(res)
+        init = {} if fork else dict(initializer=_init_worker, initargs=(args,))
+        if fork:                                  # forked workers inherit the job built here
+            _WORKER_JOB = _Job(*args, integrator=probe)
+        try:
+            with ProcessPoolExecutor(workers, mp_context=ctx, **init) as pool:
+                for res in pool.map(_run_tiles, [b for b in batches if b]):
+                    collect(res)
+        finally:
+            _WORKER_JOB = None
     shape = (height, width, 3)
     return mean.reshape(shape), err.reshape(shape)
 

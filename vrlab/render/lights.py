@@ -233,14 +233,15 @@ class LightSet:
         w = np.zeros_like(ref)
         pdf = np.zeros(n)
         front = np.ones(n, bool)
-        y = np.full((n, 3), np.nan)
+        y = np.full((n, 3), np.nan, ref.dtype)
         sph = self.is_sphere[j]
         if sph.any():                            # all sphere lights in one batched cone
             m = slice(None) if sph.all() else np.flatnonzero(sph)
             jm = j[m]
-            s = self._cones(jm, ref[m]).sample_point(u3[m, 1:3].astype(ref.dtype))
+            cone = self._cones(jm, ref[m])
+            s = cone.sample_point(u3[m, 1:3].astype(ref.dtype))
             w[m], pdf[m], y[m] = s.w, s.pdf, s.y
-            front[m] = self.signs[jm] * dot(s.y - self.centers[jm], s.w) < 0
+            front[m] = self.signs[jm] * dot(s.y - cone.center, s.w) < 0
         for i, m in _rows_by_light(j, ~self.is_sphere):
             w[m], pdf[m], front[m], y[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
         return j, w, pdf * self.selection.pmf(j), front, y
