@@ -686,6 +686,9 @@ def test_float32_inputs_stay_float32_and_match_float64():
     np.testing.assert_allclose(s32.dist, s64.dist, rtol=1e-5)        # 12 away: 2e-6 relative at grazing
     np.testing.assert_allclose(s32.y, s64.y, atol=1e-4)              # on the sphere (r = 0.033)
     assert np.all(c64.pdf(s32.w.astype(float)) > 0)                  # inside the cone
+    from vrlab._vec import side
+    x = np.array([-2.0, -0.0, 0.0, 3.0], np.float32)
+    assert side(x).dtype == np.float32 and side(x).tolist() == [-1, 1, 1, 1]
     q = g.random((4000, 2)) * 1e3
     w = mis_weights(q.astype(np.float32), "power")
     assert w.dtype == np.float32

@@ -35,6 +35,13 @@ def scale(v: np.ndarray, s) -> np.ndarray:
     return out
 
 
+def side(x: np.ndarray) -> np.ndarray:
+    """-1 where ``x < 0``, else 1, in ``x``'s dtype (``np.where(x < 0, -1.0, 1.0)`` would
+    promote float32 to float64)."""
+    one = x.dtype.type(1.0)
+    return np.where(x < 0, -one, one)
+
+
 def outer3(s, c, dtype=None) -> np.ndarray:
     """``s[..., None] * c`` for scalars ``s (...)`` and one RGB / 3-vector ``c``, column by
     column (6-7x faster than the broadcast outer product); ``dtype`` of the result

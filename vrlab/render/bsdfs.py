@@ -35,7 +35,7 @@ import numpy as np
 
 from .._vec import dot as vdot
 from .._vec import norm as vnorm
-from .._vec import outer3, scale
+from .._vec import outer3, scale, side
 from ..distributions import GGX, CosineHemisphere, Mixture, PhongLobe
 from ..distributions.base import Distribution, as_points, as_uniforms, positive_float
 
@@ -62,12 +62,6 @@ def reflect(w: np.ndarray, m: np.ndarray) -> np.ndarray:
 def mirror(w: np.ndarray) -> np.ndarray:
     """Mirror direction about the local normal +z: (-x, -y, z)."""
     return w * np.array([-1.0, -1.0, 1.0])
-
-
-def _sign(x: np.ndarray) -> np.ndarray:
-    """-1 where ``x < 0``, else 1, in ``x``'s dtype."""
-    one = x.dtype.type(1.0)
-    return np.where(x < 0, -one, one)
 
 
 def _rgb(value: Any, name: str) -> np.ndarray:
@@ -290,7 +284,7 @@ class RoughConductor(BSDFModel):
     def pdf(self, wo, wi):
         wo, wi = _dirs(wo, wi)
         h, ok = self._half(wo, wi)
-        h = scale(h, _sign(h[..., 2]))
+        h = scale(h, side(h[..., 2]))
         dot = np.abs(vdot(wo, h))
         ok = ok & (dot > 0)
         return np.where(ok, self.normals.pdf(h) / (4.0 * np.where(ok, dot, 1.0)), 0.0)

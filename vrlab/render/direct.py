@@ -41,10 +41,11 @@ other shape is in front of it.  A blocker must be closer than the emitter by
 ``SHADOW_EPS`` = 1e-4 (relative; Mitsuba likewise shortens its shadow rays by a relative
 epsilon).
 
-Precision: rays, hit points, frames, BSDF values and MIS weights are float32, as in
-Mitsuba's scalar variants (NumPy runs float32 2-3x faster); light selection and light
-sampling (cone angles of small spheres, area-to-solid-angle pdfs) are computed in float64
-and rounded; pixel estimates are accumulated in float64.
+Precision: rays, hit points, frames, BSDF values, MIS weights, sphere-light cones and
+rectangle-light samples are float32, as in Mitsuba's scalar variants (NumPy runs float32
+2-3x faster; the formulas used are the stable ones, see ``SphereCone`` and ``GGX``); light
+selection keeps float64 uniforms, the other lights (cubes, ellipsoids, disks) are sampled
+in float64 and rounded, and pixel estimates are accumulated in float64.
 
 Emitting surfaces reflect other lights through their BSDF like any surface, as in
 Mitsuba; an emitter without a ``<bsdf>`` is black (Mitsuba's behaviour), and black
@@ -55,12 +56,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._vec import dot, scale
+from .._vec import dot, scale, side
 from ..distributions import CosineHemisphere, Frame, UniformHemisphere, to_local
 from ..estimators.mis import mis_weights
 from ..estimators.ris import Reservoir
 from ..points.base import check_int
-from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor, _sign
+from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor
 from .camera import Camera
 from .geometry import Hits, SceneGeometry
 from .lights import LIGHT_SELECTIONS, LightSet, luminance
@@ -249,7 +250,7 @@ class DirectLighting:
         offset = np.maximum(np.maximum(a[:, 0], a[:, 1]), a[:, 2])
         offset += 1.0
         offset *= self.eps
-        offset *= _sign(dot(w, n))
+        offset *= side(dot(w, n))
         return p + scale(n, offset)
 
     def shadow(self, p: np.ndarray, n: np.ndarray, w: np.ndarray, y: np.ndarray, j: np.ndarray,
@@ -297,7 +298,7 @@ class DirectLighting:
         ``self.bsdfs[k]`` (BSDF group ``k``, see ``group_of_shape``)."""
         bsdf = self.bsdfs[k]
         if self.twosided[k]:
-            n = scale(n, _sign(dot(wo, n)))
+            n = scale(n, side(dot(wo, n)))
         fr = Frame(n)                                   # one shading frame per point
         wo_l = fr.to_local(wo)
         s, lay, n_b, n_l = self.strategy, self.layout, self.n_b, self.n_l
@@ -369,12 +370,7 @@ class DirectLighting:
         res = Reservoir.empty((rows,), 1).update(idx, weight.reshape(rows, M), blocks[:, 3 * M:],
                                                  target.reshape(rows, M))
         pick = res.y[:, 0].astype(np.int64)
-        if lights.simple:
-            le = self.shadow(pr, nr, w[pick].astype(pr.dtype), y[pick], j[pick], front[pick])
-        else:
-            hits, le = self.trace(pr, nr, w[pick])
-            hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
-            le = scale(le, (hits.shape >= 0) & (hit_light == j[pick]))
+        le = self._light_emission(pr, nr, w[pick].astype(pr.dtype), j[pick], front[pick], y[pick])
         value = scale(bsdf.eval(wor, wi_l[pick]) * le, res.W)
         return _mean_of(value, n_l)
 
@@ -405,14 +401,19 @@ class DirectLighting:
     def _light_sample(self, bsdf, p, fr, wo_l, u3):
         j, w, pdf, front, y = self.lights.sample(p, u3)
         pdf = pdf.astype(F32)
-        if self.lights.simple:                  # the light's first point is known
-            le = self.shadow(p, fr.n, w, y, j, front)
-        else:
-            hits, le = self.trace(p, fr.n, w)
-            hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
-            le = scale(le, (hits.shape >= 0) & (hit_light == j))
+        le = self._light_emission(p, fr.n, w, j, front, y)
         wi_l = fr.to_local(w)
         return bsdf.eval(wo_l, wi_l), le, pdf, wi_l, j
+
+    def _light_emission(self, p, n, w, j, front, y) -> np.ndarray:
+        """Emission of light j reaching ``p`` along light samples ``w``: a shadow ray to the
+        light's first point ``y`` where ``LightSet.sample`` knows it, else a trace that
+        counts only light j itself (see the module docstring)."""
+        if self.lights.simple:
+            return self.shadow(p, n, w, y, j, front)
+        hits, le = self.trace(p, n, w)
+        hit_light = self.light_of_shape[np.maximum(hits.shape, 0)]
+        return scale(le, (hits.shape >= 0) & (hit_light == j))
 
     def light_pdf(self, p: np.ndarray, w: np.ndarray, hits) -> np.ndarray:
         """P_k p_k(w): selection probability x solid-angle pdf of the light ``hits`` belong to
