@@ -687,6 +687,9 @@ def test_float32_inputs_stay_float32_and_match_float64():
     np.testing.assert_allclose(s32.y, s64.y, atol=1e-4)              # on the sphere (r = 0.033)
     assert np.all(c64.pdf(s32.w.astype(float)) > 0)                  # inside the cone
     from vrlab._vec import side
+    from vrlab.distributions.base import uniforms32
+    u = uniforms32(np.array([0.0, 0.3, 1 - 1e-12]))              # rounds to 1 in plain float32
+    assert u.dtype == np.float32 and u[0] == 0 and u[1] == np.float32(0.3) and u[2] < 1
     x = np.array([-2.0, -0.0, 0.0, 3.0], np.float32)
     assert side(x).dtype == np.float32 and side(x).tolist() == [-1, 1, 1, 1]
     q = g.random((4000, 2)) * 1e3

@@ -41,6 +41,11 @@ def as_uniforms(u: Any, dim_u: int) -> np.ndarray:
     return u
 
 
+def uniforms32(u: Any) -> np.ndarray:
+    """Uniforms in [0, 1) as float32, still in [0, 1): float32 rounding could reach 1."""
+    return np.minimum(np.asarray(u, dtype=np.float32), np.nextafter(np.float32(1), np.float32(0)))
+
+
 class Distribution:
     """Base class: subclasses set ``dim_u``, ``dim_x``, ``measure`` and implement
     ``sample`` and ``pdf`` (and ``invert`` where the warp is a bijection)."""

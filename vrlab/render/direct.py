@@ -58,6 +58,7 @@ import numpy as np
 
 from .._vec import dot, scale, side
 from ..distributions import CosineHemisphere, Frame, UniformHemisphere, to_local
+from ..distributions.base import uniforms32
 from ..estimators.mis import mis_weights
 from ..estimators.ris import Reservoir
 from ..points.base import check_int
@@ -75,7 +76,6 @@ _BSDF_ONLY = ("uniform", "cosine", "bsdf")
 DIMS = 8                      # uniforms per pixel sample with one BSDF and one light sample
 F32 = np.float32
 SHADOW_EPS = 1e-4             # a blocker must be this much closer (relative) than the emitter
-_BELOW_ONE = np.nextafter(F32(1), F32(0))    # the largest float32 below 1
 _COSINE = CosineHemisphere()
 _UNIFORM = UniformHemisphere()
 
@@ -140,11 +140,6 @@ class UniformLayout:
 def _stack(u: np.ndarray, slices: list[slice]) -> np.ndarray:
     """The column blocks ``slices`` of ``u`` stacked on the row axis (sample k after k-1)."""
     return np.concatenate([u[:, s] for s in slices]) if len(slices) > 1 else u[:, slices[0]]
-
-
-def _u32(u: np.ndarray) -> np.ndarray:
-    """float64 uniforms in [0, 1) as float32 in [0, 1) (rounding must not reach 1)."""
-    return np.minimum(u.astype(F32), _BELOW_ONE)
 
 
 def _tile(a: np.ndarray, k: int) -> np.ndarray:
@@ -387,7 +382,7 @@ class DirectLighting:
         return big_g + _mean_of(_safe_ratio(f_l * le_l - g, q_l), n_l)
 
     def _bsdf_sample(self, bsdf, p, fr, wo_l, u2, warp=None):
-        u2 = _u32(u2)
+        u2 = uniforms32(u2)
         if warp is not None:  # a fixed hemisphere warp (uniform or cosine) instead of the BSDF's
             wi_l = warp.sample(u2)
             pdf = warp.pdf(wi_l)

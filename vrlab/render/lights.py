@@ -28,6 +28,7 @@ from ..distributions import (
     RectangleSurface,
     SphereCone,
 )
+from ..distributions.base import uniforms32
 from ..distributions.surfaces import Surface
 from .scene import Shape
 
@@ -131,7 +132,7 @@ class Light:
             return s.w, s.pdf, front, s.y
         surface = self._surface(ref)
         if surface is self.surface32:
-            u = np.minimum(u.astype(np.float32), np.float32(1 - 2**-24))
+            u = uniforms32(u)
         s = surface.solid_angle_from(ref).sample_point(u)
         if self.planar:
             return s.w, s.pdf, dot(ref - s.y, surface.normal(s.y)) > 0, s.y
