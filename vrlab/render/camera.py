@@ -34,9 +34,9 @@ class Camera:
         self.rotation = np.asarray(sensor.to_world, float)[:3, :3].copy()
         self.origin = np.asarray(sensor.to_world, float)[:3, 3].copy()
 
-    def local_directions(self, film: np.ndarray) -> np.ndarray:
+    def local_directions(self, film: np.ndarray, dtype=np.float64) -> np.ndarray:
         """Unnormalised local directions ``(..., 3)`` of film positions ``(..., 2)``."""
-        film = np.asarray(film, float)
+        film = np.asarray(film, dtype)
         x = (1.0 - 2.0 * film[..., 0] / self.width) * self.tan_x
         y = (1.0 - 2.0 * film[..., 1] / self.height) * self.tan_y
         return np.stack([x, y, np.ones_like(x)], -1)
@@ -44,15 +44,7 @@ class Camera:
     def rays(self, film: np.ndarray, dtype=np.float64) -> tuple[np.ndarray, np.ndarray]:
         """World ``(origins, unit directions)``, each ``(..., 3)`` of ``dtype`` (the renderer
         uses float32), of film positions ``(..., 2)``."""
-        film = np.asarray(film, dtype)
-        x = (1.0 - 2.0 * film[..., 0] / self.width) * self.tan_x
-        y = (1.0 - 2.0 * film[..., 1] / self.height) * self.tan_y
-        rot = self.rotation.astype(dtype)
-        d = np.empty(x.shape + (3,), dtype)
-        for k in range(3):                     # rotation @ (x, y, 1), column by column
-            np.multiply(x, rot[k, 0], out=d[..., k])
-            d[..., k] += y * rot[k, 1]
-            d[..., k] += rot[k, 2]
+        d = self.local_directions(film, dtype) @ self.rotation.T.astype(dtype)
         d = scale(d, 1.0 / norm(d))
         o = np.empty_like(d)
         o[...] = self.origin
