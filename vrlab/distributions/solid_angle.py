@@ -147,10 +147,18 @@ class SphereCone(Distribution):
         self.axis = scale(v, 1.0 / safe)
         if not np.all(d > 0):
             self.axis = np.where((d > 0)[..., None], self.axis, np.array([0.0, 0.0, 1.0], d.dtype))
-        ratio2 = np.where(self.inside, 1.0, (self.radius / safe) ** 2)
-        self.one_minus_cos = np.where(self.inside, 2.0, ratio2 / (1.0 + np.sqrt(1.0 - ratio2)))
+        self.one_minus_cos = self.cone_size(d, self.radius)
         self.cos_max = 1.0 - self.one_minus_cos
         self.solid_angle = TWO_PI * self.one_minus_cos
+
+    @staticmethod
+    def cone_size(d: np.ndarray, radius: Any) -> np.ndarray:
+        """1 - cos_max of the cone of a sphere of ``radius`` seen from distance ``d``:
+        (r/d)^2 / (1 + sqrt(1 - (r/d)^2)) (no cancellation for small cones), 2 from inside
+        (d <= r: the whole sphere of directions).  The solid angle is 2 pi times it."""
+        inside = d <= radius
+        ratio2 = np.where(inside, 1.0, (radius / np.where(d > 0, d, 1.0)) ** 2)
+        return np.where(inside, 2.0, ratio2 / (1.0 + np.sqrt(1.0 - ratio2)))
 
     def sample(self, u: np.ndarray) -> np.ndarray:
         u = as_uniforms(u, 2)

@@ -249,22 +249,31 @@ class LightSet:
 
     def pdf(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray, hit_p: np.ndarray | None = None) -> np.ndarray:
         """P_j p_j(w) for light indices ``j`` (-1: no light, density 0); ``hit_p``: where
-        each ray met light j, if known (see :meth:`Light.pdf`)."""
+        each ray met light j, if known (see :meth:`Light.pdf`; for a sphere it means w is
+        in its cone, so only the cone's solid angle is needed)."""
         out = np.zeros(len(ref))
         has = j >= 0
         sph = has & self.is_sphere[np.maximum(j, 0)]
         if sph.any():
             m = slice(None) if sph.all() else np.flatnonzero(sph)
-            out[m] = self._cones(j[m], ref[m]).pdf(w[m])
+            if hit_p is None:
+                out[m] = self._cones(j[m], ref[m]).pdf(w[m])
+            else:               # the ray met sphere j, so w is in its cone: 1 / solid angle
+                c, r = self._spheres(j[m], ref)
+                out[m] = 1.0 / (2.0 * np.pi * SphereCone.cone_size(norm(c - ref[m]), r))
         for i, m in _rows_by_light(j, ~self.is_sphere):
             out[m] = self.lights[i].pdf(ref[m], w[m], None if hit_p is None else hit_p[m])
         return out * np.where(has, self.selection.pmf(np.maximum(j, 0)), 0.0)
 
-    def _cones(self, j: np.ndarray, ref: np.ndarray) -> SphereCone:
-        """The cones of sphere lights ``j`` from ``ref``, in ``ref``'s precision (float32
-        for the renderer: the cone formulas are stable, see ``SphereCone``)."""
+    def _spheres(self, j: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Centres and radii of sphere lights ``j`` in ``ref``'s precision (float32 for the
+        renderer: the cone formulas are stable, see ``SphereCone``)."""
         f32 = ref.dtype == np.float32
-        return SphereCone((self.centers32 if f32 else self.centers)[j], (self.radii32 if f32 else self.radii)[j], ref)
+        return (self.centers32 if f32 else self.centers)[j], (self.radii32 if f32 else self.radii)[j]
+
+    def _cones(self, j: np.ndarray, ref: np.ndarray) -> SphereCone:
+        """The cones of sphere lights ``j`` from ``ref``."""
+        return SphereCone(*self._spheres(j, ref), ref)
 
     def cos_integrals(self, ref: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(I, valid)``, both ``(m, lights)``: every light's closed-form unoccluded
