@@ -98,25 +98,38 @@ class TriangleChart(Chart):
     """Triangle (a, b, c) with barycentrics (s, t (1 - s)): x = c + s (a - c) + t (1 - s) (b - c).
 
     A "collapsed square" (not the sqrt warp the sampler uses); area element 2 A (1 - s).
+    ``to_param`` solves the 2x2 Gram system elementwise (no BLAS, so no rounding that
+    depends on the CPU's BLAS kernel).  At vertex a the square collapses and t is
+    undefined: within ``VERTEX_TOL`` of it (1 - s <= VERTEX_TOL), where rounding of order
+    1e-16 in the barycentrics makes t = b1 / (1 - s) meaningless, t is clipped to [0, 1].
     """
 
     p = 2
+    VERTEX_TOL = 1e-9
 
     def __init__(self, a, b, c):
         self.v = np.stack([np.asarray(a, float), np.asarray(b, float), np.asarray(c, float)])
         self.dim_x = self.v.shape[1]
         e = np.stack([self.v[0] - self.v[2], self.v[1] - self.v[2]])
-        self._pinv = np.linalg.pinv(e.T)
         self.e = e
-        if self.dim_x == 2:
-            self.area = 0.5 * abs(e[0, 0] * e[1, 1] - e[0, 1] * e[1, 0])
-        else:
-            self.area = 0.5 * float(np.linalg.norm(np.cross(e[0], e[1])))
+        self._gram = (float(e[0] @ e[0]), float(e[0] @ e[1]), float(e[1] @ e[1]))
+        g00, g01, g11 = self._gram
+        self._det = g00 * g11 - g01 * g01
+        if not self._det > 0:
+            raise ValueError("a, b, c: the triangle is degenerate (zero area)")
+        self.area = 0.5 * float(np.sqrt(self._det))
 
     def to_param(self, x):
-        b = (as_points(x, self.dim_x) - self.v[2]) @ self._pinv.T
-        rest = 1.0 - b[..., 0]
-        return np.stack([b[..., 0], np.where(rest > 0, b[..., 1] / np.where(rest > 0, rest, 1.0), 0.0)], -1)
+        d = as_points(x, self.dim_x) - self.v[2]
+        r0 = sum(d[..., k] * self.e[0, k] for k in range(self.dim_x))
+        r1 = sum(d[..., k] * self.e[1, k] for k in range(self.dim_x))
+        g00, g01, g11 = self._gram
+        b0 = (g11 * r0 - g01 * r1) / self._det
+        b1 = (g00 * r1 - g01 * r0) / self._det
+        rest = 1.0 - b0
+        t = b1 / np.where(rest > 0, rest, 1.0)
+        t = np.where(rest > self.VERTEX_TOL, t, np.clip(np.where(rest > 0, t, 0.0), 0.0, 1.0))
+        return np.stack([b0, t], -1)
 
     def from_param(self, s):
         b0 = s[..., 0]

@@ -1,0 +1,125 @@
+"""Argument checks shared by every layer: each error names the argument and what is allowed.
+
+Public entry points call these once, at the boundary, so that bad input gives a
+``TypeError`` (wrong kind: ``"abc"`` for a number) or a ``ValueError`` (right kind,
+bad value: NaN, out of range, wrong shape) whose message starts with the argument's
+name.  Hot loops (a warp's ``sample(u)`` inside an estimator) do not call them.
+
+* :func:`real` - one finite real number, optionally within bounds;
+* :func:`integer` - one integer (``16.7`` and ``True`` are refused, ``16.0`` too);
+* :func:`choice` - one of a fixed set of strings;
+* :func:`finite_array` - a float array of finite values with an optional shape check;
+* :func:`uniforms_array` - an array of uniforms: finite, in [0, 1), last axis ``d``.
+"""
+from __future__ import annotations
+
+import numbers
+from typing import Any, Iterable
+
+import numpy as np
+
+
+def _describe(value: Any) -> str:
+    text = repr(value)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{text} ({type(value).__name__})"
+
+
+def _bound_text(low, high, low_open, high_open) -> str:
+    parts = []
+    if low is not None:
+        parts.append(f"> {low}" if low_open else f">= {low}")
+    if high is not None:
+        parts.append(f"< {high}" if high_open else f"<= {high}")
+    return " and ".join(parts)
+
+
+def real(value: Any, name: str, *, low: float | None = None, high: float | None = None,
+         low_open: bool = False, high_open: bool = False, finite: bool = True) -> float:
+    """``value`` as a Python float.
+
+    ``TypeError`` unless it is a real number (a Python or NumPy number, or a 0-d
+    array; strings, ``None``, booleans and complex numbers are refused);
+    ``ValueError`` if it is NaN, infinite (with ``finite=True``) or outside
+    ``[low, high]`` (open ends with ``low_open`` / ``high_open``).
+    """
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
+        raise TypeError(f"{name} must be a real number, got {_describe(value)}")
+    x = float(value)
+    if np.isnan(x) or (finite and not np.isfinite(x)):
+        raise ValueError(f"{name} must be a finite number, got {x}")
+    ok = True
+    if low is not None:
+        ok &= x > low if low_open else x >= low
+    if high is not None:
+        ok &= x < high if high_open else x <= high
+    if not ok:
+        raise ValueError(f"{name} must be {_bound_text(low, high, low_open, high_open)}, got {x:g}")
+    return x
+
+
+def integer(value: Any, name: str, *, low: int | None = None, high: int | None = None) -> int:
+    """``value`` as a Python int: ``TypeError`` unless it is an integer (floats such as
+    16.7 or 16.0 and booleans are refused), ``ValueError`` outside ``[low, high]``."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value[()]
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {_describe(value)}")
+    k = int(value)
+    if (low is not None and k < low) or (high is not None and k > high):
+        raise ValueError(f"{name} must be {_bound_text(low, high, False, False)}, got {k}")
+    return k
+
+
+def choice(value: Any, name: str, allowed: Iterable[str]) -> str:
+    """``value`` if it is one of the strings ``allowed``; else ``ValueError`` listing them
+    (``TypeError`` for a non-string)."""
+    allowed = tuple(allowed)
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be one of {', '.join(map(repr, allowed))}; got {_describe(value)}")
+    if value not in allowed:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}; got {value!r}")
+    return value
+
+
+def finite_array(value: Any, name: str, *, ndim: int | None = None, last: int | None = None,
+                 dtype=float) -> np.ndarray:
+    """``value`` as a float array whose every entry is finite.
+
+    ``TypeError`` if it cannot be read as numbers; ``ValueError`` naming the first
+    non-finite entry, or if ``ndim`` / the last axis length ``last`` do not match.
+    """
+    try:
+        a = np.asarray(value, dtype=dtype)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be an array of real numbers, got {_describe(value)}") from None
+    if ndim is not None and a.ndim != ndim:
+        raise ValueError(f"{name} must have {ndim} dimension(s), got shape {a.shape}")
+    if last is not None and (a.ndim == 0 or a.shape[-1] != last):
+        raise ValueError(f"{name} must have shape (..., {last}), got {a.shape}")
+    bad = ~np.isfinite(a)
+    if bad.any():
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"{name} must be finite, but entry {where} is {a[where]}")
+    return a
+
+
+def uniforms_array(value: Any, name: str = "points", *, d: int | None = None) -> np.ndarray:
+    """An array of uniforms ``(..., d)``: finite float values in [0, 1).
+
+    Estimators call this once on a user's ``points=`` array; ``ValueError`` names the
+    first value outside [0, 1) or the wrong last axis.
+    """
+    a = finite_array(value, name)
+    if a.ndim < 2:
+        raise ValueError(f"{name}: an array of uniforms needs shape (..., n, d), got {a.shape}")
+    if d is not None and a.shape[-1] < d:
+        raise ValueError(f"{name}: an array of uniforms needs shape (..., n, {d}), got {a.shape}")
+    out = (a < 0) | (a >= 1)
+    if out.any():
+        where = tuple(int(i) for i in np.argwhere(out)[0])
+        raise ValueError(f"{name}: uniforms must lie in [0, 1), but entry {where} is {a[where]!r}")
+    return a
