@@ -123,16 +123,47 @@ def test_unequal_fractions_unbiased():
             assert sum(est.extra["counts"]) == 20_001
 
 
-def test_broken_weights_are_detected():
-    """w_i = 1 for every technique (weights summing to 2): the unbiasedness check must fail."""
+def test_broken_weights_are_detected(raises_naming, monkeypatch):
+    """w_i = 1 for every technique (weights summing to 2): refused up front, naming the
+    heuristic; with that check switched off, the unbiasedness z-test catches it too."""
     integrand, dists = techniques("sin")
-    ones = lambda q: np.ones_like(q)  # noqa: E731
+
+    def ones(q):
+        return np.ones_like(q)
+
+    with raises_naming(ValueError, "heuristic", "'ones'"):
+        MIS(dists, heuristic=ones).estimate(integrand, 20_000, rng=11)
+    with raises_naming(ValueError, "heuristic"):
+        OneSampleMIS(dists, heuristic=ones).estimate(integrand, 20_000, rng=11)
+    import vrlab.estimators.mis as mis_module
+
+    monkeypatch.setattr(mis_module, "check_heuristic_weights", lambda h, q: np.asarray(h(q), float))
     est = MIS(dists, heuristic=ones).estimate(integrand, 20_000, rng=11)
     assert abs(est.zscore(integrand.exact)) > 4
     assert est.value == pytest.approx(2.0, rel=0.02)
     # one-sample without the weight (F = f / (c_I p_I)): also sums to 2 I
-    est = OneSampleMIS(dists, heuristic=lambda q: np.ones_like(q)).estimate(integrand, 20_000, rng=11)
+    est = OneSampleMIS(dists, heuristic=ones).estimate(integrand, 20_000, rng=11)
     assert abs(est.zscore(integrand.exact)) > 4
+
+
+def test_heuristic_weights_checked_where_some_density_is_positive(raises_naming):
+    """Weights may be anything where every q_k = 0, and a technique with q_k = 0 may get any
+    weight (it never samples there), but the others must then sum to 1."""
+    from vrlab.estimators.mis import check_heuristic_weights, mis_weights
+
+    q = np.array([[1.0, 3.0], [0.0, 2.0], [0.0, 0.0]])
+    balance = mis_weights(q, "balance")
+    np.testing.assert_allclose(check_heuristic_weights(lambda q: balance, q), balance)
+    odd = balance.copy()
+    odd[1, 0], odd[2] = 0.7, 5.0                  # q_0 = 0 at row 1; nothing covers row 2
+    check_heuristic_weights(lambda q: odd, q)
+    odd[1, 1] = 0.5
+    with raises_naming(ValueError, "heuristic"):
+        check_heuristic_weights(lambda q: odd, q)
+    with raises_naming(ValueError, "heuristic"):
+        check_heuristic_weights(lambda q: np.full_like(q, np.nan), q)
+    with raises_naming(ValueError, "heuristic"):
+        check_heuristic_weights(lambda q: np.ones(5), q)
 
 
 # ---------------------------------------------------------------------------------------

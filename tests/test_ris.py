@@ -250,7 +250,7 @@ def test_settings_and_warnings():
     integrand = get("sin")
     with pytest.raises(ValueError, match="m"):
         RIS(UNIFORM, sin_target, 0)
-    with pytest.raises(ValueError, match="m"):
+    with pytest.raises(TypeError, match="m"):           # not an integer: a TypeError, as everywhere
         RIS(UNIFORM, sin_target, 2.5)
     with pytest.raises(TypeError, match="target"):
         RIS(UNIFORM, 3.0, 4)

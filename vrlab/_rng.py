@@ -18,6 +18,8 @@ def as_generator(rng: RNGLike = None) -> np.random.Generator:
     """Return a ``numpy.random.Generator`` for any accepted ``rng`` value."""
     if isinstance(rng, np.random.Generator):
         return rng
+    if isinstance(rng, (bool, np.bool_)):
+        raise TypeError(f"rng: expected None, an int seed, a SeedSequence, BitGenerator or Generator, got {rng!r}")
     if rng is None or isinstance(rng, (int, np.integer, np.random.SeedSequence, np.random.BitGenerator)):
         if isinstance(rng, (int, np.integer)) and rng < 0:
             raise ValueError(f"rng: a seed must be non-negative, got {rng}")
@@ -37,8 +39,12 @@ def spawn(rng: RNGLike, k: int) -> list[np.random.Generator]:
     i-th child depends only on the seed and ``i`` (reproducible per work unit).
     With a ``Generator`` the children come from its bit generator's ``spawn``.
     """
+    if isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer)):
+        raise TypeError(f"k must be an integer, got {k!r}")
     if k < 0:
         raise ValueError(f"k must be >= 0, got {k}")
+    if isinstance(rng, (bool, np.bool_)):
+        raise TypeError(f"rng: cannot spawn from a bool ({rng!r}); give an int seed")
     if isinstance(rng, np.random.Generator):
         return rng.spawn(k)
     if isinstance(rng, np.random.SeedSequence):

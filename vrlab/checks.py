@@ -9,7 +9,8 @@ name.  Hot loops (a warp's ``sample(u)`` inside an estimator) do not call them.
 * :func:`integer` - one integer (``16.7`` and ``True`` are refused, ``16.0`` too);
 * :func:`choice` - one of a fixed set of strings;
 * :func:`finite_array` - a float array of finite values with an optional shape check;
-* :func:`uniforms_array` - an array of uniforms: finite, in [0, 1), last axis ``d``.
+* :func:`uniforms_array` - an array of uniforms: finite, in [0, 1), last axis ``d``;
+* :func:`flag` - a bool; :func:`distribution` - an object with dim_u, sample, pdf.
 """
 from __future__ import annotations
 
@@ -123,3 +124,21 @@ def uniforms_array(value: Any, name: str = "points", *, d: int | None = None) ->
         where = tuple(int(i) for i in np.argwhere(out)[0])
         raise ValueError(f"{name}: uniforms must lie in [0, 1), but entry {where} is {a[where]!r}")
     return a
+
+
+def flag(value: Any, name: str) -> bool:
+    """``value`` as a bool: only ``True``/``False`` (or NumPy booleans) are accepted, so that
+    ``probe="no"`` is a ``TypeError`` rather than a truthy string."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {_describe(value)}")
+    return bool(value)
+
+
+def distribution(value: Any, name: str = "distribution"):
+    """``value`` if it has the distribution protocol (``dim_u``, ``sample``, ``pdf``), else
+    ``TypeError`` naming the missing attribute."""
+    for attr in ("dim_u", "sample", "pdf"):
+        if not hasattr(value, attr):
+            raise TypeError(f"{name}: {value!r} is not a distribution: it has no {attr!r} "
+                            "(a distribution needs dim_u, sample(u) and pdf(x))")
+    return value

@@ -223,9 +223,15 @@ def run_demo(out: str | Path = "vrlab-demo", seed: int = 2026, quick: bool = Fal
     import matplotlib
 
     matplotlib.use("Agg")
+    from . import checks
     from .bench import run as run_bench
 
+    if not isinstance(out, (str, Path)) or not str(out):
+        raise TypeError(f"out must be a folder path, got {out!r}")
+    seed, quick = checks.integer(seed, "seed", low=0), checks.flag(quick, "quick")
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"out: {out} exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     print(f"vrlab demo: writing into {out.resolve()}")

@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from . import checks
+
 
 class Moments:
     """Running count, mean and sum of squared deviations along the last axis (batched)."""
@@ -85,8 +87,7 @@ class Estimate:
 
     def ci(self, level: float = 0.95):
         """Normal-theory confidence interval ``(lo, hi)`` at ``level``."""
-        if not 0 < level < 1:
-            raise ValueError(f"level must be in (0, 1), got {level}")
+        level = checks.real(level, "level", low=0.0, high=1.0, low_open=True, high_open=True)
         from scipy import stats
 
         z = stats.norm.ppf(0.5 + level / 2)
@@ -95,6 +96,7 @@ class Estimate:
 
     def zscore(self, exact):
         """(value - exact) / stderr: about N(0, 1) for a calibrated unbiased estimator."""
+        exact = checks.finite_array(exact, "exact")
         with np.errstate(divide="ignore", invalid="ignore"):
             return (np.asarray(self.value) - exact) / np.asarray(self.stderr)
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import checks
 from ..points.base import ONE_MINUS_EPS
 from .base import Estimator, resolve_distribution
 from .importance import MonteCarlo
@@ -52,8 +53,8 @@ class Antithetic(Estimator):
     evals_per_unit = 2
 
     def __init__(self, distribution=None, *, probe: bool = True):
-        self.distribution = distribution
-        self.probe = probe
+        self.distribution = None if distribution is None else checks.distribution(distribution)
+        self.probe = checks.flag(probe, "probe")
 
     @property
     def label(self) -> str:

@@ -16,8 +16,10 @@ from typing import Any, Iterator
 
 import numpy as np
 
+from .. import checks
 from .._rng import RNGLike, as_generator
 from ..estimate import Estimate, Moments
+from ..integrands.base import as_integrand
 
 DEFAULT_CHUNK = 1 << 18  # sample units per chunk: bounded memory for any n
 
@@ -52,10 +54,11 @@ def uniform_blocks(points: Any, d: int, m: int, rng: RNGLike, chunk: int = DEFAU
     sets whose size is part of their design (``extensible = False``: stratified, Latin
     hypercube, Hammersley) are drawn in one call so their structure is kept.
     """
+    chunk = check_chunk(chunk)
     if isinstance(points, np.ndarray):
         if points.ndim < 2 or points.shape[-1] != d or points.shape[-2] != m:
             raise ValueError(f"points: an array of uniforms must have shape (*batch, {m}, {d}), got {points.shape}")
-        yield points
+        yield checks.uniforms_array(points, "points", d=d)
         return
     if points is None and isinstance(rng, np.random.Generator):
         # fast path, same numbers as Independent(d, rng=rng).random(k) without building the
@@ -136,6 +139,7 @@ class Estimator:
         ``points``: the uniforms' point set (class, name or engine; default
         independent) or an array of uniforms ``(*batch, m, d)``; ``rng`` seeds it.
         """
+        integrand, chunk = as_integrand(integrand), check_chunk(chunk)
         self.check(integrand)
         m = self.units_for(n)
         gen = as_generator(rng) if not isinstance(rng, np.random.Generator) else rng
@@ -146,6 +150,11 @@ class Estimator:
         extra = {} if independent_points(points) else {"stderr_note": STDERR_NOTE}
         return Estimate.from_moments(mom, mom.count * self.evals_per_unit, time.perf_counter() - t0, self.label,
                                      **extra)
+
+
+def check_chunk(chunk: Any) -> int:
+    """``chunk`` (sample units per block of uniforms): an integer >= 1."""
+    return checks.integer(chunk, "chunk", low=1)
 
 
 def check_n(n: Any) -> int:

@@ -40,9 +40,12 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from .. import checks
 from .._rng import RNGLike, as_generator
 from ..estimate import Estimate
-from .base import DEFAULT_CHUNK, Estimator, resolve_distribution, support_probe, uniform_blocks
+from ..integrands.base import checked_values
+from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, resolve_distribution, support_probe,
+                   uniform_blocks)
 from .importance import MonteCarlo
 
 
@@ -156,6 +159,7 @@ class _Regression(Estimator):
     def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
                  chunk: int = DEFAULT_CHUNK) -> Estimate:
         """Estimate the integral with ``n`` evaluations of f (controls are not counted)."""
+        integrand, chunk = as_integrand(integrand), check_chunk(chunk)
         self.check(integrand)
         m = self.units_for(n)
         if m < self._min_units():
@@ -236,8 +240,8 @@ class ControlVariate(_Regression):
         self.control = control
         self.control_integral = control_integral
         self.alpha = alpha
-        self.distribution = distribution
-        self.probe = probe
+        self.distribution = None if distribution is None else checks.distribution(distribution)
+        self.probe = checks.flag(probe, "probe")
         self._controls = controls
         self._theta_list = theta
 
@@ -268,7 +272,8 @@ class ControlVariate(_Regression):
         dist = resolve_distribution(self.distribution, integrand)
         x = dist.sample(u)
         p = np.asarray(dist.pdf(x), dtype=float)
-        cols = [_ratio(integrand(x), p)] + [_ratio(h(x), p) for h in self._controls]
+        cols = [_ratio(integrand(x), p)] + [_ratio(checked_values(h(x), x, f"control[{j}]"), p)
+                                            for j, h in enumerate(self._controls)]
         return np.stack(np.broadcast_arrays(*cols), -1)
 
 
@@ -300,17 +305,15 @@ class DefensiveMixture(_Regression):
             if not all(hasattr(dist, a) for a in ("dim_u", "sample", "pdf")):
                 raise TypeError(f"distributions: {dist!r} lacks dim_u/sample/pdf")
         if probabilities is not None:
-            pr = np.asarray(probabilities, dtype=float)
-            if pr.shape != (len(dists),) or not np.all(np.isfinite(pr)) or np.any(pr <= 0):
+            pr = checks.finite_array(probabilities, "probabilities")
+            if pr.shape != (len(dists),) or np.any(pr <= 0):
                 raise ValueError(f"probabilities: expected {len(dists)} finite values > 0, got {probabilities!r}")
-        d = float(defensive)
-        if not 0.0 <= d < 1.0:
-            raise ValueError(f"defensive: expected a probability in [0, 1), got {defensive!r}")
+        checks.real(defensive, "defensive", low=0.0, high=1.0, high_open=True)
         self.distributions = distributions
         self.probabilities = probabilities
         self.defensive = defensive
         self.nominal = nominal
-        self.controls = bool(controls)
+        self.controls = checks.flag(controls, "controls")
 
     @property
     def label(self) -> str:

@@ -25,7 +25,7 @@ import numpy as np
 
 from .._rng import RNGLike, as_generator
 from ..estimate import Estimate
-from .base import DEFAULT_CHUNK, Estimator, uniform_blocks
+from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, uniform_blocks
 from .control import CoMoments
 
 
@@ -35,10 +35,10 @@ def _scalar(a):
 
 
 def _pair(integrands) -> tuple:
-    if not isinstance(integrands, (tuple, list)) or len(integrands) != 2 or not all(callable(f) for f in integrands):
+    if not isinstance(integrands, (tuple, list)) or len(integrands) != 2:
         raise TypeError("integrand: CRNDifference estimates int f_a - int f_b and takes a pair "
                         f"(integrand_a, integrand_b), got {type(integrands).__name__}")
-    return tuple(integrands)
+    return tuple(as_integrand(f, f"integrand[{i}]") for i, f in enumerate(integrands))
 
 
 class CRNDifference(Estimator):
@@ -110,6 +110,7 @@ class CRNDifference(Estimator):
     def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
                  chunk: int = DEFAULT_CHUNK) -> Estimate:
         """Estimate int f_a - int f_b for ``integrand = (f_a, f_b)`` with ``n`` evaluations in all."""
+        integrand, chunk = _pair(integrand), check_chunk(chunk)
         self.check(integrand)
         m = self.units_for(n)
         gen = as_generator(rng)

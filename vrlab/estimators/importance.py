@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import checks
 from .base import Estimator, resolve_distribution, support_probe
 
 
@@ -18,8 +19,8 @@ class MonteCarlo(Estimator):
     """
 
     def __init__(self, distribution=None, *, probe: bool = True):
-        self.distribution = distribution
-        self.probe = probe
+        self.distribution = None if distribution is None else checks.distribution(distribution)
+        self.probe = checks.flag(probe, "probe")
 
     @property
     def label(self) -> str:

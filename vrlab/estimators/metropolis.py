@@ -42,11 +42,12 @@ from typing import Any, Callable, Iterator, Sequence
 
 import numpy as np
 
+from .. import checks
 from .._rng import RNGLike, as_generator, spawn
 from ..distributions.interval import as_bounds
 from ..estimate import Estimate, Moments
 from ..points.base import check_int
-from .base import DEFAULT_CHUNK, Estimator, check_n, uniform_blocks
+from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, support_probe, uniform_blocks
 
 BOUNDARIES = ("wrap", "reject")
 _TINY = 1e-300
@@ -79,15 +80,6 @@ def sample_histogram(samples: np.ndarray, bins: int | Sequence[int] = 32,
     return counts / (x.shape[0] * widths), edges
 
 
-def _number(value: Any, name: str) -> float:
-    if isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name}: expected a number, got {value!r}")
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name}: expected a number, got {value!r}") from None
-
-
 class MetropolisHastings(Estimator):
     """Metropolis--Hastings with small Gaussian and large uniform steps on a box.
 
@@ -110,15 +102,11 @@ class MetropolisHastings(Estimator):
                  normalization: float | None = None):
         if not callable(target):
             raise TypeError(f"target: expected a callable density pi(x), got {type(target).__name__}")
-        step_f, p = _number(step, "step"), _number(large_step_prob, "large_step_prob")
-        if not np.isfinite(step_f) or step_f <= 0:
-            raise ValueError(f"step: expected a finite number > 0, got {step!r}")
-        if not 0.0 <= p <= 1.0:
-            raise ValueError(f"large_step_prob: expected a probability in [0, 1], got {large_step_prob!r}")
-        if boundary not in BOUNDARIES:
-            raise ValueError(f"boundary: expected one of {BOUNDARIES}, got {boundary!r}")
-        if normalization is not None and not (np.isfinite(float(normalization)) and float(normalization) > 0):
-            raise ValueError(f"normalization: expected a finite number > 0 or None, got {normalization!r}")
+        step_f = checks.real(step, "step", low=0.0, low_open=True)
+        p = checks.real(large_step_prob, "large_step_prob", low=0.0, high=1.0)
+        checks.choice(boundary, "boundary", BOUNDARIES)
+        if normalization is not None:
+            normalization = checks.real(normalization, "normalization", low=0.0, low_open=True)
         self.target = target
         self.step = step_f
         self.large_step_prob = p
@@ -198,6 +186,9 @@ class MetropolisHastings(Estimator):
                 t += 1
         if t != total:
             raise ValueError(f"u: expected {total} steps of uniforms, got {t}")
+        if n_steps and not (pis > 0).any():
+            raise ValueError("target: the density is 0 at every kept state of every chain; pi must be > 0 "
+                             "somewhere in the domain (and the chains must find it: try large steps)")
         acc, lg = accepted[burn_in:], larges[burn_in:]
         n_large = np.count_nonzero(lg)
         n_small = lg.size - n_large
@@ -308,11 +299,13 @@ class MetropolisHastings(Estimator):
         uniform points (``points`` is their point set); the error of b enters by the delta
         method: Var = E^2 Var[b_hat] + b^2 Var[E_hat].  Requires pi > 0 where f != 0.
         """
+        integrand, chunk = as_integrand(integrand), check_chunk(chunk)
         n = check_n(n)
         box = np.stack([self._lo, self._hi], 1)
         bounds = getattr(integrand, "bounds", None)
         if bounds is None or bounds.shape != box.shape or not np.allclose(bounds, box):
             raise ValueError(f"integrand: its domain must be the sampler's box {box.tolist()}")
+        support_probe(integrand, [_TargetDensity(self._pi)], label="target (the MH density pi)")
         C = self.n_chains
         steps = n // C
         if steps < self.batches:
@@ -329,6 +322,9 @@ class MetropolisHastings(Estimator):
         if self.normalization is None:
             b_est = self.normalizer(n, rng=b_rng, points=points)
             b, b_se, b_evals = b_est.value, b_est.stderr, b_est.n_evals
+            if not b > 0:
+                raise ValueError(f"target: its integral b was estimated as 0 from {n} uniform points (pi = 0 at "
+                                 "all of them); give normalization=b or a target that is > 0 where f is")
         else:
             b, b_se, b_evals = float(self.normalization), 0.0, 0
         value = b * e.value
@@ -337,6 +333,18 @@ class MetropolisHastings(Estimator):
                         "MetropolisHastings", {"expectation": e.value, "expectation_stderr": e.stderr,
                                                "normalization": b, "normalization_stderr": b_se,
                                                "normalization_evals": b_evals, "acceptance": e.extra["acceptance"]})
+
+
+class _TargetDensity:
+    """The target pi seen as a density by ``support_probe`` (only ``pdf`` is used)."""
+
+    dim_u = 0
+
+    def __init__(self, pi):
+        self.pdf = pi
+
+    def sample(self, u):  # pragma: no cover - never sampled
+        raise NotImplementedError
 
 
 def _ndtri(p: np.ndarray) -> np.ndarray:

@@ -25,7 +25,10 @@ With q_i(x) = n_i p_i(x) the heuristics are
   exactly unbiased for the remaining samples).  Its weights may be negative.
   Variance: (1/N) int (f - a.p)^2 / q, never above the balance heuristic's.
 
-Every heuristic also accepts a callable ``heuristic(q) -> w`` (arrays (..., K)).
+Every heuristic also accepts a callable ``heuristic(q) -> w`` (arrays (..., K)).  Its
+weights are checked on every batch of samples: finite, shape (..., K), and summing to 1
+over the techniques with q_k > 0 wherever some q_k > 0 (Veach's unbiasedness condition;
+tolerance 1e-6, 1e-3 for float32 q); otherwise ``ValueError`` naming the heuristic.
 
 One-sample MIS lives in ``onesample.py``.
 """
@@ -36,10 +39,11 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from .. import checks
 from .._rng import RNGLike, as_generator
 from ..distributions.base import as_float
 from ..estimate import Estimate, Moments
-from .base import DEFAULT_CHUNK, Estimator, check_n, point_engine, support_probe
+from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, point_engine, support_probe
 
 HEURISTICS = ("balance", "power", "maximum", "cutoff", "optimal")
 
@@ -56,12 +60,8 @@ def _check_heuristic(heuristic: Any, allowed: Sequence[str]) -> None:
 
 
 def _check_beta_alpha(beta: float, alpha: float) -> tuple[float, float]:
-    beta, alpha = float(beta), float(alpha)
-    if not np.isfinite(beta) or beta <= 0:
-        raise ValueError(f"beta must be a finite number > 0, got {beta}")
-    if not 0.0 <= alpha <= 1.0:
-        raise ValueError(f"alpha (the cutoff) must be in [0, 1], got {alpha}")
-    return beta, alpha
+    return (checks.real(beta, "beta", low=0.0, low_open=True),
+            checks.real(alpha, "alpha (the cutoff)", low=0.0, high=1.0))
 
 
 def mis_weights(q: np.ndarray, heuristic: str | Callable = "balance", *, beta: float = 2.0,
@@ -75,7 +75,7 @@ def mis_weights(q: np.ndarray, heuristic: str | Callable = "balance", *, beta: f
     _check_heuristic(heuristic, HEURISTICS[:4])
     q = as_float(q)                     # float64, or the renderer's float32
     if callable(heuristic):
-        return np.broadcast_to(np.asarray(heuristic(q), dtype=float), q.shape)
+        return check_heuristic_weights(heuristic, q)
     beta, alpha = _check_beta_alpha(beta, alpha)
     # techniques on the first axis: NumPy is slow on a short last axis (the renderer has
     # K = 2 for millions of rows), fast on rows of a contiguous (K, ...) array
@@ -93,6 +93,27 @@ def mis_weights(q: np.ndarray, heuristic: str | Callable = "balance", *, beta: f
             s = np.where(qk >= alpha * mx, qk, 0.0)
     total = np.add.reduce(s, axis=0)
     return np.moveaxis(np.divide(s, total, out=np.zeros_like(s), where=total > 0), 0, -1)
+
+
+def check_heuristic_weights(heuristic: Callable, q: np.ndarray) -> np.ndarray:
+    """``heuristic(q)`` checked against Veach's conditions: finite weights of q's shape that
+    sum to 1 over the techniques with q_k > 0 wherever some q_k > 0 (ValueError otherwise)."""
+    name = getattr(heuristic, "__name__", type(heuristic).__name__)
+    try:
+        w = np.broadcast_to(np.asarray(heuristic(q), dtype=q.dtype), q.shape)
+    except ValueError:
+        raise ValueError(f"heuristic {name!r}: its weights must have the shape of q, {q.shape}") from None
+    if not np.isfinite(w).all():
+        raise ValueError(f"heuristic {name!r}: returned non-finite weights")
+    covered = q > 0
+    total = np.where(covered, w, 0.0).sum(-1)
+    tol = 1e-3 if q.dtype == np.float32 else 1e-6
+    bad = covered.any(-1) & (np.abs(total - 1.0) > tol)
+    if bad.any():
+        i = tuple(int(k) for k in np.argwhere(bad)[0])
+        raise ValueError(f"heuristic {name!r}: the weights of the techniques with q_k > 0 must sum to 1 (else the "
+                         f"MIS estimate is biased); at q = {q[i].tolist()} they sum to {float(total[i]):.6g}")
+    return w
 
 
 def split_counts(n: int, fractions: np.ndarray, minimum: int = 2) -> np.ndarray:
@@ -123,7 +144,7 @@ def _check_fractions(fractions: Any, k: int, name: str) -> np.ndarray:
     try:
         c = np.asarray(fractions, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected {k} numbers, got {fractions!r}") from None
+        raise TypeError(f"{name}: expected {k} numbers, got {fractions!r}") from None
     if c.ndim != 1 or len(c) != k:
         raise ValueError(f"{name}: expected {k} values (one per distribution), got shape {c.shape}")
     if not np.all(np.isfinite(c)):
@@ -139,11 +160,7 @@ def _check_distributions(distributions: Any) -> list:
     dists = list(distributions) if isinstance(distributions, (list, tuple)) else None
     if not dists:
         raise ValueError("distributions: expected a non-empty list of distributions")
-    for d in dists:
-        for attr in ("dim_u", "sample", "pdf"):
-            if not hasattr(d, attr):
-                raise TypeError(f"distributions: {d!r} has no {attr!r} (needs dim_u, sample, pdf)")
-    return dists
+    return [checks.distribution(d, f"distributions[{i}]") for i, d in enumerate(dists)]
 
 
 def _check_dims(dists: list, integrand) -> None:
@@ -186,6 +203,7 @@ def _segments(points: Any, dims: list[int], plan: list[tuple[int, int]], gen: np
         if points.ndim < 2 or points.shape[-2] != total or points.shape[-1] < dmax:
             raise ValueError(f"points: an array of uniforms must have shape (*batch, {total}, >= {dmax}), "
                              f"got {points.shape}")
+        points = checks.uniforms_array(points, "points", d=dmax)
         start = 0
         for s, (i, c) in enumerate(plan):
             yield s, i, points[..., start:start + c, : dims[i]]
@@ -271,13 +289,11 @@ class MIS(Estimator):
         _check_heuristic(heuristic, HEURISTICS)
         self.heuristic = heuristic
         self.beta, self.alpha = _check_beta_alpha(beta, alpha)
-        pilot = float(optimal_pilot)
-        if not 0.0 <= pilot < 1.0:
-            raise ValueError(f"optimal_pilot must be in [0, 1), got {optimal_pilot}")
+        pilot = checks.real(optimal_pilot, "optimal_pilot", low=0.0, high=1.0, high_open=True)
         if pilot > 0 and heuristic != "optimal":
             raise ValueError("optimal_pilot: only used with heuristic='optimal'")
         self.optimal_pilot = pilot
-        self.probe = probe
+        self.probe = checks.flag(probe, "probe")
 
     @property
     def label(self) -> str:
@@ -312,6 +328,7 @@ class MIS(Estimator):
         technique), or an array ``(*batch, n, dim_u())`` (consecutive row blocks per
         technique: the optimal pilot first, then technique 0, 1, ...).
         """
+        integrand, chunk = as_integrand(integrand), check_chunk(chunk)
         self.check(integrand)
         n = check_n(n)
         gen = as_generator(rng)

@@ -11,6 +11,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from .. import checks
 from .base import Estimator, support_probe
 from .mis import (HEURISTICS, _check_beta_alpha, _check_dims, _check_distributions, _check_fractions,
                   _check_heuristic, _safe_div, _stack_pdfs, mis_weights)
@@ -39,7 +40,7 @@ class OneSampleMIS(Estimator):
         _check_heuristic(heuristic, HEURISTICS[:4])
         self.heuristic = heuristic
         self.beta, self.alpha = _check_beta_alpha(beta, alpha)
-        self.probe = probe
+        self.probe = checks.flag(probe, "probe")
         self._mixture = Mixture(self.distributions, self.probabilities)
 
     @property

@@ -31,9 +31,10 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .. import checks
 from .._rng import RNGLike
 from ..estimate import Estimate
-from .base import DEFAULT_CHUNK, Estimator, support_probe
+from .base import DEFAULT_CHUNK, Estimator, check_chunk, support_probe
 
 
 class Reservoir:
@@ -134,12 +135,10 @@ class RIS(Estimator):
                 raise TypeError(f"source: {source!r} has no {attr!r} (needs dim_u, sample, pdf)")
         if not callable(target):
             raise TypeError(f"target must be callable (points -> unnormalised density), got {type(target).__name__}")
-        if isinstance(m, (bool, np.bool_)) or not isinstance(m, (int, np.integer)) or m < 1:
-            raise ValueError(f"m (candidates per sample) must be an integer >= 1, got {m!r}")
         self.source = source
         self.target = target
-        self.m = int(m)
-        self.probe = probe
+        self.m = checks.integer(m, "m (candidates per sample)", low=1)
+        self.probe = checks.flag(probe, "probe")
 
     @property
     def label(self) -> str:
@@ -189,7 +188,7 @@ class RIS(Estimator):
                  chunk: int = DEFAULT_CHUNK) -> Estimate:
         """As ``Estimator.estimate`` (n output samples = n evaluations of f); also reports
         ``extra["target_evals"]`` = n m and ``extra["candidates"]`` = m."""
-        est = super().estimate(integrand, n, rng=rng, points=points, chunk=max(1, chunk // self.m))
+        est = super().estimate(integrand, n, rng=rng, points=points, chunk=max(1, check_chunk(chunk) // self.m))
         est.method = self.label
         est.extra.update(target_evals=est.n * self.m, candidates=self.m)
         return est

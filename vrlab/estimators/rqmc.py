@@ -34,7 +34,7 @@ import numpy as np
 from .._rng import RNGLike
 from ..estimate import Estimate, Moments
 from ..points.base import check_int
-from .base import DEFAULT_CHUNK, Estimator, check_n
+from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n
 
 
 def _qmc_engine_type() -> type:
@@ -133,6 +133,7 @@ class RQMC(Estimator):
     def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
                  chunk: int = DEFAULT_CHUNK) -> Estimate:
         """Mean over R randomized replicates of ``n // R`` evaluations each; stderr across replicates."""
+        integrand, chunk = as_integrand(integrand), check_chunk(chunk)
         n = check_n(n)
         base = self._base()
         R = self.replicates

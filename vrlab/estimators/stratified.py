@@ -38,10 +38,11 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from .. import checks
 from .._rng import RNGLike, as_generator
 from ..estimate import Estimate
 from ..points.base import ONE_MINUS_EPS, check_int
-from .base import DEFAULT_CHUNK, Estimator, check_n, point_engine, resolve_distribution
+from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, point_engine, resolve_distribution
 from .importance import MonteCarlo
 
 ALLOCATIONS = ("proportional", "neyman")
@@ -113,12 +114,12 @@ class Stratified(Estimator):
                     raise ValueError("strata: expected an int >= 1 or a non-empty sequence of ints >= 1")
                 for s in strata:
                     check_int("strata", s, 1)
-        if allocation not in ALLOCATIONS:
-            raise ValueError(f"allocation: expected one of {ALLOCATIONS}, got {allocation!r}")
+        checks.choice(allocation, "allocation", ALLOCATIONS)
         check_int("pilot", pilot, 2)
-        lam = float(defensive)
-        if not 0.0 <= lam <= 1.0:
-            raise ValueError(f"defensive: expected a share in [0, 1], got {defensive!r}")
+        checks.real(defensive, "defensive", low=0.0, high=1.0)
+        checks.flag(probe, "probe")
+        if distribution is not None:
+            checks.distribution(distribution)
         self.defensive = defensive
         self.strata = strata
         self.allocation = allocation
@@ -178,6 +179,7 @@ class Stratified(Estimator):
         """Stratified estimate with ``n`` evaluations (pilot included)."""
         from ..points import Independent
 
+        integrand, chunk = as_integrand(integrand), check_chunk(chunk)
         n = check_n(n)
         self.check(integrand)
         d = self.dim_u(integrand)

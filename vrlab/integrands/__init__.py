@@ -1,6 +1,6 @@
 """Integrands: the ``Integrand`` type and a catalogue of lab integrands with closed forms."""
-from .base import Integrand
+from .base import Integrand, as_integrand, checked_values
 from .catalogue import CATALOGUE, GlossyLight, get, names
 from .theory import mc_variance
 
-__all__ = ["CATALOGUE", "GlossyLight", "Integrand", "get", "mc_variance", "names"]
+__all__ = ["CATALOGUE", "GlossyLight", "Integrand", "as_integrand", "checked_values", "get", "mc_variance", "names"]

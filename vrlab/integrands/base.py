@@ -6,6 +6,13 @@ for a batched integral, e.g. one integral per pixel).  ``domain`` is a box
 ``"hemisphere"`` (unit directions, solid angle) and ``"disk"`` (unit disk, area).
 ``exact`` is the integral; ``f2`` the integral of f^2 over the domain, which gives the
 variance of plain uniform sampling, Var[f(X) / p] = |domain| * f2 - exact^2.
+
+The contract is checked at every call (``Integrand.__call__``, which every estimator
+uses): ``f`` must return real values of shape ``x.shape[:-1]`` (optionally with leading
+batch axes), all finite.  A wrong shape (``(n, 1)`` for ``(n,)``, one scalar for n
+points) or a NaN/inf raises ``ValueError`` naming the integrand and the first bad point.
+Subclasses change ``f``, not ``__call__``.  :func:`as_integrand` is what estimators
+accept: an ``Integrand`` or a catalogue name.
 """
 from __future__ import annotations
 
@@ -13,6 +20,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .. import checks
 from ..distributions import Disk, UniformBox, UniformHemisphere, UniformSphere
 from ..distributions.interval import as_bounds
 
@@ -50,14 +58,29 @@ class Integrand:
             self.dim = len(self.bounds)
             self.volume = float(np.prod(self.bounds[:, 1] - self.bounds[:, 0]))
         self.domain = domain
-        self.exact = None if exact is None else (float(exact) if np.ndim(exact) == 0 else np.asarray(exact, float))
+        if exact is None:
+            self.exact = None
+        elif np.ndim(exact) == 0 and not isinstance(exact, (list, tuple)):
+            self.exact = checks.real(exact, "exact")
+        else:
+            self.exact = checks.finite_array(exact, "exact")
+        if name is not None and not isinstance(name, str):
+            raise TypeError(f"name must be a string, got {type(name).__name__}")
         self.name = name or getattr(f, "__name__", "f")
-        self.f2 = f2
+        self.f2 = None if f2 is None else checks.real(f2, "f2", low=0.0)
+        for arg, value in (("theory", theory), ("techniques", techniques)):
+            if value is not None and not isinstance(value, dict):
+                raise TypeError(f"{arg} must be a dict, got {type(value).__name__}")
         self.theory = dict(theory or {})
         self.techniques = dict(techniques or {})
+        for key, dist in self.techniques.items():
+            if not all(hasattr(dist, a) for a in ("dim_u", "sample", "pdf")):
+                raise TypeError(f"techniques[{key!r}]: {dist!r} is not a distribution (needs dim_u, sample, pdf)")
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        return np.asarray(self.f(x), dtype=float)
+        """f(x), checked: real, finite, one value per point (leading batch axes allowed)."""
+        x = np.asarray(x)
+        return checked_values(self.f(x), x, f"integrand {self.name!r}")
 
     def uniform(self):
         """The uniform distribution on the domain (the default importance sampler)."""
@@ -74,3 +97,47 @@ class Integrand:
 
     def __repr__(self) -> str:
         return f"Integrand({self.name!r}, domain={self.domain!r}, exact={self.exact!r})"
+
+
+def _broadcast(a: tuple, b: tuple) -> tuple | None:
+    try:
+        return np.broadcast_shapes(a, b)
+    except ValueError:
+        return None
+
+
+def checked_values(values: Any, x: np.ndarray, who: str) -> np.ndarray:
+    """``values`` of a function at points ``x (..., k)`` as a float array, checked: real,
+    finite, shape ``x.shape[:-1]`` (leading batch axes allowed).  ``ValueError`` names
+    ``who`` and the first bad point; ``TypeError`` for values that are not real numbers."""
+    try:
+        out = np.asarray(values, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{who}: must return real numbers ({exc})") from None
+    want = x.shape[:-1]
+    if out.ndim < len(want) or (want and out.shape[-1] != want[-1]) or _broadcast(out.shape, want) != out.shape:
+        what = "one scalar" if out.ndim == 0 else f"shape {out.shape}"
+        raise ValueError(f"{who}: returned {what} for points of shape {x.shape}; it must return one value per "
+                         f"point, shape {want} (optionally with leading batch axes)")
+    bad = ~np.isfinite(out)
+    if bad.any():
+        idx = tuple(int(i) for i in np.argwhere(bad)[0])
+        xi = x[idx[out.ndim - len(want):]] if want else x
+        raise ValueError(f"{who}: returned {out[idx]} at x = {np.round(xi, 6).tolist()} "
+                         f"({int(bad.sum())} non-finite value(s)); values must be finite")
+    return out
+
+
+def as_integrand(integrand: Any, name: str = "integrand") -> Integrand:
+    """``integrand`` if it is an :class:`Integrand`; a catalogue name gives that catalogue
+    integrand; anything else is a ``TypeError`` that says how to wrap a function."""
+    if isinstance(integrand, Integrand):
+        return integrand
+    if isinstance(integrand, str):
+        from .catalogue import CATALOGUE, get
+
+        if integrand not in CATALOGUE:
+            raise ValueError(f"{name}: unknown catalogue integrand {integrand!r}; choose from {', '.join(CATALOGUE)}")
+        return get(integrand)
+    hint = (" (wrap a function with its domain: vrlab.Integrand(f, [(0, 1)]))" if callable(integrand) else "")
+    raise TypeError(f"{name}: expected a vrlab.Integrand or a catalogue name, got {type(integrand).__name__}{hint}")
