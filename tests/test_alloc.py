@@ -31,3 +31,18 @@ def test_freed_temporaries_are_reused():
     tuned = _faults("tuned")
     assert tuned < 10_000
     assert _faults("default") > 5 * tuned
+
+
+NO_SIDE_EFFECT = r"""
+import vrlab._alloc as alloc
+from vrlab.render import render
+render("furnace", 2, width=8, height=6, workers=1, rng=0)
+print(alloc._done)
+"""
+
+
+def test_render_leaves_the_calling_process_allocator_alone():
+    """render() in a user's process (workers=1) does not retune its allocator; only vrlab's
+    own processes (the CLI, render's workers) do."""
+    out = subprocess.run([sys.executable, "-c", NO_SIDE_EFFECT], capture_output=True, text=True, check=True)
+    assert out.stdout.split()[-1] == "False"

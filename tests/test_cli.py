@@ -1,5 +1,6 @@
 """The command line: subcommands listed, the quick demo writes its figures and tables."""
 import json
+import os
 import subprocess
 import sys
 
@@ -11,8 +12,9 @@ from vrlab.cli import main
 
 def test_help_lists_subcommands():
     out = subprocess.run([sys.executable, "-m", "vrlab", "--help"], capture_output=True, text=True, check=True).stdout
-    for cmd in ("demo", "bench", "lab"):
+    for cmd in ("demo", "bench", "lab", "render"):
         assert cmd in out
+    assert "exit status" in out and "--debug" in out
 
 
 def test_unknown_subcommand_is_an_error():
@@ -51,8 +53,9 @@ def test_render_cli_writes_images_and_rel_mse(tmp_path, capsys):
     assert main(["render", "furnace", "--spp", "2", "--width", "8", "--height", "6",
                  "-o", str(tmp_path / "img.png")]) == 0
     assert (tmp_path / "img.png").stat().st_size > 0
-    with pytest.raises(ValueError, match="unknown built-in scene"):
+    with pytest.raises(SystemExit) as exc:
         main(["render", "no-such-scene"])
+    assert exc.value.code == 2 and "neither a file nor a built-in scene" in capsys.readouterr().err
 
 
 def test_render_cli_counts_workers_and_progress(tmp_path, capsys):
@@ -68,9 +71,10 @@ def test_render_cli_counts_workers_and_progress(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["workers"] == 2
     np.testing.assert_array_equal(np.load(a), np.load(b))
-    with pytest.raises(ValueError, match="emitter_samples"):
+    with pytest.raises(SystemExit) as exc:
         main(["render", "furnace", "--spp", "1", "--width", "4", "--height", "3", "--strategy", "light",
               "--emitter-samples", "0"])
+    assert exc.value.code == 2 and "--emitter-samples" in capsys.readouterr().err
 
 
 def test_rel_mse_and_srgb():
@@ -101,3 +105,71 @@ def test_render_compare_equal_time(tmp_path, capsys):
     res = json.loads(capsys.readouterr().out)
     assert res["spp"]["cv"] == 8 and res["spp"]["cosine"] >= 1 and set(res["rel_mse"]) == {"cosine", "cv"}
     assert (tmp_path / "eq.png").stat().st_size > 0
+
+
+def _exit_code(argv):
+    try:
+        return main(argv)
+    except SystemExit as exc:
+        return exc.code
+
+
+def test_render_list_describes_each_scene(capsys):
+    from vrlab.render import list_builtin_scenes
+    from vrlab.render.builtin import describe_builtin_scene
+
+    assert main(["render", "--list"]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    for name in list_builtin_scenes():
+        first = next(line for line in lines if line.startswith(name + " "))
+        assert describe_builtin_scene(name).split()[0] in first          # the summary starts on its line
+        assert " ".join(describe_builtin_scene(name).split()) in " ".join(out.split())
+    assert "--export" in out
+    assert main(["render", "--list", "--json"]) == 0
+    table = json.loads(capsys.readouterr().out)
+    assert list(table) == list_builtin_scenes()
+    for name, entry in table.items():
+        assert entry["summary"] == describe_builtin_scene(name)
+        assert entry["description"] == describe_builtin_scene(name, full=True)
+        assert entry["file"].endswith(f"{name}.xml")
+
+
+def test_render_export_writes_a_scene_that_renders(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", "--export", "cornell_box"]) == 0                 # default: the current folder
+    out = capsys.readouterr().out
+    assert "cornell_box.xml" in out and "vrlab render cornell_box.xml" in out
+    assert (tmp_path / "cornell_box.xml").is_file()
+    assert main(["render", "--export", "veach_mis.xml", "--to", "edit/here", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["scene"] == "veach_mis" and res["files"] == [os.path.join("edit", "here", "veach_mis.xml")]
+    assert main(["render", res["files"][0], "--spp", "1", "--width", "8", "--height", "6", "--workers", "1",
+                 "--no-progress", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["width"] == 8
+
+
+@pytest.mark.parametrize("argv,code,names", [
+    (["--export", "nope"], 2, ["--export", "veach_mis"]),
+    (["--export", ""], 2, ["--export"]),
+    (["--export", "furnace,veach_mis"], 2, ["--export"]),
+    (["--export", "furnace", "--spp", "4"], 2, ["--spp", "--export"]),
+    (["--export", "furnace", "--no-progress"], 2, ["--no-progress"]),
+    (["furnace", "--export", "furnace"], 2, ["--export", "furnace"]),
+    (["--to", "x"], 2, ["--to", "--export"]),
+    (["--list", "--export", "furnace"], 2, ["--list", "--export"]),
+    (["--export", "furnace", "--to", "FILE"], 1, ["--to", "not a folder"]),
+    (["--export", "furnace", "--to", "DONE"], 1, ["--to", "furnace.xml", "not replaced"]),
+])
+def test_render_export_errors(argv, code, names, tmp_path, capsys):
+    (tmp_path / "FILE").write_text("")
+    (tmp_path / "DONE").mkdir()
+    (tmp_path / "DONE" / "furnace.xml").write_text("my edits")
+    argv = [str(tmp_path / a) if a in ("FILE", "DONE") else a for a in argv]
+    assert _exit_code(["render", *argv]) == code
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("vrlab render: error: "), err
+    for name in names:
+        assert name in err, (name, err)
+    assert (tmp_path / "DONE" / "furnace.xml").read_text() == "my edits"
+    assert not (tmp_path / "x").exists()

@@ -207,8 +207,11 @@ def test_builtin_scene_like_rays_and_chunking():
     o, d = _rays(rng, sc, 5000, geo)
     a = geo.intersect(o, d)
     b = geo.intersect(o, d, chunk=37)
-    for x, y in zip(a, b):
-        np.testing.assert_array_equal(x, y)
+    np.testing.assert_array_equal(a.shape, b.shape)
+    # the disks' (o - c) @ M^-T is a BLAS product whose kernel may depend on the number of
+    # rows (a chunk's): t, p, n agree to rounding, not necessarily to the last bit
+    for x, y in zip((a.t, a.p, a.n), (b.t, b.p, b.n)):
+        np.testing.assert_allclose(x, y, rtol=1e-12, atol=1e-14)
     # broadcasting one origin against many directions
     c = geo.intersect(o[0], d[:10])
     np.testing.assert_array_equal(c.t, geo.intersect(np.repeat(o[:1], 10, 0), d[:10]).t)
@@ -344,7 +347,11 @@ def test_float32_rays_give_float32_hits_close_to_the_reference(ellipsoid):
     same = (h.shape == k) & (k >= 0)
     assert same.sum() > 2000
     scale = 1.0 + np.abs(o32[same]).max(-1) / np.linalg.norm(d32[same], axis=-1)
-    assert np.all(np.abs(h.t[same] - t[same]) <= 2e-6 * (t[same] + scale))
+    # the float32 t is ill-conditioned at grazing incidence (error ~ eps32 scale / |cos|:
+    # a plane's d.n, a sphere's root of a vanishing discriminant), where an ulp of a
+    # float32 BLAS product moves it a lot: the bound grows as 1 / |cos|
+    cos = np.abs(np.sum(d32[same] * n[same], -1)) / np.linalg.norm(d32[same], axis=-1)
+    assert np.all(np.abs(h.t[same] - t[same]) * cos <= 5e-7 * (t[same] + scale))
     np.testing.assert_allclose(h.n[same], n[same], atol=2e-5)
     np.testing.assert_allclose(h.p[same], o32[same] + h.t[same, None].astype(np.float32) * d32[same], atol=1e-5)
     assert np.all(h.p[h.shape < 0] == 0) and np.all(h.n[h.shape < 0] == 0)

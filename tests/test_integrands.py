@@ -72,3 +72,11 @@ def test_integrand_validation():
         I.Integrand(3.0, [(0, 1)])
     with pytest.raises(ValueError, match="unknown integrand"):
         I.get("nope")
+
+
+@pytest.mark.parametrize("bad, exc", [("nope", ValueError), ("", ValueError), ("EXP", ValueError),
+                                      (3, TypeError), (None, TypeError), (["exp"], TypeError)])
+def test_catalogue_get_names_the_argument(raises_naming, bad, exc):
+    with raises_naming(exc, "name") as info:
+        I.get(bad)
+    assert "sin, step-x2, exp" in str(info.value)   # the valid names are listed

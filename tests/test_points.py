@@ -132,12 +132,19 @@ def test_reproducible_from_seed(name):
     assert not np.array_equal(a, other)
 
 
-def test_generator_argument_is_used_and_reset_restores():
+def test_generator_argument_spawns_a_child_and_reset_restores():
+    # as scipy.stats.qmc engines: a Generator is not drawn from directly, a child is spawned
+    # from it, so the caller's own later draws do not change the engine's points
     g = np.random.default_rng(9)
     eng = Independent(2, rng=g)
+    g.random(100)
     a = eng.random(5)
-    np.testing.assert_array_equal(a, np.random.default_rng(9).random((5, 2)))
+    np.testing.assert_array_equal(a, np.random.default_rng(9).spawn(1)[0].random((5, 2)))
     np.testing.assert_array_equal(eng.reset().random(5), a)
+    assert not np.array_equal(Independent(2, rng=g).random(5), a)   # the next child
+    # the same child as SciPy's engines: Sobol wraps SciPy and gives SciPy's points
+    np.testing.assert_array_equal(Sobol(2, bits=30, rng=np.random.default_rng(3)).random(8),
+                                  qmc.Sobol(2, rng=np.random.default_rng(3)).random(8))
 
 
 # --------------------------------------------------------------------------------------
@@ -225,7 +232,7 @@ def _permutation_reference(eng: Halton, n: int) -> np.ndarray:
     """x = sum_k pi_k(d_k) b^{-k-1} over all scrambled digit positions, in exact rationals."""
     from fractions import Fraction
     out = np.empty((n, eng.d))
-    for j, dim in enumerate(eng._dims):
+    for j, dim in enumerate(eng._dims[0].dims):   # the per-column group (bases <= 2**12)
         perms, b = dim.digits.perms, eng.base[j]
         for i in range(n):
             q, x = i, Fraction(0)
@@ -443,7 +450,7 @@ def test_replicates_use_spawned_seeds():
     reps = Halton(2, scramble=True, rng=0).replicate(3, rng=np.random.SeedSequence(5))
     children = np.random.SeedSequence(5).spawn(3)
     for r, c in zip(reps, children):
-        np.testing.assert_array_equal(r.random(8), Halton(2, scramble=True, rng=np.random.default_rng(c)).random(8))
+        np.testing.assert_array_equal(r.random(8), Halton(2, scramble=True, rng=c).random(8))
 
 
 @pytest.mark.parametrize("points,kw", [
@@ -505,22 +512,34 @@ def test_make_points_names():
 
 
 @pytest.mark.parametrize("cls", [Independent, Stratified, LatinHypercube, Halton, Hammersley, Sobol])
-def test_bad_arguments(cls):
-    for bad in (0, -2):
-        with pytest.raises(ValueError, match="d must"):
-            cls(bad)
-    for bad in (2.5, "2", None, True):
-        with pytest.raises(TypeError, match="d must"):
+def test_bad_arguments(cls, raises_naming):
+    # d: like SciPy's engines, ValueError for anything but an integer >= 0 (d = 0 is allowed,
+    # except for Hammersley, whose first coordinate is i/N)
+    for bad in (-2, 2.5, "2", None, True, np.float64(2.0)) + ((0,) if cls is Hammersley else ()):
+        with raises_naming(ValueError, "d"):
             cls(bad)
     eng = cls(2, rng=0)
-    with pytest.raises(ValueError, match="n must"):
+    with raises_naming(ValueError, "n"):
         eng.random(-1)
-    with pytest.raises(TypeError, match="n must"):
+    with raises_naming(TypeError, "n"):
         eng.random(2.0)
-    with pytest.raises(ValueError, match="n must"):
+    with raises_naming(ValueError, "n"):
         eng.fast_forward(-1)
-    with pytest.raises(TypeError, match="rng"):
+    with raises_naming(TypeError, "n"):
+        eng.fast_forward("3")
+    with raises_naming(TypeError, "rng"):
         cls(2, rng="seed")
+    with raises_naming(TypeError, "rng"):
+        cls(2, rng=1.5)
+    with raises_naming(ValueError, "rng"):
+        cls(2, rng=-1)
+    with raises_naming(TypeError, "seed"):
+        cls(2, seed="seed")
+    with raises_naming(TypeError, "rng"):
+        cls(2, rng=1, seed=1)
+    for bad in (0, -2, 2.5, "a"):
+        with raises_naming(ValueError, "workers"):
+            eng.random(2, workers=bad)
 
 
 def test_bad_scramble():
@@ -537,3 +556,268 @@ def test_scipy_engines_work_as_point_sets():
     for eng in (qmc.Halton(2, rng=1), qmc.Sobol(2, rng=1), qmc.LatinHypercube(2, rng=1)):
         x = CranleyPatterson(eng, rng=2).random(8)
         assert x.shape == (8, 2) and np.all((x >= 0) & (x < 1))
+
+
+# --------------------------------------------------------------------------------------
+# bad input: every public class and function names the argument
+# --------------------------------------------------------------------------------------
+ENGINES = [Independent, Stratified, LatinHypercube, Halton, Hammersley, Sobol, CranleyPatterson]
+
+
+@pytest.mark.parametrize("cls", ENGINES)
+@pytest.mark.parametrize("bad,exc", [(-1, ValueError), (2.5, TypeError), ("4", TypeError), (None, TypeError),
+                                     (True, TypeError), (np.float64(3.0), TypeError), (2 ** 49, ValueError)])
+def test_random_bad_n(cls, bad, exc, raises_naming):
+    eng = cls(2, rng=0)
+    with raises_naming(exc, "n"):
+        eng.random(bad)
+    if bad != 2 ** 49:
+        with raises_naming(exc, "n"):
+            eng.fast_forward(bad)
+
+
+@pytest.mark.parametrize("kw,exc,names", [
+    ({"l_bounds": [0, 1.5]}, ValueError, ["u_bounds"]),                 # SciPy: ValueError for non-integers
+    ({"l_bounds": "ab"}, ValueError, ["u_bounds"]),
+    ({"l_bounds": 3, "u_bounds": [1, 4]}, ValueError, ["l_bounds", "u_bounds"]),   # l >= u
+    ({"l_bounds": [0, 0, 0], "u_bounds": [1, 2, 3]}, ValueError, ["l_bounds"]),   # wrong length
+    ({"l_bounds": [[1, 2]]}, ValueError, ["u_bounds"]),
+    ({"l_bounds": 2 ** 60}, ValueError, ["u_bounds"]),
+    ({"l_bounds": 5, "endpoint": "yes"}, TypeError, ["endpoint"]),
+    ({"l_bounds": 5, "n": -2}, ValueError, ["n"]),
+    ({"l_bounds": 5, "workers": 0}, ValueError, ["workers"]),
+])
+@pytest.mark.parametrize("cls", [Halton, Sobol, LatinHypercube, Independent])
+def test_integers_bad_bounds(cls, kw, exc, names, raises_naming):
+    with raises_naming(exc, *names):
+        cls(2, rng=0).integers(**kw)
+
+
+def test_integers_values():
+    x = Halton(2, scramble=False).integers(-3, u_bounds=[5, 7], n=64)
+    ref = np.floor(Halton(2).random(64) * np.array([8.0, 10.0]) - 3).astype(np.int64)
+    np.testing.assert_array_equal(x, ref)
+    assert x.dtype == np.int64 and x.min() >= -3 and x[:, 0].max() <= 4
+    y = Halton(2).integers(3, n=9, endpoint=True)
+    assert y.min() == 0 and y.max() == 3
+    assert Halton(0).integers(5, n=3).shape == (3, 0)
+
+
+@pytest.mark.parametrize("make,exc,name", [
+    (lambda: Halton(2, scramble="sobol"), ValueError, "scramble"),
+    (lambda: Halton(2, scramble=None), ValueError, "scramble"),
+    (lambda: Hammersley(2, scramble=1), ValueError, "scramble"),
+    (lambda: Sobol(2, scramble="owen"), TypeError, "scramble"),
+    (lambda: LatinHypercube(2, scramble="yes"), TypeError, "scramble"),
+    (lambda: LatinHypercube(2, centered=1), TypeError, "centered"),
+    (lambda: LatinHypercube(2, scramble=False, centered=False), ValueError, "centered"),
+    (lambda: LatinHypercube(2, strength=3), ValueError, "strength"),
+    (lambda: LatinHypercube(2, strength="2"), ValueError, "strength"),
+    (lambda: LatinHypercube(2, strength=True), ValueError, "strength"),
+    (lambda: LatinHypercube(2, strength=np.array([1, 2])), ValueError, "strength"),
+    (lambda: LatinHypercube(2, strength=2).random(16), ValueError, "n"),
+    (lambda: LatinHypercube(5, strength=2).random(9), ValueError, "d"),
+    (lambda: LatinHypercube(2, strength=2).random(2 ** 44), ValueError, "n"),
+    (lambda: Halton(2, optimization="toto"), ValueError, "optimization"),
+    (lambda: Sobol(2, optimization=3), ValueError, "optimization"),
+    (lambda: LatinHypercube(1, optimization="lloyd"), ValueError, "optimization"),
+    (lambda: Halton(3, optimization="lloyd").random(2), ValueError, "n"),
+    (lambda: Sobol(2, bits=65), ValueError, "bits"),
+    (lambda: Sobol(2, bits=0), ValueError, "bits"),
+    (lambda: Sobol(2, bits=2.5), TypeError, "bits"),
+    (lambda: Sobol(Sobol.MAXDIM + 1), ValueError, "d"),
+    (lambda: Sobol(2, scramble=False, bits=3).fast_forward(9), ValueError, "n"),
+    (lambda: Sobol(2, bits=40).fast_forward(2 ** 41), ValueError, "n"),
+    (lambda: Sobol(2).random_base2(-1), ValueError, "m"),
+    (lambda: Sobol(2).random_base2(2.0), TypeError, "m"),
+    (lambda: Sobol(2).random_base2(65), ValueError, "m"),
+    (lambda: Halton(2 ** 23 + 1), ValueError, "d"),
+    (lambda: Halton(1).fast_forward(2 ** 62).random(2), ValueError, "n"),
+    (lambda: Halton(1).fast_forward(2 ** 63), ValueError, "n"),
+    (lambda: Halton(1, scramble="owen").fast_forward(2 ** 32).random(1), ValueError, "n"),
+    (lambda: Hammersley(2, n=0), ValueError, "n"),
+    (lambda: Hammersley(2, n=2.5), TypeError, "n"),
+    (lambda: Hammersley(2, n=4).random(5), ValueError, "n"),
+    (lambda: Hammersley(2).fast_forward(2 ** 63), ValueError, "n"),
+    (lambda: Stratified(2, strata=(2, 2, 2)), ValueError, "strata"),
+    (lambda: Stratified(2, strata="ab"), ValueError, "strata"),
+    (lambda: Stratified(2, strata=(2, 0)), ValueError, "strata"),
+    (lambda: Stratified(2, strata=(2, 1.5)), TypeError, "strata"),
+    (lambda: Stratified(2, strata=(2, [1, 2])), ValueError, "strata"),
+    (lambda: Stratified(2, strata=(2, 2 ** 60)), ValueError, "strata"),
+    (lambda: Stratified(2, strata=(2, 3)).random(7), ValueError, "n"),
+    (lambda: Stratified(2).random(2 ** 41 + 1), ValueError, "n"),
+    (lambda: Independent(2, rng=np.random.Generator(np.random.MT19937(1))).fast_forward(2 ** 40), ValueError, "n"),
+    (lambda: LatinHypercube(3).random(10 ** 13), ValueError, "n"),            # memory: named, not NumPy's
+    (lambda: Independent(2, rng=np.random.RandomState(1)), TypeError, "rng"),
+    (lambda: Halton(2, seed=np.random.RandomState(1)), TypeError, "seed"),
+    (lambda: Halton(2, rng=[1, -2]), TypeError, "rng"),
+    (lambda: Halton(2, rng=np.bool_(True)), TypeError, "rng"),
+])
+def test_engine_bad_settings(make, exc, name, raises_naming):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)   # Sobol's balance-property warning
+        with raises_naming(exc, name):
+            make()
+
+
+@pytest.mark.parametrize("make,exc,name", [
+    (lambda: CranleyPatterson("halton"), TypeError, "base"),
+    (lambda: CranleyPatterson(2.0), TypeError, "base"),
+    (lambda: CranleyPatterson(True), TypeError, "base"),
+    (lambda: CranleyPatterson(Halton), TypeError, "base"),
+    (lambda: CranleyPatterson(-1), ValueError, "d"),
+    (lambda: CranleyPatterson(2, points=3), TypeError, "points"),
+    (lambda: CranleyPatterson(2, points="nope"), ValueError, "points"),
+    (lambda: CranleyPatterson(Halton(2)).replicate(2, rng=-1), ValueError, "rng"),
+    (lambda: CranleyPatterson(Halton(2), points="sobol"), TypeError, "points"),
+    (lambda: CranleyPatterson(Halton(2), scramble=True), TypeError, "scramble"),
+    (lambda: CranleyPatterson(2, points="halton", bogus=1), TypeError, "bogus"),
+    (lambda: CranleyPatterson(2, rng="x"), TypeError, "rng"),
+    (lambda: CranleyPatterson(Halton(2)).replicate(-1), ValueError, "R"),
+    (lambda: CranleyPatterson(Halton(2)).replicate(2 ** 21), ValueError, "R"),
+])
+def test_cranley_patterson_bad_input(make, exc, name, raises_naming):
+    with raises_naming(exc, name):
+        make()
+
+
+class _BrokenEngine:
+    """A foreign engine whose blocks are wrong (shape, NaN, out of range)."""
+
+    def __init__(self, d, block):
+        self.d, self.block = d, block
+
+    def random(self, n):
+        return self.block(n)
+
+    def reset(self):
+        return self
+
+
+@pytest.mark.parametrize("block", [lambda n: np.full((n, 2), np.nan), lambda n: np.full((n, 2), 1.5),
+                                   lambda n: np.zeros((n, 3)), lambda n: np.zeros(n), lambda n: -np.ones((n, 2))])
+def test_cranley_patterson_checks_wrapped_blocks(block, raises_naming):
+    with raises_naming(ValueError, "base"):
+        CranleyPatterson(_BrokenEngine(2, block), rng=1).random(4)
+
+
+def test_cranley_patterson_engine_without_fast_forward(raises_naming):
+    rows = iter(range(10 ** 6))
+    eng = CranleyPatterson(_BrokenEngine(1, lambda n: np.array([[next(rows) / 100] for _ in range(n)])), rng=1)
+    x = eng.fast_forward(3).random(2)                       # drawn and discarded: rows 3, 4 follow
+    np.testing.assert_allclose((x - eng.shift) % 1, [[0.03], [0.04]])
+    with raises_naming(ValueError, "n"):
+        eng.fast_forward(2 ** 40)
+
+
+@pytest.mark.parametrize("call,exc,names", [
+    (lambda: replicates(Halton(2, scramble=True), 2.5), TypeError, ["R"]),
+    (lambda: replicates(Halton(2, scramble=True), 2 ** 21), ValueError, ["R"]),
+    (lambda: replicates(Halton(2, scramble=True), 2, d=3), ValueError, ["d"]),
+    (lambda: replicates(Halton(2, scramble=True), 2, scramble=True), TypeError, ["scramble"]),
+    (lambda: replicates("halton", 2, d=-1, scramble=True), ValueError, ["d"]),
+    (lambda: replicates("halton", 2, d=2.5, scramble=True), ValueError, ["d"]),
+    (lambda: replicates(3.5, 2), TypeError, ["points"]),
+    (lambda: replicates(lambda g: Halton(2, rng=g, scramble=True), 2, d=2), TypeError, ["d"]),
+    (lambda: replicates("halton", 2, d=2, rng="x", scramble=True), TypeError, ["rng"]),
+    (lambda: Halton(2, scramble=True).replicate(-3), ValueError, ["R"]),
+    (lambda: Halton(2, scramble=True).replicate("3"), TypeError, ["R"]),
+    (lambda: Halton(2, scramble=True).replicate(2, rng=-1), ValueError, ["rng"]),
+    (lambda: replicates("lhs", 2, d=2, rng=-5), ValueError, ["rng"]),
+    (lambda: replicates("lhs", 2, d=2, rng=True), TypeError, ["rng"]),
+    (lambda: make_points(None, 2), TypeError, ["name"]),
+    (lambda: make_points("halton", 2, bogus=1), TypeError, ["bogus"]),
+    (lambda: make_points("halton", "2"), ValueError, ["d"]),
+    (lambda: discrepancy(np.zeros((4, 2)), method="cd"), ValueError, ["method"]),
+    (lambda: discrepancy(np.zeros((4, 2)), method=None), TypeError, ["method"]),
+    (lambda: discrepancy(np.zeros((4, 2)), workers=0), ValueError, ["workers"]),
+    (lambda: discrepancy([[0.1, np.nan]]), ValueError, ["points"]),
+    (lambda: discrepancy([[0.1, np.inf]]), ValueError, ["points"]),
+    (lambda: discrepancy(np.zeros((0, 2))), ValueError, ["points"]),
+    (lambda: discrepancy(np.zeros((3, 0))), ValueError, ["points"]),
+    (lambda: discrepancy(np.zeros(4)), ValueError, ["points"]),
+    (lambda: discrepancy([["a", "b"]]), TypeError, ["points"]),
+    (lambda: discrepancy(np.full((2, 2), -0.5)), ValueError, ["points"]),
+    (lambda: radical_inverse([1.5]), TypeError, ["i"]),
+    (lambda: radical_inverse([True]), TypeError, ["i"]),
+    (lambda: radical_inverse([-1]), ValueError, ["i"]),
+    (lambda: radical_inverse([1], base=1), ValueError, ["base"]),
+    (lambda: radical_inverse([1], base=2.0), TypeError, ["base"]),
+    (lambda: radical_inverse([1], base=2 ** 64), ValueError, ["base"]),
+    (lambda: P.first_primes(-1), ValueError, ["d"]),
+    (lambda: P.first_primes(2.0), TypeError, ["d"]),
+    (lambda: P.first_primes(2 ** 30), ValueError, ["d"]),
+    (lambda: P.balanced_strata(0, 2), ValueError, ["n"]),
+    (lambda: P.balanced_strata(8, 0), ValueError, ["d"]),
+    (lambda: P.balanced_strata(8.0, 2), TypeError, ["n"]),
+    (lambda: P.balanced_strata(2 ** 61 - 1, 2), ValueError, ["n"]),           # would factor for minutes
+])
+def test_helpers_bad_input(call, exc, names, raises_naming):
+    with raises_naming(exc, *names):
+        call()
+
+
+def test_radical_inverse_large_base_needs_no_table():
+    i = np.array([0, 1, 5, 10 ** 12 + 7, 2 ** 62])
+    for base in (3, 65537, 10 ** 9 + 7, 2 ** 61 - 1):
+        np.testing.assert_allclose(radical_inverse(i, base), [_digits_to_phi(int(k), base) for k in i],
+                                   rtol=0, atol=4e-16)
+
+
+# --------------------------------------------------------------------------------------
+# Halton in high dimension: bounded memory, same points
+# --------------------------------------------------------------------------------------
+def test_halton_high_dimension_plain_equals_scipy_without_tables():
+    from vrlab.points import radical
+
+    before = set(radical._LSD_TABLES)
+    eng = Halton(10_000)
+    x = np.vstack([eng.random(3), eng.fast_forward(50).random(20)])
+    assert set(radical._LSD_TABLES) == before                   # no per-base tables for small calls
+    ref = qmc.Halton(10_000, scramble=False)
+    y = ref.random(3)
+    ref.fast_forward(50)
+    np.testing.assert_array_equal(x, np.vstack([y, ref.random(20)]))
+
+
+@pytest.mark.parametrize("scramble", [True, "owen"])
+def test_halton_high_dimension_scrambled_tables_are_bounded(scramble):
+    eng = Halton(10_000, scramble=scramble, rng=3)
+    table_bytes = 0
+    for group in eng._dims:
+        for dim in getattr(group, "dims", []):
+            digits = getattr(dim, "digits", None)
+            table_bytes += digits.perms.nbytes if digits is not None else 0
+            table_bytes += sum(t.nbytes for t in getattr(digits, "_tables", {}).values())
+        table_bytes += sum(getattr(group, a).nbytes for a in ("a", "c") if hasattr(group, a))
+    # full permutation tables (K b integers per coordinate) would be ~12 GB at d = 10^4
+    assert table_bytes < 64 << 20
+    x = eng.random(2)
+    assert x.shape == (2, 10_000) and np.all((x >= 0) & (x < 1))
+    eng = Halton(600, scramble=scramble, rng=3)                         # split calls, same points
+    x = eng.random(5)
+    np.testing.assert_array_equal(np.vstack([eng.reset().random(2), eng.random(3)]), x)
+
+
+def test_affine_digit_scramble_matches_formula_and_stratifies():
+    from fractions import Fraction
+
+    eng = Halton(570, scramble=True, rng=5)
+    group = eng._dims[-1]                                  # bases above 2**12: affine digit maps
+    assert group.width == 570 - 564 and int(group.bases[0]) > 4096
+    x = eng.random(4200)
+    for c in (0, group.width - 1):
+        b, j = int(group.bases[c]), 564 + c
+        for i in (0, 1, 4099, 4199):
+            q, ref = i, Fraction(0)
+            for k in range(group.K):
+                q, r = divmod(q, b)
+                e = (int(group.a[k, c]) * r + int(group.c[k, c])) % b if int(group.a[k, c]) else 0
+                ref += Fraction(e, b ** (k + 1))
+            assert abs(x[i, j] - float(ref)) <= 2e-16
+        m = b                                              # first b points: one per interval 1/b
+        assert np.all(np.bincount(np.floor(x[:m, j] * m).astype(int), minlength=m) == 1)
+    # point 0 is sum_k c_k b^(-k-1) with independent uniform c_k: uniform across the columns
+    u = Halton(1564, scramble=True, rng=2).random(1)[0, 564:]
+    assert stats.kstest(u, "uniform").pvalue > 1e-3

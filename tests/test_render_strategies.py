@@ -193,7 +193,10 @@ def test_workers_and_chunks_give_identical_images():
     for other in (b, d):
         np.testing.assert_array_equal(a[0], other[0])
         np.testing.assert_array_equal(a[1], other[1])
-    np.testing.assert_allclose(a[0], c[0], rtol=1e-6)
+    # other chunks: other array lengths, so float32 exp/log/sin/cos (SIMD body vs tail) and
+    # BLAS may round a few ulps differently; a few ulps, amplified in the odd grazing or
+    # MIS-weighted sample, stay far below 1e-5 (a chunking bug changes pixels by O(1))
+    np.testing.assert_allclose(a[0], c[0], rtol=1e-5)
     assert seen[-1] == (1440, 1440) and len(seen) == 2
     with pytest.raises(ValueError, match="workers"):
         render(sc, 4, workers=0)

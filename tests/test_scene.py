@@ -44,6 +44,89 @@ def test_builtin_unknown_name():
         builtin_scene_path("nope")
 
 
+@pytest.mark.parametrize("name", BUILTINS)
+def test_builtin_scenes_describe_themselves(name):
+    """The description is the scene file's own <!-- vrlab: ... --> comment; the summary its first sentence."""
+    from vrlab.render.builtin import describe_builtin_scene
+
+    summary, full = describe_builtin_scene(name), describe_builtin_scene(name, full=True)
+    assert 20 < len(summary) <= len(full) and full.startswith(summary) and not summary[0].islower()
+    assert summary.endswith(".") and "vrlab:" not in full and "\n" not in full
+    words = set(summary.lower().replace(",", " ").split())
+    assert words & {"light", "lights", "emitting"}, summary          # says what lights the scene
+    assert summary[1:] in " ".join(builtin_scene_path(name).read_text().split())   # written there, once
+
+
+def test_describe_builtin_scene_errors(raises_naming, monkeypatch, tmp_path):
+    from vrlab.render import builtin as loader
+
+    with raises_naming(ValueError, "name"):
+        loader.describe_builtin_scene("nope")
+    with raises_naming(TypeError, "name"):
+        loader.describe_builtin_scene(3)
+    with raises_naming(TypeError, "full"):
+        loader.describe_builtin_scene("furnace", full="yes")
+    (tmp_path / "bare.xml").write_text(scene_xml(SHAPE))            # no description comment
+    monkeypatch.setattr(loader, "_scenes_folder", lambda: tmp_path)
+    with raises_naming(ValueError, "name"):
+        loader.describe_builtin_scene("bare")
+
+
+@pytest.mark.parametrize("name", BUILTINS)
+def test_export_builtin_scene_loads_from_its_new_folder(name, tmp_path):
+    from vrlab.render.builtin import export_builtin_scene
+
+    files = export_builtin_scene(name, tmp_path / "new" / "folder")
+    assert files[0] == tmp_path / "new" / "folder" / f"{name}.xml"
+    assert files[0].read_bytes() == builtin_scene_path(name).read_bytes()
+    copy, original = load_scene(files[0]), load_scene(builtin_scene_path(name))
+    assert (copy.sensor.width, copy.sensor.height, copy.sensor.spp) == \
+        (original.sensor.width, original.sensor.height, original.sensor.spp)
+    assert len(copy.shapes) == len(original.shapes)
+    for a, b in zip(copy.shapes, original.shapes):
+        assert a.type == b.type and np.array_equal(a.to_world, b.to_world)
+
+
+def test_export_copies_the_meshes_a_scene_uses(monkeypatch, tmp_path):
+    from vrlab.render import builtin as loader
+
+    shipped = tmp_path / "shipped"
+    (shipped / "meshes").mkdir(parents=True)
+    (shipped / "meshes" / "quad.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
+    mesh = '<shape type="obj"><string name="filename" value="meshes/quad.obj"/></shape>'
+    (shipped / "mesh.xml").write_text("<!-- vrlab: a quad mesh. -->\n" + scene_xml(mesh + mesh + SHAPE))
+    monkeypatch.setattr(loader, "_scenes_folder", lambda: shipped)
+    out = tmp_path / "mine"
+    files = loader.export_builtin_scene("mesh", out)
+    assert files == [out / "mesh.xml", out / "meshes" / "quad.obj"]          # each file once
+    scene = load_scene(out / "mesh.xml")
+    assert [s.params.get("filename") for s in scene.shapes][:2] == [str(out / "meshes" / "quad.obj")] * 2
+    with pytest.raises(FileExistsError, match="quad.obj"):
+        loader.export_builtin_scene("mesh", out)
+    (out / "mesh.xml").write_text("edited")
+    assert loader.export_builtin_scene("mesh", out, overwrite=True) == files
+    assert (out / "mesh.xml").read_text() == (shipped / "mesh.xml").read_text()
+
+
+def test_export_builtin_scene_errors(raises_naming, tmp_path):
+    from vrlab.render.builtin import export_builtin_scene
+
+    with raises_naming(ValueError, "name"):
+        export_builtin_scene("nope", tmp_path)
+    with raises_naming(TypeError, "folder"):
+        export_builtin_scene("furnace", 3)
+    with raises_naming(ValueError, "folder"):
+        export_builtin_scene("furnace", " ")
+    with raises_naming(TypeError, "overwrite"):
+        export_builtin_scene("furnace", tmp_path, overwrite=1)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(NotADirectoryError, match="folder"):
+        export_builtin_scene("furnace", tmp_path / "file")
+    export_builtin_scene("furnace", tmp_path)
+    with pytest.raises(FileExistsError, match="furnace.xml"):
+        export_builtin_scene("furnace", tmp_path)
+
+
 def test_many_lights_powers_span_three_orders():
     scene = load_scene(builtin_scene_path("many_lights"))
     assert len(scene.emitters) >= 100

@@ -20,7 +20,8 @@ from typing import Any, Iterable
 import numpy as np
 
 
-def _describe(value: Any) -> str:
+def describe(value: Any) -> str:
+    """``repr(value)`` (cut at 60 characters) and its type, for error messages."""
     text = repr(value)
     if len(text) > 60:
         text = text[:57] + "..."
@@ -48,7 +49,7 @@ def real(value: Any, name: str, *, low: float | None = None, high: float | None 
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating, np.integer)):
-        raise TypeError(f"{name} must be a real number, got {_describe(value)}")
+        raise TypeError(f"{name} must be a real number, got {describe(value)}")
     x = float(value)
     if np.isnan(x) or (finite and not np.isfinite(x)):
         raise ValueError(f"{name} must be a finite number, got {x}")
@@ -68,7 +69,7 @@ def integer(value: Any, name: str, *, low: int | None = None, high: int | None =
     if isinstance(value, np.ndarray) and value.ndim == 0:
         value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral, np.integer)):
-        raise TypeError(f"{name} must be an integer, got {_describe(value)}")
+        raise TypeError(f"{name} must be an integer, got {describe(value)}")
     k = int(value)
     if (low is not None and k < low) or (high is not None and k > high):
         raise ValueError(f"{name} must be {_bound_text(low, high, False, False)}, got {k}")
@@ -80,7 +81,7 @@ def choice(value: Any, name: str, allowed: Iterable[str]) -> str:
     (``TypeError`` for a non-string)."""
     allowed = tuple(allowed)
     if not isinstance(value, str):
-        raise TypeError(f"{name} must be one of {', '.join(map(repr, allowed))}; got {_describe(value)}")
+        raise TypeError(f"{name} must be one of {', '.join(map(repr, allowed))}; got {describe(value)}")
     if value not in allowed:
         raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}; got {value!r}")
     return value
@@ -93,10 +94,12 @@ def finite_array(value: Any, name: str, *, ndim: int | None = None, last: int | 
     ``TypeError`` if it cannot be read as numbers; ``ValueError`` naming the first
     non-finite entry, or if ``ndim`` / the last axis length ``last`` do not match.
     """
+    if value is None or isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be an array of real numbers, got {describe(value)}")
     try:
         a = np.asarray(value, dtype=dtype)
     except (TypeError, ValueError):
-        raise TypeError(f"{name} must be an array of real numbers, got {_describe(value)}") from None
+        raise TypeError(f"{name} must be an array of real numbers, got {describe(value)}") from None
     if ndim is not None and a.ndim != ndim:
         raise ValueError(f"{name} must have {ndim} dimension(s), got shape {a.shape}")
     if last is not None and (a.ndim == 0 or a.shape[-1] != last):
@@ -130,7 +133,7 @@ def flag(value: Any, name: str) -> bool:
     """``value`` as a bool: only ``True``/``False`` (or NumPy booleans) are accepted, so that
     ``probe="no"`` is a ``TypeError`` rather than a truthy string."""
     if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be True or False, got {_describe(value)}")
+        raise TypeError(f"{name} must be True or False, got {describe(value)}")
     return bool(value)
 
 

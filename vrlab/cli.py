@@ -1,16 +1,67 @@
-"""The ``vrlab`` command line: ``vrlab demo``, ``vrlab lab`` and ``vrlab bench``."""
+"""The ``vrlab`` command line: ``vrlab demo``, ``vrlab lab``, ``vrlab render`` and ``vrlab bench``.
+
+Errors: every flag is checked before any work starts (:mod:`vrlab.cli_args`), and an
+error is one line on stderr, ``vrlab render: error: --width must be >= 1, got 0``,
+never a traceback.  Exit status 0 on success; 2 for a usage error (an unknown flag, a
+bad flag value or combination: argparse's convention); 1 for a failure (an input file
+missing, unreadable or malformed, an output folder missing or not writable, a scene
+that fails to load, an error while working); 130 after Ctrl-C.  When the reader of
+stdout goes away early (``vrlab lab --list | head -1``) the rest of the output is
+dropped quietly with status 0: whether the pipe breaks at all depends on timing (short
+output fits the pipe's buffer), and 0 keeps the status the same either way, so
+``set -o pipefail`` scripts do not fail at random.  ``--debug``
+(``vrlab --debug render ...`` or ``vrlab render ... --debug``) prints the traceback
+before that line.  In process, :func:`main` returns 0 and raises ``SystemExit`` with
+the status otherwise, as argparse does.
+"""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
+import signal
 import sys
+import traceback
+import warnings
 from typing import Sequence
+
+from .cli_args import Failure, UsageError, output_folder, seed
+
+EPILOG = """\
+errors: one line on stderr, e.g. "vrlab render: error: --width must be >= 1, got 0".
+exit status: 0 success; 2 usage error (unknown flag, bad value or combination; every
+flag is checked before any work starts); 1 failure (input file missing or unreadable,
+output folder missing or not writable, a scene that fails to load, an error while
+working); 130 interrupted (Ctrl-C); 0 when stdout is closed early ("| head -1"): the
+rest of the output is dropped quietly.
+--debug (before or after COMMAND) shows the Python traceback of an error."""
+
+_QUIET_TYPES = (ValueError, TypeError, OSError, Failure)   # their message says it all
+
+
+class _Formatter(argparse.RawDescriptionHelpFormatter):
+    """Descriptions and epilogs as written; option help wrapped without breaking flag names
+    at their hyphens ("--light-selection" stays whole)."""
+
+    def _split_lines(self, text, width):
+        import textwrap
+
+        return textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False)
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose errors are one line (no usage block): raised as UsageError."""
+
+    def error(self, message: str):
+        raise UsageError(message, prog=self.prog)
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
+    root, out = seed(args.seed), output_folder(args.out, "--out")
     from .demo import run_demo
 
-    summary = run_demo(args.out, seed=args.seed, quick=args.quick)
+    summary = run_demo(out, seed=root, quick=args.quick)
     if args.json:
         print(json.dumps(summary, indent=2, default=float))
     return 0
@@ -30,305 +81,179 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-def _csv_list(text: str, what: str, parser: argparse.ArgumentParser) -> list[str]:
-    items = [t.strip() for t in (text or "").split(",") if t.strip()]
-    if not items:
-        parser.error(f"{what}: give at least one name")
-    return items
-
-
-def _int_list(text: str, what: str, parser: argparse.ArgumentParser) -> list[int]:
-    try:
-        out = [int(t) for t in _csv_list(text, what, parser)]
-    except ValueError:
-        parser.error(f"{what}: expected comma-separated integers, got {text!r}")
-    if min(out) < 1:
-        parser.error(f"{what}: sample counts must be >= 1, got {text!r}")
-    return out
-
-
-def _lab_list(args: argparse.Namespace) -> int:
-    from .integrands import get, names
-    from .lab import explain, list_recipes
-
-    recipes = list_recipes()
-    table = {}
-    for name in names():
-        integrand = get(name)
-        why = explain(integrand)
-        table[name] = {"dim": integrand.dim, "domain": integrand.domain if isinstance(integrand.domain, str)
-                       else "box", "exact": integrand.exact, "techniques": list(integrand.techniques),
-                       "applicable": [k for k, v in why.items() if v is None],
-                       "not_applicable": {k: v for k, v in why.items() if v is not None}}
-    if args.json:
-        print(json.dumps({"recipes": recipes, "integrands": table}, indent=2, default=float))
-        return 0
-    print("Estimator recipes (--estimators A,B,...; '<a+b>' picks techniques, e.g. mis-balance:brdf+light):")
-    width = max(len(r["recipe"]) for r in recipes)
-    for r in recipes:
-        missing = "" if r["available"] else f"   [not installed: {r['module']}]"
-        print(f"  {r['recipe']:<{width}}  {r['summary']}{missing}")
-    print("\nIntegrands (--integrand NAME) and the recipes that apply:")
-    width = max(map(len, table))
-    for name, t in table.items():
-        print(f"  {name:<{width}}  {t['dim']}D {t['domain']}, exact {t['exact']:.6g}, "
-              f"techniques: {', '.join(t['techniques']) or '-'}")
-        print(f"  {'':<{width}}    {', '.join(t['applicable'])}")
-    return 0
-
-
-def _cmd_lab(args: argparse.Namespace) -> int:
-    import pandas as pd
-
-    from .integrands import get, names
-    from .lab import (
-        build,
-        convergence_plot,
-        equal_time,
-        fit_slopes,
-        get_recipe,
-        run,
-        summarize,
-    )
-
-    parser = args.parser
-    if args.list:
-        return _lab_list(args)
-    if not args.integrand or not args.estimators:
-        parser.error("give --integrand and --estimators (or --list to see the choices)")
-    integrands = _csv_list(args.integrand, "--integrand", parser)
-    unknown = [i for i in integrands if i not in names()]
-    if unknown:
-        parser.error(f"--integrand: unknown {', '.join(map(repr, unknown))}; choose from {', '.join(names())}")
-    estimators = _csv_list(args.estimators, "--estimators", parser)
-    ns = _int_list(args.n, "--n", parser)
-    if args.reps < 2:
-        parser.error(f"--reps: need at least 2 repetitions for an RMSE and a variance, got {args.reps}")
-    if args.workers < 1:
-        parser.error(f"--workers must be >= 1, got {args.workers}")
-    for e in estimators:
-        try:
-            get_recipe(e)
-            for i in integrands:
-                build(e, get(i))
-        except ValueError as exc:
-            parser.error(f"--estimators: {exc}")
-    progress = args.progress if args.progress is not None else sys.stderr.isatty()
-    try:
-        df = run(estimators, integrands, ns, args.reps, rng=args.seed, progress=progress, workers=args.workers)
-    except ValueError as exc:
-        parser.error(str(exc))
-    summary = summarize(df)
-    slopes = fit_slopes(summary)
-    eq = equal_time(summary)
-    if args.csv:
-        df.to_csv(args.csv, index=False)
-    if args.plot:
-        convergence_plot(summary, args.plot)
-    if args.json:
-        print(json.dumps({"seed": args.seed, "integrands": integrands, "estimators": estimators, "n": ns,
-                          "reps": args.reps, "summary": _records(summary),
-                          "slopes": _records(slopes), "equal_time": _records(eq),
-                          "csv": args.csv, "plot": args.plot}, indent=2, default=_json_default))
-        return 0
-    cols = ["estimator", "integrand", "n", "mean", "bias", "rmse", "variance", "mean_stderr", "z_std",
-            "coverage", "seconds", "efficiency"]
-    with pd.option_context("display.width", 200, "display.max_columns", 30, "display.max_rows", 500):
-        print(f"vrlab lab: {args.reps} repetitions, seed {args.seed}")
-        print(summary[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-        print("\nRMSE slopes in log-log (fitted vs theory):")
-        print(slopes[["estimator", "integrand", "slope", "slope_se", "theory", "theory_note"]]
-              .to_string(index=False, float_format=lambda v: f"{v:.3f}"))
-        at = eq[eq["n"] == eq.groupby("integrand")["n"].transform("max")]
-        print(f"\nEqual time at the largest n: efficiency relative to {eq['reference'].iloc[0]} "
-              "(variance x seconds ratio; > 1 is better):")
-        print(at[["integrand", "n", "estimator", "relative_variance", "relative_efficiency"]]
-              .to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    if args.csv or args.plot:
-        print("\nwrote " + ", ".join(p for p in (args.csv, args.plot) if p))
-    return 0
-
-
-def _records(df) -> list[dict]:
-    """Rows as dicts with NaN and infinities as None (strict JSON)."""
-    import numpy as np
-
-    clean = df.replace([np.inf, -np.inf], np.nan).astype(object)
-    return clean.where(clean.notna(), None).to_dict("records")
-
-
-def _json_default(v):
-    import numpy as np
-
-    if isinstance(v, (np.integer,)):
-        return int(v)
-    if isinstance(v, (np.floating,)):
-        return float(v)
-    if isinstance(v, np.bool_):
-        return bool(v)
-    return str(v)
-
-
-def _cmd_render(args: argparse.Namespace) -> int:
-    import dataclasses
-    import os
-    import time
-
-    import numpy as np
-
-    from .render import builtin_scene_path, list_builtin_scenes, load_scene, render
-    from .render.image import rel_mse, save_image
-
-    if args.list:
-        print("\n".join(list_builtin_scenes()))
-        return 0
-    if not args.scene:
-        raise SystemExit("vrlab render: give a scene (an XML path or a built-in name; --list shows them)")
-    path = args.scene if os.path.exists(args.scene) else builtin_scene_path(args.scene)
-    scene = load_scene(path)
-    if args.width or args.height:
-        scene.sensor = dataclasses.replace(scene.sensor, width=args.width or scene.sensor.width,
-                                           height=args.height or scene.sensor.height)
-    if args.compare:
-        from .render.compare import compare, compare_figure
-
-        res = compare(scene, args.compare.split(","), args.spp or scene.sensor.spp, rng=args.seed,
-                      reference=np.load(args.reference) if args.reference else None,
-                      equal_time=args.equal_time)
-        out = {"scene": str(path), "spp": res["spp"], "rel_mse": res["rel_mse"], "seconds": res["seconds"]}
-        if args.output:
-            out["figure"] = str(compare_figure(res, args.output, exposure=args.exposure))
-        print(json.dumps(out, indent=2) if args.json else
-              "\n".join(f"{k:12s} relMSE {v:.4g}  {res['seconds'][k]:.2f} s" for k, v in res["rel_mse"].items()))
-        return 0
-    t0 = time.perf_counter()
-    if args.workers is None:
-        from .render.film import default_workers
-        args.workers = default_workers()
-    show = args.progress if args.progress is not None else sys.stderr.isatty()
-    bar = None
-    if show:
-        from .lab.runner import ProgressBar
-        bar = ProgressBar(scene.sensor.width * scene.sensor.height, label="render")
-
-    def progress(done, total):
-        bar.update(done - bar.done)
-
-    img, err = render(scene, args.spp, args.strategy, rng=args.seed, pixel_sampler=args.pixel_sampler,
-                      light_selection=args.light_selection, emitter_samples=args.emitter_samples,
-                      bsdf_samples=args.bsdf_samples, ris_candidates=args.ris_candidates,
-                      workers=args.workers, progress=progress if bar else None)
-    seconds = time.perf_counter() - t0
-    spp = args.spp or scene.sensor.spp
-    out = {"scene": str(path), "strategy": args.strategy, "spp": spp, "workers": args.workers,
-           "width": scene.sensor.width,
-           "height": scene.sensor.height, "seconds": seconds,
-           "samples_per_second": scene.sensor.width * scene.sensor.height * spp / seconds,
-           "mean_stderr": float(np.nanmean(err))}
-    if args.output:
-        out["output"] = str(save_image(args.output, img, args.exposure))
-    if args.stderr_out:
-        out["stderr_output"] = str(save_image(args.stderr_out, err))
-    if args.reference:
-        out["rel_mse"] = rel_mse(img, np.load(args.reference))
-    if args.json:
-        print(json.dumps(out, indent=2))
-    else:
-        print("  ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in out.items()))
-    return 0
-
-
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="vrlab",
-        description="Monte Carlo estimators and variance reduction for rendering: samplers, warps, the integral lab, benchmarks.",
-    )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    """The parser of ``vrlab`` and its subcommands (errors raise :class:`UsageError`)."""
+    from . import cli_lab, cli_render
+
+    parser = _Parser(prog="vrlab", epilog=EPILOG, formatter_class=_Formatter,
+                     description="Monte Carlo estimators and variance reduction for rendering: samplers,\n"
+                                 "warps, the integral lab, a direct-lighting renderer, benchmarks.")
+    parser.add_argument("--debug", action="store_true", help="on an error, show the Python traceback")
+    common = _Parser(add_help=False)
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                        help="on an error, show the Python traceback (same as vrlab --debug COMMAND)")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser,
+                                help="one of these (vrlab COMMAND --help explains it):")
+    kw = dict(parents=[common], epilog=EPILOG, formatter_class=_Formatter)
 
     demo = sub.add_parser("demo", help="run the showcase on built-in defaults and write figures and tables",
-                          description="Draw every warp's samples against its pdf, compare point sets "
-                                      "(discrepancy) and samplers (speed); writes PNG and CSV files.")
-    demo.add_argument("--out", default="vrlab-demo", help="output folder (default: %(default)s)")
-    demo.add_argument("--seed", type=int, default=2026, help="root seed (default: %(default)s)")
+                          description="Draw every warp's samples against its pdf, compare point sets\n"
+                                      "(discrepancy) and samplers (speed); writes PNG and CSV files.", **kw)
+    demo.add_argument("--out", default="vrlab-demo",
+                      help="output folder, created if missing (default: %(default)s)")
+    demo.add_argument("--seed", default="2026", help="root seed of every random number, 0 .. 2**128-1: the same "
+                                                     "seed gives the same figures and tables (default: %(default)s)")
     demo.add_argument("--quick", action="store_true", help="smaller sample counts (a few seconds)")
     demo.add_argument("--json", action="store_true", help="print a JSON summary of what was written")
-    demo.set_defaults(func=_cmd_demo)
+    demo.set_defaults(func=_cmd_demo, parser=demo)
 
-    lab = sub.add_parser("lab", help="compare estimators on lab integrands: RMSE, slopes, efficiency",
-                         description="Run estimator recipes on catalogue integrands at several sample counts, "
-                                     "repeated with spawned seeds; print a summary (bias, RMSE, variance, "
-                                     "calibration of the standard errors, efficiency) and log-log RMSE slopes.",
-                         epilog="examples: vrlab lab --list;  vrlab lab --integrand exp --estimators "
-                                "mc,antithetic,cv,jittered --n 64,256,1024 --reps 50 --plot conv.png")
-    lab.add_argument("--list", action="store_true", help="list integrands and recipes (and which apply where)")
-    lab.add_argument("--integrand", metavar="NAME[,NAME]", help="catalogue integrand(s), see --list")
-    lab.add_argument("--estimators", metavar="A,B,C", help="estimator recipes, e.g. mc,is:linear,mis-balance")
-    lab.add_argument("--n", default="64,256,1024", metavar="N1,N2,...",
-                     help="sample counts = integrand evaluations (default: %(default)s)")
-    lab.add_argument("--reps", type=int, default=50, help="repetitions per setting (default: %(default)s)")
-    lab.add_argument("--seed", type=int, default=0, help="root seed (default: %(default)s)")
-    lab.add_argument("--workers", type=int, default=1, help="worker processes (same numbers for any count)")
-    lab.add_argument("--csv", metavar="FILE", help="write the per-repetition rows as CSV")
-    lab.add_argument("--plot", metavar="FILE.png", help="write the convergence plot (RMSE vs n)")
-    lab.add_argument("--json", action="store_true", help="print summary, slopes and equal-time tables as JSON")
-    lab.add_argument("--progress", dest="progress", action="store_true", default=None,
-                     help="progress bar on stderr (default: when stderr is a terminal)")
-    lab.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
-    lab.set_defaults(func=_cmd_lab, parser=lab)
+    cli_lab.add_parser(sub, **kw)
 
     bench = sub.add_parser("bench", help="time vrlab side by side with its peers (NumPy, SciPy)",
-                           description="Benchmarks reported as ratios against the peers, in one run.")
-    bench.add_argument("suite", choices=["sampling", "qmc", "discrete", "estimators"],
-                       help="sampling = qmc + discrete; estimators = estimator overhead and memory")
+                           description="Benchmarks reported as ratios against the peers, in one run.", **kw)
+    bench.add_argument("suite", choices=["sampling", "qmc", "discrete", "estimators"], metavar="suite",
+                       help="what to time. qmc: Halton/Hammersley against scipy.stats.qmc; discrete: the alias "
+                            "table against NumPy's choice, SciPy's alias urn and searchsorted; sampling: qmc and "
+                            "discrete; estimators: estimator overhead against bare NumPy and peak memory")
     bench.add_argument("--quick", action="store_true", help="smaller sizes (seconds, for a smoke run)")
     bench.add_argument("--json", action="store_true", help="print the rows as JSON")
-    bench.set_defaults(func=_cmd_bench)
-    from .render.direct import PIXEL_SAMPLERS, STRATEGIES
+    bench.set_defaults(func=_cmd_bench, parser=bench)
 
-    rend = sub.add_parser("render", help="render a Mitsuba 3 XML scene (or a built-in one) with direct lighting",
-                          description="Direct lighting with a choice of sampling strategy; writes .npy (linear), "
-                                      ".png (tonemapped sRGB) or .exr.")
-    rend.add_argument("scene", nargs="?", help="XML path or built-in scene name (see --list)")
-    rend.add_argument("--list", action="store_true", help="list the built-in scenes")
-    rend.add_argument("--spp", type=int, default=None, help="samples per pixel (default: the scene's)")
-    rend.add_argument("--strategy", choices=list(STRATEGIES), default="mis-power")
-    rend.add_argument("--pixel-sampler", choices=list(PIXEL_SAMPLERS), default="independent")
-    rend.add_argument("--light-selection", choices=["uniform", "power"], default="uniform")
-    rend.add_argument("--seed", type=int, default=0)
-    rend.add_argument("--emitter-samples", type=int, default=None,
-                      help="light samples per shading point (default: the scene integrator's)")
-    rend.add_argument("--bsdf-samples", type=int, default=None,
-                      help="BSDF samples per shading point (default: the scene integrator's)")
-    rend.add_argument("--ris-candidates", type=int, default=8, help="light candidates per RIS sample (ris)")
-    rend.add_argument("--workers", type=int, default=None,
-                      help="worker processes (default: the CPUs available; tiles are seeded per tile, so "
-                           "the image is the same for any count)")
-    rend.add_argument("--progress", dest="progress", action="store_true", default=None,
-                      help="progress bar on stderr (default: when stderr is a terminal)")
-    rend.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
-    rend.add_argument("--width", type=int, default=None, help="override the film width")
-    rend.add_argument("--height", type=int, default=None, help="override the film height")
-    rend.add_argument("-o", "--output", help="image file: .npy, .png or .exr")
-    rend.add_argument("--stderr-out", help="per-pixel standard error image (.npy, .png or .exr)")
-    rend.add_argument("--reference", help="reference .npy: print relMSE = mean((img-ref)^2/(ref^2+0.01))")
-    rend.add_argument("--exposure", type=float, default=1.0, help="exposure scale for .png")
-    rend.add_argument("--compare", metavar="S1,S2,...", nargs="?", const="bsdf,light,mis-power",
-                      help="render a grid of strategies at equal spp with relMSE under each panel "
-                           "(default: the Veach figure bsdf,light,mis-power); -o names the figure (.png)")
-    rend.add_argument("--equal-time", action="store_true",
-                      help="with --compare: give each strategy the time the last one needs for --spp")
-    rend.add_argument("--json", action="store_true", help="print time, samples/s and errors as JSON")
-    rend.set_defaults(func=_cmd_render)
+    cli_render.add_parser(sub, **kw)
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+# ----------------------------------------------------------------------------- error handling
+def _one_line(text: str) -> str:
+    return " ".join(part.strip() for part in str(text).splitlines() if part.strip())
+
+
+def _say(prog: str, kind: str, text: str) -> None:
+    with contextlib.suppress(OSError, ValueError):      # stderr itself may be closed
+        print(f"{prog}: {kind}: {_one_line(text)}", file=sys.stderr, flush=True)
+
+
+def _message(exc: BaseException, debug: bool) -> str:
+    text = _one_line(str(exc))
+    hint = "" if debug else " (--debug shows the traceback)"
+    if isinstance(exc, MemoryError):
+        return "out of memory" + (f" ({text})" if text else "") + hint
+    if isinstance(exc, _QUIET_TYPES) and text:
+        return text
+    return f"{type(exc).__name__}: {text or 'no message'}{hint}"
+
+
+def _stdout_closed() -> bool:
+    """Whether stdout is a pipe whose reader has gone (POLLERR); True when it cannot be told."""
+    try:
+        import select
+
+        poll = select.poll()
+        poll.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(ev & select.POLLERR for _, ev in poll.poll(0))
+    except (AttributeError, OSError, ValueError, ImportError):
+        return True
+
+
+def _drop_stdout() -> None:
+    """Point stdout at /dev/null so that the final flush at exit cannot fail again."""
+    with contextlib.suppress(AttributeError, OSError, ValueError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+
+
+@contextlib.contextmanager
+def _quiet_workers():
+    """Ctrl-C: the main process raises KeyboardInterrupt; forked worker processes (which
+    inherit this handler) leave at once without printing their own tracebacks."""
+    main_pid = os.getpid()
+
+    def on_sigint(signum, frame):
+        if os.getpid() != main_pid:
+            os._exit(130)
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGINT, on_sigint)
+    except (ValueError, OSError):           # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _warning_printer(prog: str, debug: bool):
+    def show(message, category, filename, lineno, file=None, line=None):
+        where = f" at {filename}:{lineno}" if debug else ""
+        _say(prog, "warning", f"{message} ({category.__name__}{where})")
+    return show
+
+
+def _check_argv(argv) -> list[str] | None:
+    if argv is None:
+        return None
+    if isinstance(argv, (str, bytes)) or not isinstance(argv, Sequence):
+        raise TypeError(f"argv must be a list of strings (or None for sys.argv[1:]), got {type(argv).__name__}")
+    bad = [a for a in argv if not isinstance(a, str)]
+    if bad:
+        raise TypeError(f"argv must be a list of strings, got {bad[0]!r} ({type(bad[0]).__name__})")
+    return list(argv)
+
+
+def _run(argv: list[str] | None, state: dict) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args, extra = parser.parse_known_args(argv)
+        if extra:                            # after COMMAND: reported by its parser ("vrlab render: ...")
+            words = sys.argv[1:] if argv is None else argv
+            after = args.command in words and extra[0] in words and words.index(extra[0]) > words.index(args.command)
+            (args.parser if after else parser).error(f"unrecognized arguments: {' '.join(extra)}")
+    except SystemExit:                       # --help printed: flush it while we can report a closed pipe
+        sys.stdout.flush()
+        raise
+    state["debug"] = bool(getattr(args, "debug", False))
     if args.command is None:
-        parser.print_help()
-        return 2
-    return args.func(args)
+        raise UsageError("give a COMMAND: demo, lab, render or bench (vrlab --help explains them)")
+    state["prog"] = f"vrlab {args.command}"
+    with _quiet_workers(), warnings.catch_warnings():
+        warnings.showwarning = _warning_printer(state["prog"], state["debug"])
+        code = args.func(args)
+    sys.stdout.flush()
+    return code
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``vrlab`` on ``argv`` (default ``sys.argv[1:]``): returns 0 on success, raises
+    ``SystemExit`` with status 2 (usage), 1 (failure) or 130 (Ctrl-C) after one line on
+    stderr; returns 0 quietly when stdout is closed early (see the module docstring)."""
+    argv = _check_argv(argv)
+    state = {"prog": "vrlab", "debug": False}
+    try:
+        try:
+            return _run(argv, state)
+        except BrokenPipeError:
+            if not _stdout_closed():
+                raise
+            _drop_stdout()
+            return 0
+    except SystemExit:
+        raise
+    except BaseException as exc:
+        if not isinstance(exc, Exception) and not isinstance(exc, KeyboardInterrupt):
+            raise                            # GeneratorExit and the like: not ours to report
+        if state["debug"]:
+            traceback.print_exc()
+        if isinstance(exc, KeyboardInterrupt):
+            _say(state["prog"], "error", "interrupted")
+            raise SystemExit(130) from None
+        if isinstance(exc, UsageError):
+            _say(exc.prog or state["prog"], "error", str(exc) or "bad usage")
+            raise SystemExit(2) from None
+        _say(state["prog"], "error", _message(exc, state["debug"]))
+        raise SystemExit(1) from None
 
 
 if __name__ == "__main__":  # pragma: no cover

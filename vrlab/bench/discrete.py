@@ -16,9 +16,9 @@ import warnings
 
 import numpy as np
 
-from .timing import race as _race
-
+from .. import checks
 from ..distributions.discrete import AliasTable, CDFTable
+from .timing import race as _race
 
 OURS = "vrlab AliasTable"
 
@@ -78,8 +78,14 @@ def bench_discrete(quick: bool = False, *, repeat: int = 3, seed: int = 2026) ->
 
     Full: 10^7 draws at n = 64, 10^4, 10^6 and builds at n = 10^6, 10^7.
     ``quick``: 10^6 draws at n = 64, 10^4, 10^5 and builds at n = 10^5, 10^6 (seconds).
-    Rows: ``{"task", "n", "method", "seconds", "ratio_vs_vrlab", "note"}``.
+    Rows: ``{"task", "n", "method", "seconds", "ratio_vs_vrlab", "note"}``.  Checked:
+    ``quick`` a bool, ``repeat`` in [1, 1000], ``seed`` an integer >= 0.
     """
+    from . import _quick
+
+    quick = _quick(quick)
+    repeat = checks.integer(repeat, "repeat", low=1, high=1000)
+    seed = checks.integer(seed, "seed", low=0, high=2**62)
     draws = 10**6 if quick else 10**7
     sample_sizes = (64, 10**4, 10**5) if quick else (64, 10**4, 10**6)
     build_sizes = (10**5, 10**6) if quick else (10**6, 10**7)

@@ -27,6 +27,7 @@ import sys
 
 import numpy as np
 
+from .. import checks
 from .timing import race as _race
 
 TARGET = 1.3
@@ -75,7 +76,11 @@ def _bare_mis(integrand, dists, n: int, seed: int, chunk: int | None = None) -> 
 
 def overhead_rows(n: int, repeat: int = 3, seed: int = 2026) -> list[dict]:
     """Overhead of ``MonteCarlo`` (exp with the linear density; glossy-light with light
-    sampling) and of balance-heuristic ``MIS`` with two techniques, against bare NumPy."""
+    sampling) and of balance-heuristic ``MIS`` with two techniques, against bare NumPy.
+    Checked: ``n`` in [2, 10^8], ``repeat`` in [1, 1000], ``seed`` an integer >= 0."""
+    n = checks.integer(n, "n", low=2, high=10**8)
+    repeat = checks.integer(repeat, "repeat", low=1, high=1000)
+    seed = checks.integer(seed, "seed", low=0, high=2**62)
     from ..estimators import MonteCarlo
     from ..estimators.base import DEFAULT_CHUNK
     from ..integrands import get
@@ -158,7 +163,9 @@ print(json.dumps({"idle": idle, "peak": peak if peak is not None else maxrss, "m
 
 
 def memory_rows(n: int) -> list[dict]:
-    """Peak memory of a chunked ``n``-sample estimate in a fresh process (see module docstring)."""
+    """Peak memory of a chunked ``n``-sample estimate in a fresh process (see module docstring);
+    ``n`` an integer in [1, 10^9]."""
+    n = checks.integer(n, "n", low=1, high=10**9)
     import importlib.util
 
     if importlib.util.find_spec("resource") is None:  # pragma: no cover - Windows
@@ -186,7 +193,11 @@ def bench_estimators(quick: bool = False, *, repeat: int = 3, seed: int = 2026) 
 
     ``quick``: 10^6 and 10^7 samples.  Rows: ``task, n, method, seconds, ratio_vs_bare,
     target, ok, note`` and for the memory run ``peak_rss_mb, idle_rss_mb, traced_peak_mb``.
+    Checked: ``quick`` a bool, ``repeat`` in [1, 1000], ``seed`` an integer >= 0.
     """
+    from . import _quick
+
+    quick = _quick(quick)
     n = 10**6 if quick else 10**7
     rows = overhead_rows(n, repeat, seed)
     rows += memory_rows(10**7 if quick else 10**8)

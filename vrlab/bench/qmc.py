@@ -15,6 +15,7 @@ from collections.abc import Callable
 
 from scipy.stats import qmc
 
+from .. import checks
 from ..points import Halton, Hammersley
 
 
@@ -31,8 +32,16 @@ def bench_qmc(quick: bool = False, *, dims: tuple[int, ...] = (2, 8, 32), repeat
     """Timing rows ``{"task", "d", "n", "vrlab_s", "peer", "peer_s", "speedup"}``.
 
     ``n = 2^20`` points (``2^16`` with ``quick=True``); ``speedup = peer_s / vrlab_s``
-    (> 1: vrlab is faster).
+    (> 1: vrlab is faster).  Checked: ``quick`` a bool, ``dims`` a non-empty sequence of
+    integers in [1, 1000], ``repeat`` an integer in [1, 1000].
     """
+    from . import _quick
+
+    quick = _quick(quick)
+    if isinstance(dims, (str, bytes)) or not hasattr(dims, "__iter__") or not list(dims):
+        raise TypeError(f"dims must be a non-empty sequence of dimensions, got {checks.describe(dims)}")
+    dims = tuple(checks.integer(d, f"dims[{k}]", low=1, high=1000) for k, d in enumerate(dims))
+    repeat = checks.integer(repeat, "repeat", low=1, high=1000)
     n = 1 << (16 if quick else 20)
     rows: list[dict] = []
     for scramble in (False, True):

@@ -1,4 +1,4 @@
-"""The distribution protocol shared by every warp in vrlab.
+"""The distribution protocol shared by every warp in vrlab, and its argument checks.
 
 A distribution maps uniforms ``u`` of shape ``(..., dim_u)`` in [0, 1) to points
 ``x`` of shape ``(..., dim_x)`` and reports the density of what it produces,
@@ -8,6 +8,12 @@ A distribution maps uniforms ``u`` of shape ``(..., dim_u)`` in [0, 1) to points
 
 The protocol is duck-typed: estimators only need ``dim_u``, ``sample`` and
 ``pdf``.  ``Distribution`` is a convenience base class, not a requirement.
+
+Checks: constructors check every argument (``TypeError`` for a wrong kind,
+``ValueError`` for a bad value; the message names the argument).  ``sample(u)``,
+``pdf(x)`` and ``invert(x)`` check the kind and the shape of their array (a cheap,
+O(1) test) but not its values: they are the hot path, called in inner loops, so
+``u`` outside [0, 1) or non-finite points give unspecified (possibly NaN) results.
 """
 from __future__ import annotations
 
@@ -15,35 +21,109 @@ from typing import Any
 
 import numpy as np
 
+from .. import checks
+from ..checks import describe as _describe
 
-def as_float(x: Any) -> np.ndarray:
+_NUMERIC = "biuf"  # array kinds read as numbers: bool, signed/unsigned integer, float
+
+
+class ArgumentTypeError(TypeError, ValueError):
+    """A wrong kind of argument (a string for numbers, an object that is not a surface).
+
+    A ``TypeError`` that is also a ``ValueError``: where such input raised ``ValueError``
+    before the argument checks (tabulated weights, surfaces), ``except ValueError``
+    still catches it."""
+
+
+def as_float(x: Any, name: str = "x") -> np.ndarray:
     """``x`` as a float64 array, or as it is if it is a float32 array (the renderer's
-    vectors are float32; everything else computes in float64)."""
-    x = np.asarray(x)
-    return x if x.dtype == np.float32 else x.astype(np.float64, copy=False)
+    vectors are float32; everything else computes in float64).  Values are not checked;
+    ``TypeError`` naming ``name`` unless ``x`` holds real numbers (strings, None, complex
+    numbers are refused), ``ValueError`` for a ragged nested list."""
+    if isinstance(x, np.ndarray):
+        a = x
+        if a.dtype == np.float32:
+            return a
+    else:
+        try:
+            a = np.asarray(x)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}: expected a regular (not ragged) array of numbers, got {_describe(x)}") from None
+    if a.dtype.kind in _NUMERIC:
+        return a if a.dtype == np.float32 else a.astype(np.float64, copy=False)
+    if a.dtype.kind == "O" and a.ndim and not any(v is None or isinstance(v, (str, bytes)) for v in a.flat):
+        try:  # e.g. a list holding Fractions or Decimals
+            return a.astype(np.float64)
+        except (TypeError, ValueError):
+            pass
+    raise TypeError(f"{name} must be an array of real numbers, got {_describe(x)}")
 
 
 def as_points(x: Any, k: int, name: str = "x") -> np.ndarray:
     """Check that ``x`` holds points of a ``k``-dimensional domain: shape ``(..., k)``
-    (float64, or float32 kept: see :func:`as_float`)."""
-    x = as_float(x)
+    (float64, or float32 kept: see :func:`as_float`); values are not checked."""
+    x = as_float(x, name)
     if x.ndim == 0 or x.shape[-1] != k:
         raise ValueError(f"{name}: expected shape (..., {k}), got {x.shape}")
+    return x
+
+
+def finite_points(x: Any, k: int, name: str) -> np.ndarray:
+    """:func:`as_points` whose every entry is finite (for constructor arguments)."""
+    x = as_points(x, k, name)
+    bad = ~np.isfinite(x)
+    if bad.any():
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"{name} must be finite, but entry {where} is {x[where]}")
     return x
 
 
 def as_uniforms(u: Any, dim_u: int) -> np.ndarray:
     """Check that ``u`` has shape ``(..., dim_u)`` (values are not range-checked: hot path;
     float32 is kept, see :func:`as_float`)."""
-    u = as_float(u)
+    u = as_float(u, "u")
     if u.ndim == 0 or u.shape[-1] != dim_u:
         raise ValueError(f"u: expected uniforms of shape (..., {dim_u}), got {u.shape}")
     return u
 
 
+def check_broadcast(x: np.ndarray, name: str, shape: tuple, other: str) -> np.ndarray:
+    """``x`` if its leading shape ``x.shape[:-1]`` broadcasts with ``shape`` (the leading
+    shape of ``other``, e.g. per-pixel axes or reference points), else ``ValueError``."""
+    try:
+        np.broadcast_shapes(x.shape[:-1], shape)
+    except ValueError:
+        raise ValueError(f"{name}: leading shape {x.shape[:-1]} does not broadcast with {other}'s {shape} "
+                         f"(for {other} of shape (*batch, 3) use {name} of shape (*batch, n, k) and "
+                         f"{other}[..., None, :])") from None
+    return x
+
+
 def uniforms32(u: Any) -> np.ndarray:
     """Uniforms in [0, 1) as float32, still in [0, 1): float32 rounding could reach 1."""
     return np.minimum(np.asarray(u, dtype=np.float32), np.nextafter(np.float32(1), np.float32(0)))
+
+
+def is_distribution(d: Any) -> bool:
+    """Whether ``d`` has the protocol's ``dim_u``, ``sample`` and ``pdf``."""
+    return hasattr(d, "dim_u") and callable(getattr(d, "sample", None)) and callable(getattr(d, "pdf", None))
+
+
+def distribution_list(components: Any, name: str = "components") -> list:
+    """``components`` as a non-empty list of distributions, each with an integer ``dim_u >= 1``."""
+    if isinstance(components, (str, bytes)) or is_distribution(components):
+        raise TypeError(f"{name} must be a list of distributions, got {_describe(components)}")
+    try:
+        out = list(components)
+    except TypeError:
+        raise TypeError(f"{name} must be a list of distributions, got {_describe(components)}") from None
+    if not out:
+        raise ValueError(f"{name}: need at least one distribution")
+    for j, c in enumerate(out):
+        if not is_distribution(c):
+            raise TypeError(f"{name}[{j}]: {_describe(c)} is not a distribution (needs dim_u, sample, pdf)")
+        checks.integer(c.dim_u, f"{name}[{j}].dim_u", low=1)
+    return out
 
 
 class Distribution:
@@ -74,8 +154,6 @@ class Distribution:
 
 
 def positive_float(value: Any, name: str) -> float:
-    """``float(value)`` if finite and > 0, else ``ValueError`` naming ``name``."""
-    v = float(value)
-    if not np.isfinite(v) or v <= 0:
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return v
+    """``value`` as a float if it is a finite real number > 0: ``TypeError`` naming ``name``
+    for a non-number, ``ValueError`` for NaN, inf or a value <= 0."""
+    return checks.real(value, name, low=0.0, low_open=True)

@@ -4,7 +4,8 @@ Both map one uniform per draw to an index, ``sample(u) -> i``, and report
 ``pmf(i) = w_i / sum(w)`` (measure: counting).  ``u`` has shape ``(...)`` or
 ``(..., 1)`` (``dim_u = 1``; a trailing axis of length 1 on an array with two or
 more axes is the coordinate axis and is dropped), the indices have shape ``(...)``.
-``u`` must lie in [0, 1) (not checked: hot path).  ``sample(u, return_remapped=True)``
+``u`` must lie in [0, 1): ``sample`` checks that (two reductions, a few per cent of a
+draw) and raises ``ValueError`` naming ``u`` otherwise.  ``sample(u, return_remapped=True)``
 also returns the part of ``u`` the choice did not use, rescaled to [0, 1) and
 independent of the chosen index, so it can drive a further warp (as when a
 renderer picks a light and then a point on it with the same uniform).
@@ -48,6 +49,8 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import describe as _describe
+from ._args import _checked, _flag, _outside, _uniforms
 from .alias_build import (_accurate_total, _diff, _heavy_q, _lights_per_heavy, _lights_per_heavy_exact, _prefix,
                           _scale_bits, _value)
 from .base import Distribution
@@ -66,31 +69,6 @@ def check_discrete_weights(weights: Any, name: str = "weights") -> np.ndarray:
     return _checked(weights, name)[0]
 
 
-def _checked(weights: Any, name: str) -> tuple[np.ndarray, float, float]:
-    """``(w, min(w), max(w))`` for valid weights (see ``check_discrete_weights``)."""
-    try:
-        w = np.asarray(weights, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name}: expected a 1-D array of real numbers ({exc})") from None
-    if w.ndim != 1:
-        raise ValueError(f"{name}: expected a 1-D array, got shape {w.shape}")
-    if w.size == 0:
-        raise ValueError(f"{name}: empty; need at least one weight")
-    lo, hi = float(w.min()), float(w.max())  # NaN and inf propagate: two cheap reductions
-    if np.isfinite(lo) and np.isfinite(hi) and lo >= 0 and hi > 0:
-        return w, lo, hi
-    nan = np.isnan(w)
-    if nan.any():
-        raise ValueError(f"{name}: NaN at index {int(np.argmax(nan))}")
-    if not np.isfinite(w).all():
-        bad = int(np.argmax(~np.isfinite(w)))
-        raise ValueError(f"{name}: infinite value {w[bad]} at index {bad}")
-    if lo < 0:
-        bad = int(np.argmax(w < 0))
-        raise ValueError(f"{name}: negative value {w[bad]!r} at index {bad}; weights must be >= 0")
-    raise ValueError(f"{name}: all {w.size} weights are zero; need a positive total")
-
-
 # --- exact prefix sums --------------------------------------------------------------
 # A value v >= 0 is split as v = hi 2^-s + lo with hi an integer (held in a float) and
 # |lo| <= 2^-(s+1); both parts are exact.  With s chosen so that the sum of the hi stays
@@ -98,14 +76,6 @@ def _checked(weights: Any, name: str) -> tuple[np.ndarray, float, float]:
 # error far below the ulp of the totals.  Differences of two prefix sums then subtract
 # the integer parts exactly: the alias construction needs Y_k - X_h to ~1e-17, not to
 # the ~1e-9 that a plain float cumsum of 10^7 values would give.
-
-def _uniforms(u: Any) -> np.ndarray:
-    """``u`` as float64 of shape ``(...)``; ``(..., 1)`` with ndim >= 2 drops the last axis."""
-    u = np.asarray(u, dtype=np.float64)
-    if u.ndim >= 2 and u.shape[-1] == 1:
-        u = u[..., 0]
-    return u
-
 
 class _Discrete(Distribution):
     """Shared parts: weights, pmf, checks of indices."""
@@ -156,14 +126,20 @@ class _Discrete(Distribution):
 
     def pmf(self, i: Any = None) -> np.ndarray:
         """``P(index = i) = w_i / sum(w)`` for integer indices ``i`` (0 outside ``[0, n)``);
-        with no argument, the whole array of probabilities."""
+        with no argument, the whole array of probabilities.  ``i`` may be integral floats;
+        ``TypeError`` for other kinds, ``ValueError`` for non-integral, NaN or inf values."""
         probs = self.probabilities
         if i is None:
             return probs
-        i = np.asarray(i)
-        if not np.issubdtype(i.dtype, np.integer):
-            if i.dtype == bool or not np.issubdtype(i.dtype, np.number):
+        try:
+            i = np.asarray(i)
+        except ValueError:
+            raise ValueError(f"i: expected an array of integer indices, got {_describe(i)}") from None
+        if i.dtype.kind not in "iu":
+            if i.dtype.kind != "f":
                 raise TypeError(f"i: expected integer indices, got dtype {i.dtype}")
+            if not np.all(np.isfinite(i)):
+                raise ValueError("i: expected integer indices, got NaN or infinite values")
             if not np.all(np.floor(i) == i):
                 raise ValueError("i: expected integer indices, got non-integral values")
             i = i.astype(np.int64)
@@ -305,10 +281,11 @@ class AliasTable(_Discrete):
 
         With ``return_remapped=True`` returns ``(i, r)``: ``r = f / q_j`` if the column
         kept its own index, else ``(f - q_j) / (1 - q_j)`` (``f = x - j``), uniform on
-        [0, 1) and independent of ``i``.
+        [0, 1) and independent of ``i``.  ``u`` outside [0, 1) raises ``ValueError``.
         """
-        u = _uniforms(u)
-        if return_remapped:
+        remap = _flag(return_remapped, "return_remapped")
+        u = _uniforms(u, check=remap)
+        if remap:
             return self._sample_remap(u)
         flat = u.reshape(-1)
         out = np.empty(flat.size, np.intp)
@@ -317,7 +294,10 @@ class AliasTable(_Discrete):
         else:
             block, size = self._block_packed, _CHUNK_PACKED
         for start in range(0, flat.size, size):  # blocks of draws (not items): temporaries stay in cache
-            block(flat[start:start + size], out[start:start + size])
+            chunk = flat[start:start + size]
+            if not (chunk.min() >= 0.0 and chunk.max() < 1.0):  # checked in cache; NaN fails too
+                _outside(u)
+            block(chunk, out[start:start + size])
         return out.reshape(u.shape)
 
     def _block_small(self, u: np.ndarray, out: np.ndarray) -> None:
@@ -396,10 +376,11 @@ class CDFTable(_Discrete):
 
     def sample(self, u: Any, return_remapped: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """Indices for uniforms ``u`` in [0, 1) of shape ``(...)`` or ``(..., 1)``;
-        with ``return_remapped=True`` also ``(u - C_(i-1)) / (C_i - C_(i-1))``."""
+        with ``return_remapped=True`` also ``(u - C_(i-1)) / (C_i - C_(i-1))``.  ``u``
+        outside [0, 1) raises ``ValueError``."""
         u = _uniforms(u)
         i = np.searchsorted(self._search, u, side="right")
-        if not return_remapped:
+        if not _flag(return_remapped, "return_remapped"):
             return i
         lo = np.where(i > 0, self.cdf[np.maximum(i - 1, 0)], 0.0)
         r = (u - lo) / (self.cdf[i] - lo)  # the chosen step has positive width

@@ -13,30 +13,37 @@ Points of a k-dimensional domain have shape ``(..., k)``, also for k = 1.
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
-from .base import Distribution, as_points, as_uniforms, positive_float
+from .. import checks
+from .base import Distribution, as_float, as_points, as_uniforms, distribution_list, positive_float
 
 
 def as_bounds(bounds, name: str = "bounds") -> np.ndarray:
-    """Bounds of a box as a (k, 2) float array, checked: finite, lo < hi."""
-    try:
-        b = np.asarray(bounds, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected [(a1, b1), (a2, b2), ...], got {bounds!r}") from None
+    """Bounds of a box as a (k, 2) float64 array, checked: ``TypeError`` unless numbers,
+    ``ValueError`` unless shape (k, 2) (or (2,)), k >= 1, finite, a < b with b - a finite."""
+    b = np.array(as_float(bounds, name), dtype=np.float64)
     if b.ndim == 1 and b.shape == (2,):
         b = b[None, :]
     if b.ndim != 2 or b.shape[1] != 2 or b.shape[0] == 0:
-        raise ValueError(f"{name}: expected [(a1, b1), (a2, b2), ...], got {bounds!r}")
-    if not np.all(np.isfinite(b)) or not np.all(b[:, 1] > b[:, 0]):
-        raise ValueError(f"{name}: every interval must be finite with a < b, got {bounds!r}")
+        raise ValueError(f"{name}: expected [(a1, b1), (a2, b2), ...], got shape {b.shape}: {bounds!r}")
+    if not np.all(np.isfinite(b)):
+        raise ValueError(f"{name}: every interval must be finite, got {b.tolist()}")
+    if not np.all(b[:, 1] > b[:, 0]):
+        k = int(np.argmax(~(b[:, 1] > b[:, 0])))
+        raise ValueError(f"{name}: every interval needs a < b, but interval {k} is {tuple(b[k].tolist())}")
+    with np.errstate(over="ignore"):
+        if not np.all(np.isfinite(b[:, 1] - b[:, 0])):
+            raise ValueError(f"{name}: every interval must have a finite length b - a, got {b.tolist()}")
     return b
 
 
 class UniformBox(Distribution):
-    """Uniform on the box ``[(a1, b1), ..., (ak, bk)]``; p = 1 / prod(b - a) (length/area/volume)."""
+    """Uniform on the box ``[(a1, b1), ..., (ak, bk)]``; p = 1 / prod(b - a) (length/area/volume).
+
+    ``bounds`` is checked by :func:`as_bounds` (and the volume must be finite and > 0)."""
 
     measure = "volume"
 
@@ -44,7 +51,10 @@ class UniformBox(Distribution):
         b = as_bounds(bounds)
         self.lo, self.hi = b[:, 0], b[:, 1]
         self.dim_u = self.dim_x = len(b)
-        self.volume = float(np.prod(self.hi - self.lo))
+        with np.errstate(over="ignore", under="ignore"):
+            self.volume = float(np.prod(self.hi - self.lo))
+        if not (np.isfinite(self.volume) and self.volume > 0):
+            raise ValueError(f"bounds: the box volume {self.volume} is not a finite number > 0 (over- or underflow)")
         self.measure = {1: "length", 2: "area"}.get(self.dim_x, "volume")
 
     def sample(self, u):
@@ -62,25 +72,35 @@ class UniformBox(Distribution):
         return {"bounds": np.stack([self.lo, self.hi], 1).tolist()}
 
 
+def _interval(a: Any, b: Any) -> tuple[float, float]:
+    """Finite reals a < b with b - a finite, else an error naming ``a`` and ``b``."""
+    a, b = checks.real(a, "a"), checks.real(b, "b")
+    if not a < b:
+        raise ValueError(f"a, b: need a < b, got a={a:g}, b={b:g}")
+    if not np.isfinite(b - a):
+        raise ValueError(f"a, b: the length b - a overflows, got a={a:g}, b={b:g}")
+    return a, b
+
+
 def UniformInterval(a: float = 0.0, b: float = 1.0) -> UniformBox:
-    """Uniform on [a, b]: p = 1 / (b - a) (length)."""
-    return UniformBox([(a, b)])
+    """Uniform on [a, b]: p = 1 / (b - a) (length); a < b finite reals."""
+    return UniformBox([_interval(a, b)])
 
 
 class LinearInterval(Distribution):
     """Density on [a, b] proportional to the linear function from f0 (at a) to f1 (at b).
 
     p(x) = 2 ((1 - t) f0 + t f1) / ((f0 + f1)(b - a)), t = (x - a) / (b - a) (length).
+    Checked: a < b finite reals, f0, f1 finite reals >= 0, not both zero.
     """
 
     dim_u = dim_x = 1
     measure = "length"
 
     def __init__(self, a: float = 0.0, b: float = 1.0, f0: float = 0.0, f1: float = 1.0):
-        bnd = as_bounds([(a, b)], "a, b")[0]
-        self.a, self.b = float(bnd[0]), float(bnd[1])
-        f0, f1 = float(f0), float(f1)
-        if not (np.isfinite(f0) and np.isfinite(f1)) or f0 < 0 or f1 < 0 or f0 + f1 == 0:
+        self.a, self.b = _interval(a, b)
+        f0, f1 = checks.real(f0, "f0", low=0.0), checks.real(f1, "f1", low=0.0)
+        if not (f0 + f1 > 0 and np.isfinite(f0 + f1)):
             raise ValueError(f"f0, f1 must be finite, >= 0 and not both zero, got {f0}, {f1}")
         self.f0, self.f1 = f0, f1
 
@@ -106,7 +126,9 @@ class LinearInterval(Distribution):
 
 
 class Exponential(Distribution):
-    """Exponential density rate e^(-rate x) on [0, inf), or truncated to [0, upper] (length)."""
+    """Exponential density rate e^(-rate x) on [0, inf), or truncated to [0, upper] (length).
+
+    Checked: ``rate`` and ``upper`` (if given) finite reals > 0, with rate * upper > 0."""
 
     dim_u = dim_x = 1
     measure = "length"
@@ -115,7 +137,10 @@ class Exponential(Distribution):
         self.rate = positive_float(rate, "rate")
         self.upper = None if upper is None else positive_float(upper, "upper")
         # mass of [0, upper] under the untruncated density
-        self._mass = 1.0 if self.upper is None else -np.expm1(-self.rate * self.upper)
+        self._mass = 1.0 if self.upper is None else float(-np.expm1(-self.rate * self.upper))
+        if not self._mass > 0:
+            raise ValueError(f"rate, upper: the interval [0, upper] holds no mass (rate * upper underflows), "
+                             f"got rate={self.rate:g}, upper={self.upper:g}")
 
     def sample(self, u):
         u = as_uniforms(u, 1)
@@ -139,6 +164,8 @@ class TruncatedNormal(Distribution):
     x = mu + sigma Phi^-1(Phi(alpha) + u (Phi(beta) - Phi(alpha))), alpha = (a - mu)/sigma,
     beta = (b - mu)/sigma; p(x) = phi((x - mu)/sigma) / (sigma (Phi(beta) - Phi(alpha))).
     The tail on the far side of mu is handled by symmetry so deep truncations stay accurate.
+    Checked: mu finite, sigma finite > 0, a < b (either may be infinite, not NaN), and the
+    interval must hold normal mass in float64.
     """
 
     dim_u = dim_x = 1
@@ -148,11 +175,12 @@ class TruncatedNormal(Distribution):
         from scipy import special
 
         self._sp = special
-        self.mu = float(mu)
+        self.mu = checks.real(mu, "mu")
         self.sigma = positive_float(sigma, "sigma")
+        a, b = checks.real(a, "a", finite=False), checks.real(b, "b", finite=False)
         if not a < b:
-            raise ValueError(f"a, b: need a < b, got {a}, {b}")
-        self.a, self.b = float(a), float(b)
+            raise ValueError(f"a, b: need a < b, got a={a}, b={b}")
+        self.a, self.b = a, b
         self._lo = special.ndtr((self.a - self.mu) / self.sigma)
         self._hi = special.ndtr((self.b - self.mu) / self.sigma)
         self.mass = self._hi - self._lo
@@ -180,12 +208,13 @@ class TruncatedNormal(Distribution):
 
 class Product(Distribution):
     """Independent coordinates: x = (x_1, ..., x_m) with x_j ~ components[j];
-    p(x) = prod_j p_j(x_j) (product measure).  Uniforms are split in order."""
+    p(x) = prod_j p_j(x_j) (product measure).  Uniforms are split in order.
+    Checked: ``components`` is a non-empty list of distributions with integer ``dim_x``."""
 
     def __init__(self, components):
-        self.components = list(components)
-        if not self.components:
-            raise ValueError("components: need at least one distribution")
+        self.components = distribution_list(components)
+        for j, c in enumerate(self.components):
+            checks.integer(getattr(c, "dim_x", None), f"components[{j}].dim_x", low=1)
         self.dim_u = sum(int(c.dim_u) for c in self.components)
         self.dim_x = sum(int(c.dim_x) for c in self.components)
         self._u = np.cumsum([0] + [c.dim_u for c in self.components])

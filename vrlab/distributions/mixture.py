@@ -15,20 +15,20 @@ from typing import Sequence
 
 import numpy as np
 
-from .base import Distribution, as_uniforms
+from .base import Distribution, as_uniforms, distribution_list
 from .tabulated import check_weights
 
 
 class Mixture(Distribution):
-    """Mixture of ``components`` chosen with ``probabilities`` (default equal)."""
+    """Mixture of ``components`` chosen with ``probabilities`` (default equal).
+
+    Checked: ``components`` is a non-empty list of distributions (``TypeError``
+    otherwise) with one point dimension and one measure; ``probabilities`` has one
+    finite value >= 0 per component, not all zero (they are normalised).
+    """
 
     def __init__(self, components: Sequence, probabilities: Sequence[float] | None = None):
-        self.components = list(components)
-        if not self.components:
-            raise ValueError("components: need at least one distribution")
-        for c in self.components:
-            if not all(hasattr(c, a) for a in ("dim_u", "sample", "pdf")):
-                raise TypeError(f"components: {c!r} lacks dim_u/sample/pdf")
+        self.components = distribution_list(components)
         k = len(self.components)
         probs = np.full(k, 1.0 / k) if probabilities is None else check_weights(probabilities, "probabilities", 1)
         if len(probs) != k:

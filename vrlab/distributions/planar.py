@@ -7,16 +7,23 @@
 * ``Triangle(a, b, c)``: barycentrics b0 = 1 - sqrt(u1), b1 = u2 sqrt(u1)
   (Turk 1990, Graphics Gems), x = b0 a + b1 b + (1 - b0 - b1) c, p = 1 / area.
 * ``Rectangle(xlim, ylim)``: uniform, p = 1 / area.
+
+Constructors check their arguments (finite numbers, radius > 0, a known ``method``,
+non-degenerate shapes); ``sample``/``pdf``/``invert`` check only the array shapes.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .base import Distribution, as_points, as_uniforms, positive_float
+from .. import checks
+from .base import Distribution, as_float, as_points, as_uniforms, finite_points, positive_float
+from .interval import as_bounds
 
 
 def concentric_disk(u: np.ndarray) -> np.ndarray:
-    """Shirley–Chiu concentric map of [0,1)^2 to the unit disk (area preserving up to pi/4)."""
+    """Shirley–Chiu concentric map of [0,1)^2 to the unit disk (area preserving up to pi/4).
+    ``u`` of shape (..., 2) (values not checked)."""
+    u = as_uniforms(u, 2)
     a = 2.0 * u[..., 0] - 1.0
     b = 2.0 * u[..., 1] - 1.0
     first = np.abs(a) > np.abs(b)
@@ -29,7 +36,8 @@ def concentric_disk(u: np.ndarray) -> np.ndarray:
 
 
 def concentric_disk_inverse(d: np.ndarray) -> np.ndarray:
-    """Inverse of ``concentric_disk``: unit-disk points to [0,1)^2."""
+    """Inverse of ``concentric_disk``: unit-disk points ``d`` (..., 2) to [0,1)^2."""
+    d = as_points(d, 2, "d")
     x, y = d[..., 0], d[..., 1]
     r = np.hypot(x, y)
     phi = np.arctan2(y, x)  # (-pi, pi]
@@ -48,8 +56,21 @@ def concentric_disk_inverse(d: np.ndarray) -> np.ndarray:
     return np.stack([(a + 1.0) / 2.0, (b + 1.0) / 2.0], -1)
 
 
+def _vertex(v, name: str) -> np.ndarray:
+    """A finite 2D or 3D point as float64."""
+    p = np.array(as_float(v, name), dtype=np.float64)
+    if p.shape not in ((2,), (3,)):
+        raise ValueError(f"{name}: a vertex must be a 2D or 3D point, got shape {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"{name} must be finite, got {p.tolist()}")
+    return p
+
+
 class Disk(Distribution):
-    """Uniform points on the disk of radius ``radius`` about ``center``; p = 1/(pi R^2) (area)."""
+    """Uniform points on the disk of radius ``radius`` about ``center``; p = 1/(pi R^2) (area).
+
+    Checked: ``radius`` finite > 0, ``center`` finite of shape (..., 2), ``method`` one of
+    ``METHODS``."""
 
     dim_u = 2
     dim_x = 2
@@ -57,11 +78,13 @@ class Disk(Distribution):
     METHODS = ("concentric", "polar")
 
     def __init__(self, radius: float = 1.0, center=(0.0, 0.0), method: str = "concentric"):
-        if method not in self.METHODS:
-            raise ValueError(f"method must be one of {self.METHODS}, got {method!r}")
+        self.method = checks.choice(method, "method", self.METHODS)
         self.radius = positive_float(radius, "radius")
-        self.center = as_points(center, 2, "center")
-        self.method = method
+        with np.errstate(over="ignore"):
+            area = np.pi * np.square(np.float64(self.radius))
+        if not np.isfinite(area):
+            raise ValueError(f"radius: the disk's area overflows, got {self.radius:g}")
+        self.center = finite_points(center, 2, "center")
 
     def sample(self, u):
         u = as_uniforms(u, 2)
@@ -93,23 +116,28 @@ class Triangle(Distribution):
     """Uniform points in the triangle (a, b, c) (2D or 3D vertices); p = 1/area (area).
 
     Barycentrics from the square-root warp: b0 = 1 - sqrt(u1), b1 = u2 sqrt(u1).
+    Checked: ``a``, ``b``, ``c`` finite points of one size (2 or 3), not collinear.
     """
 
     dim_u = 2
     measure = "area"
 
     def __init__(self, a, b, c):
-        self.v = np.stack([np.asarray(a, float), np.asarray(b, float), np.asarray(c, float)])
-        if self.v.ndim != 2 or self.v.shape[1] not in (2, 3):
-            raise ValueError(f"vertices must be 2D or 3D points of equal size, got shape {self.v.shape}")
+        verts = [_vertex(v, name) for v, name in ((a, "a"), (b, "b"), (c, "c"))]
+        if len({v.shape for v in verts}) > 1:
+            raise ValueError(f"a, b, c: vertices must have the same size, got {[v.shape[0] for v in verts]}")
+        self.v = np.stack(verts)
         self.dim_x = self.v.shape[1]
         e1, e2 = self.v[0] - self.v[2], self.v[1] - self.v[2]
-        if self.dim_x == 2:
-            self.area = 0.5 * abs(e1[0] * e2[1] - e1[1] * e2[0])
-        else:
-            self.area = 0.5 * float(np.linalg.norm(np.cross(e1, e2)))
+        with np.errstate(over="ignore", invalid="ignore"):
+            if self.dim_x == 2:
+                self.area = 0.5 * abs(e1[0] * e2[1] - e1[1] * e2[0])
+            else:
+                self.area = 0.5 * float(np.linalg.norm(np.cross(e1, e2)))
+        if not np.isfinite(self.area):
+            raise ValueError("a, b, c: the triangle's area overflows")
         if not self.area > 0:
-            raise ValueError("triangle: vertices are collinear (zero area)")
+            raise ValueError("a, b, c: vertices are collinear (zero area)")
         # solve x - c = b0 e1 + b1 e2 by least squares (exact for points in the plane)
         self._pinv = np.linalg.pinv(np.stack([e1, e2], 1))
 
@@ -136,18 +164,22 @@ class Triangle(Distribution):
 
 
 class Rectangle(Distribution):
-    """Uniform points in [x0, x1] x [y0, y1]; p = 1 / area (area)."""
+    """Uniform points in [x0, x1] x [y0, y1]; p = 1 / area (area).
+
+    Checked: ``xlim`` and ``ylim`` are finite pairs (lo, hi) with lo < hi."""
 
     dim_u = 2
     dim_x = 2
     measure = "area"
 
     def __init__(self, xlim=(0.0, 1.0), ylim=(0.0, 1.0)):
-        b = np.array([xlim, ylim], dtype=float)
-        if b.shape != (2, 2) or not np.all(b[:, 1] > b[:, 0]) or not np.all(np.isfinite(b)):
-            raise ValueError(f"xlim, ylim must be finite (lo, hi) with lo < hi, got {xlim}, {ylim}")
+        b = np.concatenate([as_bounds(lim, name) for lim, name in ((xlim, "xlim"), (ylim, "ylim"))])
+        if b.shape != (2, 2):
+            raise ValueError(f"xlim, ylim: each must be one pair (lo, hi), got {xlim!r}, {ylim!r}")
         self.lo, self.hi = b[:, 0], b[:, 1]
         self.area = float(np.prod(self.hi - self.lo))
+        if not (np.isfinite(self.area) and self.area > 0):
+            raise ValueError(f"xlim, ylim: the area {self.area} is not a finite number > 0")
 
     def sample(self, u):
         return self.lo + (self.hi - self.lo) * as_uniforms(u, 2)

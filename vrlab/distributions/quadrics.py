@@ -9,9 +9,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ._args import _affine4, _matrix3, _positive3, _rotation3, _sizes, _vector3
 from .base import as_points, as_uniforms, positive_float
-from .surfaces import (FOUR_PI, Surface, _affine4, _INTERSECT_DOC, _matrix3, _quadric_hits,
-                       _rotation3, _sphere_from_u, _sphere_to_u, _unit, _vector3)
+from .surfaces import FOUR_PI, Surface, _INTERSECT_DOC, _quadric_hits, _sphere_from_u, _sphere_to_u, _unit
 
 if TYPE_CHECKING:
     from .solid_angle import SphereCone
@@ -25,7 +25,8 @@ class EllipsoidSurface(Surface):
     module docstring; Russian lecture 4).  ``area`` is exact: 4 pi R_G(a^2 b^2, b^2 c^2,
     c^2 a^2) with a, b, c the singular values of M and R_G Carlson's symmetric elliptic
     integral (``scipy.special.elliprg``).  Normals (outward) are normalize(M^-T n_s).
-    ``invert`` gives the u of the unit-sphere point.
+    ``invert`` gives the u of the unit-sphere point.  Checked: ``center`` a finite
+    3-vector, ``matrix`` a finite non-singular 3x3 matrix.
     """
 
     max_hits = 2
@@ -44,9 +45,8 @@ class EllipsoidSurface(Surface):
     @classmethod
     def from_radii(cls, center: Any, radii: Any, rotation: Any = None) -> "EllipsoidSurface":
         """Ellipsoid with semi-axes ``radii`` along the columns of ``rotation`` (M = R diag(radii))."""
-        r = np.asarray(radii, dtype=float) * np.ones(3)
-        if r.shape != (3,) or not np.all(np.isfinite(r)) or np.any(r <= 0):
-            raise ValueError(f"radii: expected 3 finite numbers > 0 (or one), got {radii!r}")
+        r = _positive3(radii, "radii")
+        _sizes(r, "radii")
         return cls(center, _rotation3(rotation) * r)
 
     @classmethod
@@ -88,6 +88,7 @@ class SphereSurface(Surface):
     """Uniform points on the sphere |x - c| = r: z = 1 - 2 u1, phi = 2 pi u2, p = 1/(4 pi r^2).
 
     ``cone_from(ref)`` gives the (better) uniform-cone direction sampler of PBRT.
+    Checked: ``center`` a finite 3-vector, ``radius`` finite > 0 (area finite).
     """
 
     max_hits = 2
@@ -95,6 +96,7 @@ class SphereSurface(Surface):
     def __init__(self, center: Any, radius: float):
         self.center = _vector3(center, "center")
         self.radius = positive_float(radius, "radius")
+        _sizes(np.array([self.radius]), "radius")
         self.area = FOUR_PI * self.radius**2
 
     def bounding_sphere(self) -> tuple[np.ndarray, float]:

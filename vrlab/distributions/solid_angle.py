@@ -14,8 +14,9 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .._vec import dot, norm, scale
-from .base import Distribution, as_float, as_points, as_uniforms, positive_float
-from .frames import to_local, to_world
+from .base import (ArgumentTypeError, Distribution, as_float, as_points, as_uniforms, check_broadcast, finite_points,
+                   positive_float)
+from .frames import Frame
 from .surfaces import TWO_PI, Surface, _sphere_to_u, _unit
 
 
@@ -49,6 +50,9 @@ class SolidAngleFromArea(Distribution):
     is f(w) / p(w); radiance along w comes from the *first* hit (the sampled y may be
     the far point, hidden by the light itself), so visibility should be tested to the
     first hit, ``surface.intersect(ref, w)[..., 0]``.
+
+    Checked: ``surface`` has ``sample``, ``pdf``, ``normal`` and ``intersect``
+    (``ArgumentTypeError``, a ``TypeError`` and ``ValueError``); ``ref`` finite (..., 3).
     """
 
     dim_x = 3
@@ -56,16 +60,14 @@ class SolidAngleFromArea(Distribution):
 
     def __init__(self, surface: Surface, ref: np.ndarray):
         for attr in ("sample", "pdf", "normal", "intersect"):
-            if not hasattr(surface, attr):
-                raise ValueError(f"surface: needs a {attr}() method, got {type(surface).__name__}")
+            if not callable(getattr(surface, attr, None)):
+                raise ArgumentTypeError(f"surface: needs a {attr}() method, got {type(surface).__name__}")
         self.surface = surface
-        self.ref = as_points(ref, 3, "ref")
-        if not np.all(np.isfinite(self.ref)):
-            raise ValueError("ref: must be finite")
+        self.ref = finite_points(ref, 3, "ref")
         self.dim_u = getattr(surface, "dim_u", 2)
 
     def _directions(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        y = self.surface.sample(u)
+        y = self.surface.sample(check_broadcast(as_uniforms(u, self.dim_u), "u", self.ref.shape[:-1], "ref"))
         v = y - self.ref
         dist = norm(v)
         return scale(v, 1.0 / np.where(dist > 0, dist, 1.0)), y, dist
@@ -79,7 +81,7 @@ class SolidAngleFromArea(Distribution):
         return self._directions(u)[0]
 
     def pdf(self, w: np.ndarray) -> np.ndarray:
-        w = _unit(as_points(w, 3, "w"))
+        w = _unit(check_broadcast(as_points(w, 3, "w"), "w", self.ref.shape[:-1], "ref"))
         t = self.surface.intersect(self.ref, w)            # (..., K)
         hit = np.isfinite(t)
         tt = np.where(hit, t, 0.0)
@@ -89,6 +91,7 @@ class SolidAngleFromArea(Distribution):
     def pdf_at(self, y: np.ndarray, w: np.ndarray) -> np.ndarray:
         """``pdf(w)`` for a surface met once per direction (``max_hits == 1``), given the
         point ``y`` where the ray (ref, w) meets it: no intersection needed."""
+        y, w = as_points(y, 3, "y"), as_points(w, 3, "w")
         v = y - self.ref
         return self._term(y, scale(w, 1.0 / norm(w)), dot(v, v))
 
@@ -122,6 +125,8 @@ class SphereCone(Distribution):
     pass ``ref[..., None, :]`` for u of shape (*batch, n, 2).  ``center`` and ``radius``
     may also be arrays broadcasting with ``ref`` (one sphere per reference point: the
     renderer samples all sphere lights of a scene in one call).
+    Checked: ``center`` and ``ref`` finite (..., 3), ``radius`` finite > 0, and their
+    leading shapes broadcast.
     """
 
     dim_u = 2
@@ -129,17 +134,21 @@ class SphereCone(Distribution):
     measure = "solid angle"
 
     def __init__(self, center: Any, radius: Any, ref: np.ndarray):
-        self.center = as_points(center, 3, "center")
-        r = as_float(radius)
+        self.center = finite_points(center, 3, "center")
+        r = as_float(radius, "radius")
         if r.ndim == 0:
-            self.radius = positive_float(radius, "radius")
-        elif not (np.all(np.isfinite(r)) and np.all(r > 0)):
-            raise ValueError("radius must be finite and > 0 (a number or an array broadcasting with ref)")
+            self.radius = positive_float(r, "radius")
+            r_shape = ()
         else:
-            self.radius = r
-        self.ref = as_points(ref, 3, "ref")
-        if not (np.all(np.isfinite(self.ref)) and np.all(np.isfinite(self.center))):
-            raise ValueError("ref, center: must be finite")
+            if not (np.all(np.isfinite(r)) and np.all(r > 0)):
+                raise ValueError("radius must be finite and > 0 (a number or an array broadcasting with ref)")
+            self.radius, r_shape = r, r.shape
+        self.ref = finite_points(ref, 3, "ref")
+        try:
+            np.broadcast_shapes(self.center.shape[:-1], r_shape, self.ref.shape[:-1])
+        except ValueError:
+            raise ValueError(f"center, radius, ref: shapes {self.center.shape}, {r_shape}, {self.ref.shape} "
+                             "do not broadcast (one center and radius per reference point, or one for all)") from None
         v = self.center - self.ref
         d = norm(v)
         self.inside = d <= self.radius
@@ -161,26 +170,26 @@ class SphereCone(Distribution):
         return np.where(inside, 2.0, ratio2 / (1.0 + np.sqrt(1.0 - ratio2)))
 
     def sample(self, u: np.ndarray) -> np.ndarray:
-        u = as_uniforms(u, 2)
+        u = check_broadcast(as_uniforms(u, 2), "u", np.shape(self.one_minus_cos), "ref")
         omz = u[..., 0] * self.one_minus_cos                # 1 - z, exact for small cones
         sin = np.sqrt(np.clip(omz * (2.0 - omz), 0.0, None))
         phi = TWO_PI * u[..., 1]
         local = np.stack([sin * np.cos(phi), sin * np.sin(phi), 1.0 - omz], -1)
-        return to_world(local, self.axis)
+        return Frame._trusted(self.axis).to_world(local)
 
     def _one_minus_cos(self, w: np.ndarray) -> np.ndarray:
         diff = w - self.axis                                # |w - a|^2 / 2 = 1 - w.a
         return 0.5 * dot(diff, diff)
 
     def pdf(self, w: np.ndarray) -> np.ndarray:
-        w = as_points(w, 3, "w")
+        w = check_broadcast(as_points(w, 3, "w"), "w", np.shape(self.one_minus_cos), "ref")
         inside = self._one_minus_cos(w) <= self.one_minus_cos
         return np.where(inside, 1.0 / self.solid_angle, 0.0)
 
     def invert(self, w: np.ndarray) -> np.ndarray:
-        w = as_points(w, 3, "w")
+        w = check_broadcast(as_points(w, 3, "w"), "w", np.shape(self.one_minus_cos), "ref")
         u1 = self._one_minus_cos(w) / self.one_minus_cos
-        u2 = _sphere_to_u(to_local(w, self.axis))[..., 1]
+        u2 = _sphere_to_u(Frame._trusted(self.axis).to_local(w))[..., 1]
         return np.stack(np.broadcast_arrays(u1, u2), -1)
 
     def sample_point(self, u: np.ndarray) -> LightSample:

@@ -14,12 +14,17 @@ axis.  With z = cos(theta) and phi = 2 pi u2 throughout:
   D = alpha^2 / (pi cos^4 theta (alpha^2 + tan^2 theta)^2) (Walter et al. 2007)
 * ``UniformCone(cos_max)``: z = 1 - u1 (1 - cos_max), p = 1 / (2 pi (1 - cos_max))
   (the solid angle subtended by a sphere seen from outside; PBRT 3rd ed. 14.2.2)
+
+Constructors check their parameters (``TypeError`` for non-numbers, ``ValueError`` for
+NaN, inf or values out of range; ``method`` must be one of ``METHODS``); ``sample``,
+``pdf`` and ``invert`` check only the array shapes (hot path).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .base import Distribution, as_points, as_uniforms, positive_float
+from .. import checks
+from .base import Distribution, as_points, as_uniforms
 from .frames import Oriented
 from .planar import concentric_disk, concentric_disk_inverse
 
@@ -45,7 +50,8 @@ class _Direction(Distribution):
     measure = "solid angle"
 
     def around(self, axis: np.ndarray) -> Oriented:
-        """This distribution with +z turned to ``axis`` (shape (..., 3), broadcast)."""
+        """This distribution with +z turned to ``axis`` (shape (..., 3), broadcast; finite,
+        non-zero, normalised here)."""
         return Oriented(self, axis)
 
 
@@ -98,9 +104,7 @@ class CosineHemisphere(_Direction):
     METHODS = ("inversion", "disk", "sphere-shift")
 
     def __init__(self, method: str = "disk"):
-        if method not in self.METHODS:
-            raise ValueError(f"method must be one of {self.METHODS}, got {method!r}")
-        self.method = method
+        self.method = checks.choice(method, "method", self.METHODS)
 
     def sample(self, u):
         u = as_uniforms(u, 2)
@@ -138,13 +142,11 @@ class PhongLobe(_Direction):
     """Normalised Phong lobe about +z: p(w) = (n + 1) / (2 pi) cos^n(theta), z >= 0.
 
     CDF inversion: cos(theta) = u1^(1/(n+1)) (Lafortune & Willems 1994).
+    ``exponent``: a finite real >= 0.
     """
 
     def __init__(self, exponent: float):
-        e = float(exponent)
-        if not np.isfinite(e) or e < 0:
-            raise ValueError(f"exponent must be finite and >= 0, got {exponent!r}")
-        self.exponent = e
+        self.exponent = checks.real(exponent, "exponent", low=0.0)
 
     def sample(self, u):
         u = as_uniforms(u, 2)
@@ -171,10 +173,16 @@ class GGX(_Direction):
     D(h) = alpha^2 / (pi cos^4(theta) (alpha^2 + tan^2(theta))^2)  (Walter et al. 2007,
     "Microfacet Models for Refraction through Rough Surfaces", eq. 33).  Sampling by
     inversion: tan^2(theta) = alpha^2 u1 / (1 - u1), phi = 2 pi u2 (eq. 35-36).
+    ``alpha``: a real in [1e-50, 1e50] (beyond, alpha^4 under- or overflows in D).
     """
 
+    ALPHA_RANGE = (1e-50, 1e50)
+
     def __init__(self, alpha: float):
-        self.alpha = positive_float(alpha, "alpha")
+        self.alpha = checks.real(alpha, "alpha", low=0.0, low_open=True)
+        lo, hi = self.ALPHA_RANGE
+        if not lo <= self.alpha <= hi:
+            raise ValueError(f"alpha must be in [{lo:g}, {hi:g}] (D would under- or overflow), got {self.alpha:g}")
 
     def D(self, h: np.ndarray) -> np.ndarray:
         """The normal distribution function D(h) (per steradian of h, projected area normalised)."""
@@ -221,12 +229,11 @@ class UniformCone(_Direction):
 
     z = 1 - u1 (1 - cos_max), phi = 2 pi u2; p = 1 / (2 pi (1 - cos_max)) inside.
     A sphere of radius r at distance d subtends the cone with cos_max = sqrt(1 - r^2/d^2).
+    ``cos_max``: a real in [-1, 1) (a cone half-angle in (0, pi]).
     """
 
     def __init__(self, cos_max: float):
-        c = float(cos_max)
-        if not -1.0 <= c < 1.0:
-            raise ValueError(f"cos_max must be in [-1, 1), got {cos_max!r}")
+        c = checks.real(cos_max, "cos_max", low=-1.0, high=1.0, high_open=True)
         self.cos_max = c
         self.solid_angle = TWO_PI * (1.0 - c)
 

@@ -34,7 +34,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .base import Distribution, as_float, as_points, as_uniforms
+from .. import checks
+from ._args import _affine4, _matrix3, _positive3, _rotation3, _sizes, _vector3
+from .base import Distribution, as_points, as_uniforms
 from .frames import to_local, to_world  # noqa: F401
 
 if TYPE_CHECKING:
@@ -46,48 +48,6 @@ _T_EPS = 1e-9  # hits closer than _T_EPS * (bounding radius) are ignored (self-i
 
 
 # ----------------------------------------------------------------------------- helpers
-
-def _vector3(v: Any, name: str) -> np.ndarray:
-    a = as_float(v)                                  # float64, or float32 kept
-    if a.shape != (3,):
-        raise ValueError(f"{name}: expected a 3-vector, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name}: must be finite, got {v!r}")
-    return a
-
-
-def _matrix3(m: Any, name: str) -> np.ndarray:
-    a = np.asarray(m, dtype=float)
-    if a.shape != (3, 3):
-        raise ValueError(f"{name}: expected a 3x3 matrix, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name}: must be finite")
-    scale = np.linalg.norm(a, 2)
-    if scale == 0 or abs(np.linalg.det(a)) <= 1e-12 * scale**3:
-        raise ValueError(f"{name}: must be non-singular (the shape would be flat)")
-    return a
-
-
-def _rotation3(m: Any, name: str = "rotation") -> np.ndarray:
-    if m is None:
-        return np.eye(3)
-    a = np.asarray(m, dtype=float)
-    if a.shape != (3, 3) or not np.all(np.isfinite(a)) or not np.allclose(a.T @ a, np.eye(3), atol=1e-9):
-        raise ValueError(f"{name}: expected an orthogonal 3x3 matrix")
-    return a
-
-
-def _affine4(m: Any, name: str = "matrix") -> tuple[np.ndarray, np.ndarray]:
-    """Linear part and translation of a 4x4 affine ``to_world`` matrix."""
-    a = np.asarray(m, dtype=float)
-    if a.shape != (4, 4):
-        raise ValueError(f"{name}: expected a 4x4 to_world matrix, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name}: must be finite")
-    if not np.allclose(a[3], [0.0, 0.0, 0.0, 1.0], rtol=0, atol=1e-12):
-        raise ValueError(f"{name}: must be affine (last row 0 0 0 1), got {a[3].tolist()}")
-    return a[:3, :3].copy(), a[:3, 3].copy()
-
 
 def _unit(v: np.ndarray) -> np.ndarray:
     """v / |v| along the last axis, without warnings for zero vectors (they give NaN)."""
@@ -162,7 +122,7 @@ class Surface(Distribution):
 
     def _t_min(self, t_min: float | None) -> float:
         if t_min is not None:
-            return float(t_min)
+            return checks.real(t_min, "t_min", finite=False)
         if not hasattr(self, "_t_eps"):
             self._t_eps = _T_EPS * self.bounding_sphere()[1]
         return self._t_eps
@@ -180,7 +140,8 @@ _INTERSECT_DOC = """All hits of the rays ``origin + t direction`` with t > t_min
 
         ``origin`` and ``direction`` (shape (..., 3), broadcast; direction need not be
         unit, t is in units of its length) give ``t`` of shape (..., K), ascending,
-        ``inf`` for misses.  ``t_min`` defaults to 1e-9 x the bounding radius.
+        ``inf`` for misses.  ``t_min`` (a real, not NaN) defaults to 1e-9 x the bounding
+        radius.  Only shapes are checked (hot path).
         """
 
 
@@ -192,6 +153,7 @@ class RectangleSurface(Surface):
     p = 1 / |e1 x e2| (area); normal = normalize(e1 x e2); ``invert`` gives (s, t).
     ``RectangleSurface.from_matrix(M)``: Mitsuba's ``rectangle`` ([-1, 1]^2 in the xy
     plane, normal +z) under the 4x4 ``to_world`` matrix ``M``.
+    Checked: finite 3-vectors, non-zero and non-parallel edges.
     """
 
     max_hits = 1
@@ -200,13 +162,16 @@ class RectangleSurface(Surface):
         self.corner = _vector3(corner, "corner")
         self.edge1 = _vector3(edge1, "edge1")
         self.edge2 = _vector3(edge2, "edge2")
-        cross = np.cross(self.edge1, self.edge2)
-        self.area = float(np.linalg.norm(cross))
-        l1, l2 = np.linalg.norm(self.edge1), np.linalg.norm(self.edge2)
+        with np.errstate(over="ignore"):
+            l1, l2 = np.linalg.norm(self.edge1), np.linalg.norm(self.edge2)
         if l1 == 0:
             raise ValueError("edge1: must be non-zero")
         if l2 == 0:
             raise ValueError("edge2: must be non-zero")
+        _sizes(np.array([l1]), "edge1")
+        _sizes(np.array([l2]), "edge2")
+        cross = np.cross(self.edge1, self.edge2)
+        self.area = float(np.linalg.norm(cross))
         if self.area <= 1e-12 * l1 * l2:
             raise ValueError("edge1, edge2: must not be parallel (degenerate rectangle)")
         self.unit_normal = cross / self.area
@@ -222,6 +187,8 @@ class RectangleSurface(Surface):
         so that normalize(e1 x e2) still equals it.
         """
         lin, trans = _affine4(matrix, "matrix")
+        if not isinstance(flip_normals, (bool, np.bool_)):
+            raise TypeError(f"flip_normals must be True or False, got {flip_normals!r}")
         corner = lin @ np.array([-1.0, -1.0, 0.0]) + trans
         e1, e2 = lin @ np.array([2.0, 0.0, 0.0]), lin @ np.array([0.0, 2.0, 0.0])
         flip = (np.linalg.det(lin) < 0) != bool(flip_normals)
@@ -278,15 +245,15 @@ class BoxSurface(Surface):
     parallelepiped).  Face k = 2 axis + (0 for the -side, 1 for +) has area
     4 |L e_i x L e_j|.  Sampling (lecture 4): u1 picks the face through the CDF of face
     areas and is remapped to u1' = (u1 - F_{k-1}) / P_k, then (u1', u2) is uniform on the
-    face.  Normals are outward.  ``invert`` undoes ``sample``.
+    face.  Normals are outward.  ``invert`` undoes ``sample``.  Checked: ``center`` a
+    finite 3-vector, ``half_extents`` 3 finite numbers > 0 (or one), ``rotation`` orthogonal.
     """
 
     max_hits = 2
 
     def __init__(self, center: Any, half_extents: Any, rotation: Any = None):
-        h = np.asarray(half_extents, dtype=float) * np.ones(3)
-        if h.shape != (3,) or not np.all(np.isfinite(h)) or np.any(h <= 0):
-            raise ValueError(f"half_extents: expected 3 finite numbers > 0 (or one), got {half_extents!r}")
+        h = _positive3(half_extents, "half_extents")
+        _sizes(h, "half_extents")
         R = _rotation3(rotation)
         self.half_extents = h
         self.rotation = R
@@ -296,10 +263,11 @@ class BoxSurface(Surface):
     def from_matrix(cls, matrix: Any) -> "BoxSurface":
         """Mitsuba's ``cube`` ([-1, 1]^3) under the affine 4x4 ``to_world`` ``matrix``."""
         lin, trans = _affine4(matrix, "matrix")
+        lin = _matrix3(lin, "matrix")
         self = cls.__new__(cls)
         self.half_extents = np.linalg.norm(lin, axis=0)
         self.rotation = None
-        self._setup(trans, _matrix3(lin, "matrix"))
+        self._setup(trans, lin)
         return self
 
     def _setup(self, center: np.ndarray, L: np.ndarray) -> None:

@@ -8,7 +8,9 @@
   (row sums), then the column (x) from that row's conditional CDF (Pharr et al.,
   PBRT 3rd ed. 13.6.7, used to sample environment maps by luminance).  ``image[iy, ix]``;
   points are (x, y).  Measure: area.
-Cells with zero value are never sampled.
+Cells with zero value are never sampled.  Checked: the values are finite, >= 0, not
+all zero (``TypeError`` for non-numbers, ``ValueError`` naming the first bad entry);
+``domain`` as in ``UniformBox``; the densities must be finite.
 """
 from __future__ import annotations
 
@@ -16,23 +18,27 @@ from typing import Sequence
 
 import numpy as np
 
-from .base import Distribution, as_points, as_uniforms
+from .base import Distribution, as_float, as_points, as_uniforms
 from .interval import as_bounds
 
 
 def check_weights(values, name: str, ndim: int) -> np.ndarray:
-    """Non-negative finite values with positive total, else ValueError naming the problem."""
-    v = np.asarray(values, dtype=float)
+    """Non-negative finite values with positive total (float64, ``ndim`` axes), else
+    ``TypeError`` (not numbers) or ``ValueError`` naming ``name`` and the problem.
+    Values whose sum overflows are scaled by a power of two (exact)."""
+    v = np.array(as_float(values, name), dtype=np.float64)
     if v.ndim != ndim or v.size == 0:
         raise ValueError(f"{name}: expected a non-empty {ndim}-D array, got shape {v.shape}")
-    if np.isnan(v).any():
-        raise ValueError(f"{name}: contains NaN at index {tuple(np.argwhere(np.isnan(v))[0])}")
-    if not np.isfinite(v).all():
-        raise ValueError(f"{name}: contains an infinite value at index {tuple(np.argwhere(~np.isfinite(v))[0])}")
-    if (v < 0).any():
-        raise ValueError(f"{name}: contains a negative value at index {tuple(np.argwhere(v < 0)[0])}")
-    if not v.sum() > 0:
+    for bad, what in ((np.isnan(v), "NaN"), (~np.isfinite(v), "an infinite value"), (v < 0, "a negative value")):
+        if bad.any():
+            where = tuple(int(i) for i in np.argwhere(bad)[0])
+            raise ValueError(f"{name}: contains {what} at index {where}; values must be finite and >= 0")
+    with np.errstate(over="ignore"):
+        total = v.sum()
+    if not total > 0:
         raise ValueError(f"{name}: all values are zero (zero total mass)")
+    if not np.isfinite(total):  # huge values: scale down exactly so that sums stay finite
+        v = np.ldexp(v, -int(np.frexp(v.max())[1]) - int(np.ceil(np.log2(v.size))))
     return v
 
 
@@ -45,6 +51,24 @@ def _cdf(v: np.ndarray) -> np.ndarray:
     return np.concatenate([np.zeros(v.shape[:-1] + (1,)), c], axis=-1)
 
 
+def _domain(domain, k: int) -> np.ndarray:
+    """``domain`` as k intervals (a, b), checked by ``as_bounds``."""
+    b = as_bounds([as_float(domain, "domain")] if k == 1 else domain, "domain")
+    if b.shape != (k, 2):
+        want = "(a, b)" if k == 1 else "((x0, x1), (y0, y1))"
+        raise ValueError(f"domain: expected {want}, got {domain!r}")
+    return b
+
+
+def _density(values: np.ndarray, cell: float) -> np.ndarray:
+    """values / (sum * cell), checked finite (a tiny or huge domain could overflow it)."""
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        density = values / (values.sum() * cell)
+    if not np.all(np.isfinite(density)):
+        raise ValueError("domain: the cells are too small (or the values too uneven): the density overflows")
+    return density
+
+
 class PiecewiseConstant1D(Distribution):
     """Piecewise-constant density on ``domain = (a, b)`` from ``values`` (length)."""
 
@@ -53,11 +77,11 @@ class PiecewiseConstant1D(Distribution):
 
     def __init__(self, values: Sequence[float], domain=(0.0, 1.0)):
         self.values = check_weights(values, "values", 1)
-        (self.a, self.b), = as_bounds([domain], "domain")
+        (self.a, self.b), = _domain(domain, 1)
         self.n = len(self.values)
         self.cdf = _cdf(self.values)
         self.cell = (self.b - self.a) / self.n
-        self.density = self.values / (self.values.sum() * self.cell)  # p in each cell
+        self.density = _density(self.values, self.cell)  # p in each cell
         self.edges = self.a + np.arange(self.n + 1) * self.cell
         self.edges[-1] = self.b
 
@@ -98,13 +122,13 @@ class PiecewiseConstant2D(Distribution):
     measure = "area"
 
     def __init__(self, image, domain=((0.0, 1.0), (0.0, 1.0))):
-        img = np.asarray(image, dtype=float)
+        img = as_float(image, "image")
         if img.ndim == 3:  # an RGB(A) image: sample its luminance (Rec. 709 weights)
-            img = img[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
+            if img.shape[-1] not in (3, 4):
+                raise ValueError(f"image: expected (ny, nx), (ny, nx, 3) or (ny, nx, 4), got shape {img.shape}")
+            img = check_weights(img, "image", 3)[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
         self.image = check_weights(img, "image", 2)
-        b = as_bounds(domain, "domain")
-        if b.shape != (2, 2):
-            raise ValueError(f"domain: expected ((x0, x1), (y0, y1)), got {domain!r}")
+        b = _domain(domain, 2)
         self.lo, self.hi = b[:, 0], b[:, 1]
         self.ny, self.nx = self.image.shape
         self.cell = (self.hi - self.lo) / np.array([self.nx, self.ny])
@@ -112,7 +136,7 @@ class PiecewiseConstant2D(Distribution):
         self.conditional = _cdf(self.image)                     # (ny, nx + 1)
         # row iy's CDF shifted into [iy, iy + 1]: one searchsorted serves every row
         self._flat = (self.conditional[:, :-1] + np.arange(self.ny)[:, None]).ravel()
-        self.density = self.image / (self.image.sum() * np.prod(self.cell))
+        self.density = _density(self.image, np.prod(self.cell))
         self.xedges = self.lo[0] + np.arange(self.nx + 1) * self.cell[0]
         self.yedges = self.lo[1] + np.arange(self.ny + 1) * self.cell[1]
         self.xedges[-1], self.yedges[-1] = self.hi

@@ -181,7 +181,11 @@ def names() -> list[str]:
 
 
 def get(name: str) -> Integrand:
-    """A fresh catalogue integrand by name (``ValueError`` listing the names if unknown)."""
+    """A fresh catalogue integrand by name (``ValueError`` listing the names if unknown,
+    ``TypeError`` for a non-string)."""
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a catalogue integrand name (a string: {', '.join(CATALOGUE)}), "
+                        f"got {type(name).__name__}")
     if name not in CATALOGUE:
-        raise ValueError(f"unknown integrand {name!r}; choose one of {', '.join(CATALOGUE)}")
+        raise ValueError(f"name: unknown integrand {name!r}; choose one of {', '.join(CATALOGUE)}")
     return CATALOGUE[name]()

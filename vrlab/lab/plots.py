@@ -1,7 +1,9 @@
 """Figures of a lab run: RMSE vs n (log-log, fitted and theoretical slopes) and efficiency.
 
 Drawn with matplotlib's object API on an Agg canvas (``matplotlib.figure.Figure``), so
-no display is needed and the global pyplot state/backend is left alone.
+no display is needed and the global pyplot state/backend is left alone.  Checked before
+drawing: the table (see :mod:`vrlab.lab.summary`), ``path`` (a suffix matplotlib writes,
+in an existing folder), ``title`` and ``n``.
 """
 from __future__ import annotations
 
@@ -11,7 +13,9 @@ import matplotlib
 import numpy as np
 import pandas as pd
 
-from .summary import equal_time, fit_slopes, summarize
+from .. import checks
+from ._args import optional_text, out_path
+from .summary import _summary, equal_time, fit_slopes
 
 
 def _figure(panels: int, width: float = 4.6, height: float = 3.8):
@@ -35,7 +39,11 @@ def convergence_plot(df: pd.DataFrame, path: str | Path, *, title: str | None = 
     the theoretical slope through the estimator's first point.  Zero RMSE (an exact
     estimator) cannot be drawn on a log axis and is noted in the legend.
     """
-    s = summarize(df) if "rmse" not in df else df
+    path = out_path(path)
+    title = optional_text(title, "title")
+    s = _summary(df, ["rmse"], ("rmse",))
+    if not np.isfinite(s["rmse"].to_numpy(float)).any():
+        raise ValueError("df: no finite RMSE to draw (are the exact values of the integrands unknown?)")
     slopes = fit_slopes(s).set_index(["estimator", "integrand"])
     integrands = list(dict.fromkeys(s["integrand"]))
     rows = -(-s.groupby("integrand")["estimator"].nunique().max() // 2)
@@ -67,7 +75,6 @@ def convergence_plot(df: pd.DataFrame, path: str | Path, *, title: str | None = 
                   loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, frameon=False)
     fig.suptitle(title or "Convergence: RMSE vs n", fontsize=11)
     fig.tight_layout()
-    path = Path(path)
     fig.savefig(path, dpi=110)
     return path
 
@@ -75,8 +82,15 @@ def convergence_plot(df: pd.DataFrame, path: str | Path, *, title: str | None = 
 def efficiency_plot(df: pd.DataFrame, path: str | Path, *, n: int | None = None,
                     reference: str | None = None) -> Path:
     """Relative efficiency (equal time, see ``equal_time``) at sample count ``n``
-    (default: the largest), one horizontal bar chart per integrand, log scale."""
+    (default: the largest), one horizontal bar chart per integrand, log scale.  ``n`` must be
+    one of the table's sample counts."""
+    path = out_path(path)
     t = equal_time(df, reference)
+    if n is not None:
+        n = checks.integer(n, "n", low=1)
+        have = sorted(int(k) for k in t["n"].unique())
+        if n not in have:
+            raise ValueError(f"n: the table has no sample count {n}; it has {have}")
     integrands = list(dict.fromkeys(t["integrand"]))
     fig, axes = _figure(len(integrands), 4.6, 0.6 + 0.32 * t["estimator"].nunique() + 1.0)
     for ax, name in zip(axes, integrands):
@@ -93,6 +107,5 @@ def efficiency_plot(df: pd.DataFrame, path: str | Path, *, n: int | None = None,
         ax.tick_params(labelsize=7)
     fig.suptitle("Equal-time efficiency 1 / (variance x time), relative", fontsize=11)
     fig.tight_layout()
-    path = Path(path)
     fig.savefig(path, dpi=110)
     return path

@@ -28,7 +28,9 @@ recipe                 estimator
 
 The estimator classes are imported when a recipe is built, so modules added to
 :mod:`vrlab.estimators` later are picked up without changes here; ``register`` adds
-recipes of your own.
+recipes of your own.  Arguments are checked: recipe names are strings (an unknown one
+lists the recipes), integrands are ``Integrand`` objects or catalogue names, and a
+recipe's ``:<int>`` argument lies in [1, ``MAX_RECIPE_ARG``].
 """
 from __future__ import annotations
 
@@ -41,6 +43,9 @@ from typing import Any
 
 import numpy as np
 
+from ._args import lab_integrand as _integrand
+from .controls import CONTROLS, DISCONTINUOUS, control_for, is_smooth  # noqa: F401  (re-exported)
+
 Builder = Callable[[Any, "str | None"], tuple]
 
 #: Default number of RQMC replicates (independent randomisations).
@@ -49,6 +54,8 @@ RQMC_REPLICATES = 8
 RIS_DEFAULT_M = 8
 #: Mixture weight of the uniform component in ``defensive``.
 DEFENSIVE_ALPHA = 0.1
+#: Largest ``R`` of ``rqmc-*:<R>`` and ``m`` of ``ris:<m>`` (larger runs: build the estimator).
+MAX_RECIPE_ARG = 4096
 
 
 @dataclass(frozen=True)
@@ -85,12 +92,27 @@ RECIPES: dict[str, Recipe] = {}
 
 def register(base: str, summary: str, module: str, *, arg: str | None = None,
              arg_required: bool = False) -> Callable[[Builder], Builder]:
-    """Decorator adding a recipe ``base[:arg]`` whose builder is ``f(integrand, arg)``."""
-    if ":" in base or "," in base:
-        raise ValueError(f"base: a recipe name may not contain ':' or ',', got {base!r}")
+    """Decorator adding a recipe ``base[:arg]`` whose builder is ``f(integrand, arg)``.
+
+    ``base``: a non-empty string without ':', ',' or spaces; ``summary``, ``module``: strings;
+    ``arg``: None or a string (required if ``arg_required``)."""
+    for key, value in (("base", base), ("summary", summary), ("module", module)):
+        if not isinstance(value, str):
+            raise TypeError(f"{key} must be a string, got {type(value).__name__}")
+    if not base or any(c in base for c in ":, \t\n"):
+        raise ValueError(f"base: a recipe name must be non-empty, without ':', ',' or spaces, got {base!r}")
+    if arg is not None and not isinstance(arg, str):
+        raise TypeError(f"arg must be a string (e.g. '<m>') or None, got {type(arg).__name__}")
+    if not isinstance(arg_required, (bool, np.bool_)):
+        raise TypeError(f"arg_required must be True or False, got {type(arg_required).__name__}")
+    if arg_required and arg is None:
+        raise ValueError("arg_required: a recipe that needs an argument must name it (arg='<m>')")
 
     def deco(fn: Builder) -> Builder:
-        RECIPES[base] = Recipe(base, summary, module, fn, arg, arg_required)
+        if not callable(fn):
+            raise TypeError(f"register({base!r}): the builder must be callable (integrand, arg) -> "
+                            f"(estimator, points), got {type(fn).__name__}")
+        RECIPES[base] = Recipe(base, summary, module, fn, arg, bool(arg_required))
         return fn
     return deco
 
@@ -134,6 +156,9 @@ def _techniques(integrand, arg: str | None, recipe: str, at_least: int = 2) -> l
         if unknown:
             raise ValueError(f"{recipe}: integrand {integrand.name!r} has no technique "
                              f"{', '.join(map(repr, unknown))}; it has {_names(techs)}")
+        twice = sorted({t for t in chosen if chosen.count(t) > 1})
+        if twice:
+            raise ValueError(f"{recipe}: technique {', '.join(map(repr, twice))} given twice")
     else:
         chosen = list(techs)
     if len(chosen) < at_least:
@@ -146,66 +171,6 @@ def _names(techs: dict) -> str:
     return ", ".join(map(repr, techs)) if techs else "none"
 
 
-def _box_coordinate(k: int):
-    def h(x):
-        return x[..., k]
-    h.__name__ = f"x{k}"
-    return h
-
-
-def _hemisphere_cos(w):
-    return np.clip(w[..., 2], 0.0, None)
-
-
-def _taylor_sin(x):   # sin x ~ x (first Taylor term) on [0, pi/2]
-    return x[..., 0]
-
-
-def _taylor_smooth_2d(x):   # e^x sin(pi y) ~ (1 + x) sin(pi y)
-    return (1.0 + x[..., 0]) * np.sin(np.pi * x[..., 1])
-
-
-#: Known controls h with their integrals for catalogue integrands (name -> (h, int h, what)).
-#: exp: h = x (lecture; beta* = 1.69, variance factor 1 - rho^2 = 0.0163); sin: h = x
-#: (first Taylor term); smooth-2d: h = (1 + x) sin(pi y); cos8-hemisphere: h = cos(theta).
-CONTROLS: dict[str, tuple[Callable, float, str]] = {
-    "exp": (_box_coordinate(0), 0.5, "h = x"),
-    "sin": (_taylor_sin, np.pi**2 / 8, "h = x"),
-    "smooth-2d": (_taylor_smooth_2d, 3 / np.pi, "h = (1 + x) sin(pi y)"),
-    "cos8-hemisphere": (_hemisphere_cos, np.pi, "h = cos(theta)"),
-}
-
-
-def control_for(integrand) -> tuple[Callable, float, str]:
-    """A control variate ``(h, int h, description)`` for ``integrand``.
-
-    ``integrand.theory["cv:control"] = (h, integral)`` wins; otherwise a catalogue
-    integrand (same name and same exact value) gets its entry of ``CONTROLS``.
-    """
-    given = getattr(integrand, "theory", {}).get("cv:control")
-    if given is not None:
-        h, H = given[:2]
-        return h, float(H), getattr(h, "__name__", "theory control")
-    name = getattr(integrand, "name", None)
-    if name in CONTROLS:
-        from ..integrands import CATALOGUE
-        ref = CATALOGUE[name]() if name in CATALOGUE else None
-        if ref is None or (integrand.exact is not None and np.isclose(ref.exact, integrand.exact)):
-            return CONTROLS[name]
-    raise ValueError(f"cv: no control variate known for integrand {name!r}; put (h, integral of h) in "
-                     "integrand.theory['cv:control'] (known for: " + ", ".join(CONTROLS) + ")")
-
-
-#: Catalogue integrands with discontinuities (lower convergence rates of stratified/QMC points).
-DISCONTINUOUS = frozenset({"step-x2", "disk-indicator", "glossy-light"})
-
-
-def is_smooth(integrand) -> bool:
-    """``integrand.theory["smooth"]`` if given, else False for the known discontinuous ones."""
-    flag = getattr(integrand, "theory", {}).get("smooth")
-    return bool(flag) if flag is not None else getattr(integrand, "name", None) not in DISCONTINUOUS
-
-
 def _positive_int(arg: str | None, recipe: str, default: int | None, what: str) -> int:
     if arg is None or arg == "":
         if default is None:
@@ -215,8 +180,8 @@ def _positive_int(arg: str | None, recipe: str, default: int | None, what: str) 
         k = int(arg)
     except ValueError:
         raise ValueError(f"{recipe}: {what} must be an integer, got {arg!r}") from None
-    if k < 1:
-        raise ValueError(f"{recipe}: {what} must be >= 1, got {k}")
+    if not 1 <= k <= MAX_RECIPE_ARG:
+        raise ValueError(f"{recipe}: {what} must be >= 1 and <= {MAX_RECIPE_ARG}, got {k}")
     return k
 
 
@@ -328,6 +293,7 @@ register("rqmc-halton", f"RQMC(MonteCarlo(), replicates=R): R scrambled Halton s
 def ris_source_target(integrand) -> tuple[Any, Callable]:
     """RIS pieces: source = technique "light" if present, else uniform; target = |f|
     (the unshadowed contribution, as in Talbot et al. 2005 / ReSTIR)."""
+    integrand = _integrand(integrand)
     techs = getattr(integrand, "techniques", {}) or {}
     source = techs.get("light", integrand.uniform())
 
@@ -346,18 +312,20 @@ def _ris(integrand, arg):
 
 
 # -- public API ---------------------------------------------------------------------------------
-def _split(name: str) -> tuple[Recipe, str | None]:
+def _split(name: str, argname: str = "name") -> tuple[Recipe, str | None]:
+    """The recipe and its ``:arg`` of a recipe name; errors start with ``argname``."""
     if not isinstance(name, str):
-        raise TypeError(f"recipe name must be a string, got {type(name).__name__}")
+        raise TypeError(f"{argname}: a recipe name must be a string, got {type(name).__name__} "
+                        f"(choose from {', '.join(r.pattern for r in RECIPES.values())})")
     base, sep, arg = name.strip().partition(":")
     if base not in RECIPES:
-        raise ValueError(f"unknown estimator recipe {name!r}; choose from "
+        raise ValueError(f"{argname}: unknown estimator recipe {name!r}; choose from "
                          + ", ".join(r.pattern for r in RECIPES.values()))
     recipe = RECIPES[base]
     if sep and recipe.arg is None:
-        raise ValueError(f"recipe {base!r} takes no ':' argument, got {name!r}")
+        raise ValueError(f"{argname}: recipe {base!r} takes no ':' argument, got {name!r}")
     if recipe.arg_required and not arg:
-        raise ValueError(f"recipe {base!r} needs an argument: {recipe.pattern}")
+        raise ValueError(f"{argname}: recipe {base!r} needs an argument: {recipe.pattern}")
     return recipe, (arg if sep else None)
 
 
@@ -365,12 +333,13 @@ def get_recipe(name: str) -> Callable[[Any], tuple]:
     """The recipe ``name`` as a function ``integrand -> (estimator, points)``.
 
     Raises ``ValueError`` for an unknown name (listing the recipes); the function raises
-    ``ValueError`` when the recipe does not apply to the integrand it is given.
+    ``ValueError`` when the recipe does not apply to the integrand it is given (an
+    ``Integrand`` or a catalogue name).
     """
     recipe, arg = _split(name)
 
     def build_for(integrand):
-        return recipe.build(integrand, arg)
+        return recipe.build(_integrand(integrand), arg)
     build_for.__name__ = name
     return build_for
 
@@ -389,7 +358,7 @@ def list_recipes() -> list[dict]:
 def candidates(integrand) -> list[str]:
     """Concrete recipe names to try on ``integrand`` (``is:<t>`` for each technique, ``ris:8``...)."""
     out = []
-    techs = list(getattr(integrand, "techniques", {}) or {})
+    techs = list(getattr(_integrand(integrand), "techniques", {}) or {})
     for r in RECIPES.values():
         if r.base == "is":
             out += [f"is:{t}" for t in techs]
@@ -402,6 +371,7 @@ def candidates(integrand) -> list[str]:
 
 def explain(integrand) -> dict[str, str | None]:
     """``{recipe name: None if it applies, else the reason}`` over ``candidates(integrand)``."""
+    integrand = _integrand(integrand)
     out: dict[str, str | None] = {}
     for name in candidates(integrand):
         try:

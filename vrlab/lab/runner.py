@@ -11,10 +11,17 @@ are in the same run: ``workers=k`` gives bit-identical values to ``workers=1``, 
 ``run(["mc", "cv"], ...)`` gives "mc" the same numbers as ``run(["mc"], ...)``.  With
 ``crn=True`` the estimator index is left out (e = 0), so all estimators see the same seed
 in the same (integrand, n, rep): common random numbers across estimators.
+
+Arguments are checked before any work (errors name them): at least one estimator and one
+integrand, known recipe and catalogue names, unique labels and names, sample counts
+``ns`` integers in [1, ``MAX_N``] without repeats, ``reps`` in [2, ``MAX_REPS``],
+``workers`` in [1, ``MAX_WORKERS``], flags ``True``/``False``.  An estimate that is NaN
+or infinite stops the run with a ``ValueError`` naming the estimator and integrand.
 """
 from __future__ import annotations
 
 import copy
+import numbers
 import pickle
 import sys
 import time
@@ -27,8 +34,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from .. import checks
 from .._rng import unit_seed
 from . import registry
+from ._args import flag, lab_integrand
+
+#: Largest sample count per estimate, repetitions and worker processes of one ``run``.
+MAX_N = 2**30
+MAX_REPS = 10**6
+MAX_WORKERS = 256
 
 CORE_COLUMNS = ["estimator", "integrand", "n", "rep", "value", "stderr", "exact", "error", "seconds",
                 "n_evals", "n_units", "points", "class", "dim_u", "smooth"]
@@ -48,12 +62,17 @@ class _Job:
 
 # -- inputs -------------------------------------------------------------------------------------
 def _integrand(spec):
-    if isinstance(spec, str):
-        from ..integrands import get
-        return get(spec)
-    if not callable(spec) or not hasattr(spec, "dim"):
-        raise TypeError(f"integrands: expected catalogue names or vrlab Integrand objects, got {spec!r}")
-    return spec
+    return lab_integrand(spec, "integrands")
+
+
+def _items(value, name: str, what: str) -> list:
+    """``value`` as a non-empty list (``TypeError`` unless it is iterable)."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise TypeError(f"{name} must be a list of {what}, got {checks.describe(value)}")
+    items = list(value)
+    if not items:
+        raise ValueError(f"{name}: give at least one of {what} (got an empty list)")
+    return items
 
 
 def _estimator_specs(estimators) -> list[tuple[str, Any]]:
@@ -62,12 +81,14 @@ def _estimator_specs(estimators) -> list[tuple[str, Any]]:
                                        and hasattr(estimators[1], "estimate")):
         estimators = [estimators]
     out = []
-    for e in estimators:
+    for e in _items(estimators, "estimators", "recipe names or (label, estimator[, points]) tuples"):
         if isinstance(e, str):
-            registry.get_recipe(e)          # unknown names fail here, before any work
+            registry._split(e, "estimators")   # unknown names fail here, before any work
             out.append((e.strip(), e.strip()))
         elif isinstance(e, tuple) and len(e) in (2, 3) and isinstance(e[0], str):
             est = e[1]
+            if not e[0].strip():
+                raise ValueError(f"estimators: a label must be a non-empty string, got {e[0]!r}")
             if not callable(getattr(est, "estimate", None)):
                 raise TypeError(f"estimators: {e[0]!r}: {est!r} has no estimate(integrand, n, ...)")
             out.append((e[0], (est, e[2] if len(e) == 3 else None)))
@@ -90,7 +111,7 @@ def _instantiate(est_spec, integrand):
 def _root(rng) -> np.random.SeedSequence:
     if isinstance(rng, np.random.SeedSequence):
         return rng
-    if rng is None or isinstance(rng, (int, np.integer)):
+    if rng is None or (isinstance(rng, (int, np.integer)) and not isinstance(rng, (bool, np.bool_))):
         if rng is not None and rng < 0:
             raise ValueError(f"rng: a seed must be non-negative, got {rng}")
         return np.random.SeedSequence(rng)
@@ -104,13 +125,22 @@ def stable_index(text: str) -> int:
 
 
 # -- the work ------------------------------------------------------------------------------------
-def _one(estimator, integrand, points, n: int, seed: np.random.SeedSequence, chunk: int | None):
+def _one(estimator, integrand, points, n: int, seed: np.random.SeedSequence, chunk: int | None,
+         label: str = "?"):
     pts = copy.deepcopy(points) if hasattr(points, "random") else points
     kw = {} if chunk is None else {"chunk": chunk}
-    est = estimator.estimate(integrand, n, rng=np.random.default_rng(seed), points=pts, **kw)
+    try:
+        est = estimator.estimate(integrand, n, rng=np.random.default_rng(seed), points=pts, **kw)
+    except (TypeError, ValueError) as exc:     # say which unit failed, keep the kind of error
+        kind = TypeError if isinstance(exc, TypeError) else ValueError
+        raise kind(f"estimators: {label!r} on integrand {integrand.name!r} at n = {n}: {exc}") from exc
     value, stderr = est.value, est.stderr
     if np.ndim(value) != 0:
-        raise ValueError(f"the lab runs scalar integrals; {integrand.name!r} gave a value of shape {np.shape(value)}")
+        raise ValueError(f"integrands: the lab runs scalar integrals; {integrand.name!r} gave a value of shape "
+                         f"{np.shape(value)}")
+    if not np.isfinite(value):
+        raise ValueError(f"estimators: {label!r} on integrand {integrand.name!r} at n = {n} gave the non-finite "
+                         f"estimate {float(value)}")
     return float(value), float(stderr), float(est.seconds), int(est.n_evals), int(est.n)
 
 
@@ -131,21 +161,33 @@ def _run_block(task) -> list[tuple]:
             if ck is not None:
                 _WORKER_CACHE[ck] = (estimator, points, integrand)
     else:
+        label = job.label
         estimator, points, integrand = job.estimator, job.points, job.integrand
     root = np.random.SeedSequence(entropy, spawn_key=spawn_key, pool_size=pool_size)
-    return [_one(estimator, integrand, points, n, unit_seed(root, *key, r), chunk) for r in reps]
+    return [_one(estimator, integrand, points, n, unit_seed(root, *key, r), chunk, label) for r in reps]
 
 
 class ProgressBar:
-    """A one-line text progress bar on ``stream`` (default stderr), redrawn at most 10 times a second."""
+    """A one-line text progress bar on ``stream`` (default stderr), redrawn at most 10 times a second.
+
+    Checked: ``total`` an integer >= 0, ``width`` in [1, 200], ``label`` a string, ``stream``
+    with ``write`` and ``flush``; ``update(k)`` takes an integer ``k >= 0``.
+    """
 
     def __init__(self, total: int, stream=None, width: int = 30, label: str = "lab"):
-        self.total, self.width, self.label = max(int(total), 1), width, label
+        total = checks.integer(total, "total", low=0)
+        width = checks.integer(width, "width", low=1, high=200)
+        if not isinstance(label, str):
+            raise TypeError(f"label must be a string, got {type(label).__name__}")
+        if stream is not None and not (callable(getattr(stream, "write", None))
+                                       and callable(getattr(stream, "flush", None))):
+            raise TypeError(f"stream must be a text stream (write, flush) or None, got {type(stream).__name__}")
+        self.total, self.width, self.label = max(total, 1), width, label
         self.stream = stream if stream is not None else sys.stderr
         self.done, self.t0, self._last = 0, time.perf_counter(), 0.0
 
     def update(self, k: int = 1) -> None:
-        self.done += k
+        self.done += checks.integer(k, "k", low=0)
         now = time.perf_counter()
         if now - self._last >= 0.1 or self.done >= self.total:
             self._last = now
@@ -180,14 +222,15 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
     specs = _estimator_specs(estimators)
     if isinstance(integrands, str) or hasattr(integrands, "dim"):
         integrands = [integrands]
-    int_specs = list(integrands)
-    ns = [int(n) for n in ([ns] if np.ndim(ns) == 0 else ns)]
-    if not ns or min(ns) < 1:
-        raise ValueError(f"ns: need positive sample counts, got {ns}")
-    if isinstance(reps, bool) or not isinstance(reps, (int, np.integer)) or reps < 1:
-        raise ValueError(f"reps must be a positive integer, got {reps!r}")
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    int_specs = _items(integrands, "integrands", "catalogue names or Integrand objects")
+    ns = _sample_counts(ns)
+    reps = checks.integer(reps, "reps", low=2, high=MAX_REPS)
+    workers = checks.integer(workers, "workers", low=1, high=MAX_WORKERS)
+    skip, crn = flag(skip, "skip"), flag(crn, "crn")
+    if not isinstance(progress, (bool, np.bool_)) and not callable(progress):
+        raise TypeError(f"progress must be True, False or a callback (done, total), got {type(progress).__name__}")
+    progress = bool(progress) if isinstance(progress, (bool, np.bool_)) else progress
+    chunk = None if chunk is None else checks.integer(chunk, "chunk", low=1)
     root = _root(rng)
 
     jobs: dict[tuple[int, int], _Job] = {}
@@ -203,7 +246,8 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
                 est, pts = _instantiate(espec, integrand)
             except ValueError as exc:
                 if not skip:
-                    raise
+                    raise ValueError(f"estimators: {label!r} does not apply to integrand {integrand.name!r}: {exc} "
+                                     "(skip=True leaves such pairs out)") from None
                 skipped.append({"estimator": label, "integrand": integrand.name, "reason": str(exc)})
                 continue
             jobs[ii, jj] = _Job(label, espec, ispec, est, pts, integrand)
@@ -215,8 +259,9 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
     keys = [stable_index(label) for label, _ in specs]
     if len(set(keys)) < len(keys):   # pragma: no cover - a CRC-32 collision between two labels
         raise ValueError("estimators: two labels share a seed index; rename one")
-    if len(set(ns)) < len(ns):
-        raise ValueError(f"ns: repeated sample counts {ns}")
+    if not jobs:
+        raise ValueError("estimators, integrands: no estimator applies to any integrand; skipped: "
+                         + "; ".join(f"{s['estimator']} on {s['integrand']}: {s['reason']}" for s in skipped))
     for (ii, jj), job in jobs.items():
         for kk, n in enumerate(ns):
             for lo in range(0, reps, per):
@@ -250,7 +295,7 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
                     raise TypeError(f"workers > 1: cannot send {job.label!r} on {job.integrand.name!r} to a worker "
                                     f"process ({exc}); use recipe and catalogue names, picklable objects "
                                     "(module-level functions, no lambdas), or workers=1") from None
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with ProcessPoolExecutor(max_workers=min(workers, len(tasks))) as pool:
             futures = {pool.submit(_run_block, (wire[id(job)], seed_state, key, n, rr, chunk)): (tid, len(rr))
                        for tid, job, key, n, rr in tasks}
             for fut in as_completed(futures):
@@ -270,6 +315,18 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
     df.attrs.update({"entropy": root.entropy, "spawn_key": tuple(root.spawn_key), "crn": crn,
                      "skipped": skipped})
     return df
+
+
+def _sample_counts(ns) -> list[int]:
+    """``ns`` (one count or a list) as distinct integers in [1, MAX_N]."""
+    if ns is None or isinstance(ns, (str, bytes, numbers.Number, np.generic)) or \
+            (isinstance(ns, np.ndarray) and ns.ndim == 0):
+        return [checks.integer(ns, "ns", low=1, high=MAX_N)]
+    items = _items(ns, "ns", "sample counts (integers >= 1)")
+    out = [checks.integer(n, f"ns[{k}]", low=1, high=MAX_N) for k, n in enumerate(items)]
+    if len(set(out)) < len(out):
+        raise ValueError(f"ns: repeated sample counts {out}")
+    return out
 
 
 def _points_name(points) -> str:

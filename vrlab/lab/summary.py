@@ -22,12 +22,19 @@ Theoretical RMSE slopes in n (log-log), used beside the fitted ones:
   (Koksma-Hlawka, discrepancy O(n^-1 log^d n); Owen 1997 shows -3/2 for scrambled nets at
   n = b^m on very smooth f); on discontinuous f: -1/2 - 1/(4d - 2) (He & Wang 2015,
   "On the convergence rate of randomized quasi-Monte Carlo for discontinuous functions").
+
+Tables are checked (errors name ``df``): a non-empty DataFrame with the needed columns,
+numeric columns holding numbers, finite values and ``n > 0``, at least 2 repetitions per
+(estimator, integrand, n) and no repeated (estimator, integrand, n, rep).
 """
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
 from scipy import stats
+
+from .. import checks
+from ._args import column_check, flag, frame
 
 KEYS = ["estimator", "integrand", "n"]
 _Z95 = float(stats.norm.ppf(0.975))
@@ -38,13 +45,32 @@ def _group(df: pd.DataFrame, keys: list[str]):
     return df.groupby(keys, sort=False, dropna=False)
 
 
+def _check_run(df) -> pd.DataFrame:
+    """A run table: finite values and times, n > 0, stderr >= 0 or NaN, exact finite or NaN."""
+    num = ["n", "value", "stderr", "exact", "seconds"]
+    df = frame(df, KEYS + ["value", "stderr", "exact", "seconds"], numeric=num)
+    v = {c: df[c].to_numpy(float) for c in num}
+    column_check(df, "n", np.isfinite(v["n"]) & (v["n"] > 0), "a positive sample count")
+    column_check(df, "value", np.isfinite(v["value"]), "finite")
+    column_check(df, "seconds", np.isfinite(v["seconds"]) & (v["seconds"] >= 0), "finite and >= 0")
+    column_check(df, "stderr", np.isnan(v["stderr"]) | (v["stderr"] >= 0), ">= 0 (or NaN)")
+    column_check(df, "exact", ~np.isinf(v["exact"]), "finite (or NaN if unknown)")
+    keys = KEYS + (["rep"] if "rep" in df else [])
+    dup = df.duplicated(keys)
+    column_check(df, keys[-1], ~dup.to_numpy(), f"unique per {tuple(keys)} (two runs with the same labels?)")
+    few = df.groupby(KEYS, sort=False, dropna=False)["value"].transform("size").to_numpy() < 2
+    if few.any():
+        key = tuple(df[KEYS].iloc[int(np.argmax(few))].tolist())
+        raise ValueError(f"df: (estimator, integrand, n) = {key} has 1 repetition; a variance needs at least 2")
+    return df
+
+
 def summarize(df: pd.DataFrame) -> pd.DataFrame:
     """Per (estimator, integrand, n): ``reps, mean, exact, bias, rmse, rel_rmse, variance,
-    mean_stderr, z_std, coverage, seconds, efficiency`` (formulas in the module docstring)."""
-    missing = [c for c in KEYS + ["value", "stderr", "exact", "seconds"] if c not in df]
-    if missing:
-        raise ValueError(f"df: missing columns {missing} (expected a vrlab.lab.run DataFrame)")
-    d = df.copy()
+    mean_stderr, z_std, coverage, seconds, efficiency`` (formulas in the module docstring).
+
+    ``df``: a ``run`` table (checked as in the module docstring)."""
+    d = _check_run(df).copy()
     d["error"] = d["value"] - d["exact"]
     with np.errstate(divide="ignore", invalid="ignore"):
         z = d["error"] / d["stderr"]
@@ -81,7 +107,14 @@ def theoretical_slope(cls: str, points: str, dim_u: int, smooth: bool = True,
     ``cls``: estimator class name; ``points``: point-set name; ``dim_u``: uniforms per
     sample; ``smooth``: f without discontinuities; ``fixed_strata``: a ``Stratified``
     estimator with a fixed grid (otherwise its strata grow with n, like jittered).
+    ``dim_u``: an integer (<= 0 or None: unknown); ``cls``, ``points``: strings.
     """
+    if not isinstance(cls, str):
+        raise TypeError(f"cls must be an estimator class name (a string), got {checks.describe(cls)}")
+    if points is not None and not isinstance(points, str):
+        raise TypeError(f"points must be a point-set name (a string) or None, got {checks.describe(points)}")
+    dim_u = None if dim_u is None else checks.integer(dim_u, "dim_u")
+    smooth, fixed_strata = flag(smooth, "smooth"), flag(fixed_strata, "fixed_strata")
     d = max(int(dim_u), 1) if dim_u is not None and dim_u > 0 else None
     pts = (points or "independent").lower()
     if cls == "Stratified" and not fixed_strata and d is not None:
@@ -110,8 +143,9 @@ def fit_slopes(df: pd.DataFrame) -> pd.DataFrame:
 
     Accepts a run DataFrame (summarized first) or a ``summarize`` table.  Columns:
     ``estimator, integrand, slope, slope_se, intercept, theory, theory_note, n_min, n_max, points_used``.
+    Rows with RMSE 0 or NaN are left out; fewer than 2 sample counts give a NaN slope.
     """
-    s = df if "rmse" in df else summarize(df)
+    s = _summary(df, ["rmse"], ("rmse",))
     rows = []
     for (est, integ), g in _group(s, ["estimator", "integrand"]):
         g = g[(g["rmse"] > 0) & np.isfinite(g["rmse"])].sort_values("n")
@@ -123,8 +157,10 @@ def fit_slopes(df: pd.DataFrame) -> pd.DataFrame:
             se = float(res.stderr) if len(x) >= 3 else np.nan
         first = g.iloc[0] if len(g) else s[(s["estimator"] == est) & (s["integrand"] == integ)].iloc[0]
         strata = first.get("strata", None)
-        theory, note = theoretical_slope(first.get("class", ""), first.get("points", "independent"),
-                                         first.get("dim_u", -1), bool(first.get("smooth", True)),
+        cls, pts, dim_u = first.get("class", ""), first.get("points", "independent"), first.get("dim_u", -1)
+        theory, note = theoretical_slope(cls if isinstance(cls, str) else "",
+                                         pts if isinstance(pts, str) else "independent",
+                                         int(dim_u) if _known(dim_u) else -1, bool(first.get("smooth", True)),
                                          fixed_strata=strata is not None and not pd.isna(strata))
         rows.append({"estimator": est, "integrand": integ, "slope": slope, "slope_se": se,
                      "intercept": intercept, "theory": theory, "theory_note": note,
@@ -133,14 +169,41 @@ def fit_slopes(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _known(v) -> bool:
+    """A finite whole number (a dim_u read back from a table may be a float or NaN)."""
+    try:
+        return bool(np.isfinite(float(v)) and float(v) == int(float(v)))
+    except (TypeError, ValueError):
+        return False
+
+
+def _summary(df, columns: list[str], finite: tuple[str, ...] = ()) -> pd.DataFrame:
+    """``df`` itself if it is a ``summarize`` table (has ``rmse``) with ``columns`` (those in
+    ``finite`` finite and >= 0, or NaN), else its summary."""
+    if isinstance(df, pd.DataFrame) and "rmse" in df:
+        s = frame(df, ["estimator", "integrand", "n"] + columns, numeric=["n"] + columns)
+        n = s["n"].to_numpy(float)
+        column_check(s, "n", np.isfinite(n) & (n > 0), "a positive sample count")
+        for c in finite:
+            v = s[c].to_numpy(float)
+            column_check(s, c, np.isnan(v) | (np.isfinite(v) & (v >= 0)), "finite and >= 0 (or NaN)")
+        dup = s.duplicated(["estimator", "integrand", "n"]).to_numpy()
+        column_check(s, "n", ~dup, "unique per (estimator, integrand) in a summary")
+        return s
+    return summarize(df)
+
+
 def equal_time(df: pd.DataFrame, reference: str | None = None) -> pd.DataFrame:
     """Compare estimators at equal time: ``var_x_time`` = variance x seconds per (integrand, n).
 
     ``relative_efficiency`` = var_x_time(reference) / var_x_time(estimator): how many times
     less time the estimator needs for the reference's variance (reference: ``"mc"`` if
     present, else the first estimator).  ``relative_variance`` is the equal-n ratio.
+    ``df``: a run or summary table; ``reference``: None or an estimator label in it.
     """
-    s = df if "rmse" in df else summarize(df)
+    if reference is not None and not isinstance(reference, str):
+        raise TypeError(f"reference must be an estimator label (a string) or None, got {checks.describe(reference)}")
+    s = _summary(df, ["variance", "seconds", "efficiency"], ("variance", "seconds"))
     if reference is None:
         reference = "mc" if (s["estimator"] == "mc").any() else s["estimator"].iloc[0]
     elif not (s["estimator"] == reference).any():

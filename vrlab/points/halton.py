@@ -11,17 +11,30 @@ described in :mod:`vrlab.points.scrambles`; digit tables in :mod:`vrlab.points.r
 """
 from __future__ import annotations
 
+from typing import Any
 
 import numpy as np
 
 from .._rng import RNGLike
-from .base import PointSet, check_int, clamp_open
-
-
-
-
-from .radical import _identity_digits, first_primes, radical_inverse  # noqa: F401  (re-exported)
+from .base import _NO_SEED, PointSet, check_dim, check_int, clamp_open
+from .radical import MAX_PRIMES, first_primes, radical_inverse  # noqa: F401  (re-exported)
 from .scrambles import ScrambleArg, _make_dims, _scramble_mode
+
+_INDEX_LIMIT = 1 << 62  # point indices (int64 arithmetic)
+
+
+def _check_index(engine: PointSet, n: int, action: str) -> None:
+    if engine.num_generated + n > _INDEX_LIMIT:
+        raise ValueError(f"n: {action} {n} points after point {engine.num_generated} goes past index 2**62, "
+                         "the largest point index supported")
+
+
+def _fill(groups: list, s: int, n: int, out: np.ndarray, j: int = 0) -> None:
+    for g in groups:
+        g.fill(s, n, out[:, j:j + g.width])
+        j += g.width
+
+
 # ---------------------------------------------------------------------------------------
 # engines
 # ---------------------------------------------------------------------------------------
@@ -37,29 +50,38 @@ class Halton(PointSet):
         randomisation is asked for explicitly.  ``True`` / ``"permutation"`` -- random
         digit permutations per dimension and digit position (SciPy's scrambling);
         ``"owen"`` -- nested (Owen 1995) scrambling.  See the module docstring.
-    rng : seed or generator for the scrambling (drawn once, in the constructor).
+        For bases above ``2**12`` (``d > 564``) the permutations are random affine digit
+        maps (same pairwise laws, no tables; see :mod:`vrlab.points.scrambles`).
+    optimization : None, ``"random-cd"`` or ``"lloyd"`` (SciPy's optimisers, applied to
+        each ``random`` call).
+    rng : seed or generator for the scrambling (drawn once, in the constructor; legacy
+        name ``seed``).
 
     A sequence: successive calls continue it, ``fast_forward(k)`` skips ``k`` indices,
-    ``reset()`` returns to index 0 with the same scrambling.
+    ``reset()`` returns to index 0 with the same scrambling.  ``0 <= d <= 2**23``; memory
+    and time grow linearly in ``d`` (``d = 10^4`` is fine).
     """
 
-    def __init__(self, d: int, *, scramble: ScrambleArg = False, rng: RNGLike = None) -> None:
-        super().__init__(d, rng=rng)
+    MAXDIM = MAX_PRIMES
+
+    def __init__(self, d: int, *, scramble: ScrambleArg = False, optimization: str | None = None,
+                 rng: RNGLike = None, seed: Any = _NO_SEED) -> None:
+        super().__init__(d, optimization=optimization, rng=rng, seed=seed)
         mode = _scramble_mode(scramble)
         self.scramble: ScrambleArg = {None: False, "permutation": True, "owen": "owen"}[mode]
         self.randomized = mode is not None
         self.base = [int(b) for b in first_primes(self.d)]
         self._dims = _make_dims(self.base, mode, self.rng)
-        self._params = {"scramble": self.scramble}
+        self._params = {"scramble": self.scramble, "optimization": self.optimization}
 
     def _random(self, n: int) -> np.ndarray:
+        _check_index(self, n, "drawing")
         out = np.empty((n, self.d), order="F")
-        for j, dim in enumerate(self._dims):
-            dim.fill(self.num_generated, n, out[:, j])
+        _fill(self._dims, self.num_generated, n, out)
         return out
 
     def _fast_forward(self, n: int) -> None:
-        pass  # points are a function of their index
+        _check_index(self, n, "skipping")  # points are a function of their index
 
 
 class Hammersley(PointSet):
@@ -81,15 +103,18 @@ class Hammersley(PointSet):
         when randomised, the first coordinate becomes ``(i + v)/N`` with one random
         ``v ~ U[0,1)`` per engine (a Cranley--Patterson shift within the strata
         ``[i/N, (i+1)/N)``), so every point is uniform.
-    rng : seed or generator for the scrambling (drawn once, in the constructor).
+    rng : seed or generator for the scrambling (drawn once, in the constructor; legacy
+        name ``seed``).
     """
 
     extensible = False
+    MAXDIM = MAX_PRIMES + 1
 
     def __init__(self, d: int, *, n: int | None = None, scramble: ScrambleArg = False,
-                 rng: RNGLike = None) -> None:
-        super().__init__(d, rng=rng)
-        self.n = None if n is None else check_int("n", n, 1)
+                 rng: RNGLike = None, seed: Any = _NO_SEED) -> None:
+        check_dim(d, 1)  # the i/N coordinate: d >= 1
+        super().__init__(d, rng=rng, seed=seed)
+        self.n = None if n is None else check_int("n", n, 1, _INDEX_LIMIT)
         mode = _scramble_mode(scramble)
         self.scramble: ScrambleArg = {None: False, "permutation": True, "owen": "owen"}[mode]
         self.randomized = mode is not None
@@ -105,7 +130,7 @@ class Hammersley(PointSet):
             size = self.num_generated + m
         if self.num_generated + m > size:
             raise ValueError(
-                f"Hammersley: {action} {m} rows after row {self.num_generated} goes past the end "
+                f"n: Hammersley: {action} {m} rows after row {self.num_generated} goes past the end "
                 f"of the {size}-point set (a Hammersley set has a fixed size n); call reset(), "
                 "create the engine with a larger n=..., or use Halton for an extensible sequence"
             )
@@ -114,6 +139,7 @@ class Hammersley(PointSet):
     def _random(self, n: int) -> np.ndarray:
         if n == 0:
             return np.empty((0, self.d), order="F")
+        _check_index(self, n, "drawing")
         size = self._size = self._check_rows(n, "drawing")
         s = self.num_generated
         out = np.empty((n, self.d), order="F")
@@ -123,13 +149,13 @@ class Hammersley(PointSet):
             col += self._shift
         col /= size
         clamp_open(col)
-        for j, dim in enumerate(self._dims):
-            dim.fill(s, n, out[:, j + 1])
+        _fill(self._dims, s, n, out, 1)
         return out
 
     def _fast_forward(self, n: int) -> None:
         if self._size is not None:
             self._check_rows(n, "skipping")
+        _check_index(self, n, "skipping")
 
     def _reset(self) -> None:
         self._size = self.n

@@ -18,9 +18,12 @@ the least significant digit, ``((d_0 f_0 + d_1 f_1) + ...)`` with ``f_0 = 1/b`` 
 ``f_(j+1) = f_j / b``, which is SciPy's floating-point order, so the points equal
 ``scipy.stats.qmc.Halton(d, scramble=False)``'s bit for bit; a table gives the first ``k``
 digits and the higher digits, constant over blocks of ``B`` consecutive indices, are added
-per block.  *Permuted* digits: tables ``T[r]`` of the permuted digit sums give
-``phi(i) = T[i mod B] + phi'(i // B) / B`` (most significant first, exact integer
-tables), one broadcast addition per block for a contiguous range.
+per block.  Calls too small to pay for a table (and one-digit bases ``b > 256``) use
+:func:`lsd_direct` instead: the same sums digit by digit, for many bases at once, without
+tables -- so memory does not grow with the bases (``d = 10^4``).  *Permuted* digits:
+tables ``T[r]`` of the permuted digit sums give ``phi(i) = T[i mod B] + phi'(i // B) / B``
+(most significant first, exact integer tables), one broadcast addition per block for a
+contiguous range.
 Output arrays are Fortran-ordered (each coordinate contiguous), as in SciPy.
 """
 from __future__ import annotations
@@ -42,7 +45,7 @@ _PRECISION_BITS = 53       # digits are scrambled until b^-K <= 2^-53
 # ---------------------------------------------------------------------------------------
 # primes
 # ---------------------------------------------------------------------------------------
-@functools.cache
+@functools.lru_cache(maxsize=4)
 def _primes_upto(limit: int) -> np.ndarray:
     sieve = np.ones(limit + 1, dtype=bool)
     sieve[:2] = False
@@ -52,9 +55,13 @@ def _primes_upto(limit: int) -> np.ndarray:
     return np.flatnonzero(sieve)
 
 
+#: most primes first_primes gives (a sieve of ~1.3e8 bytes): far beyond any Halton dimension
+MAX_PRIMES = 1 << 23
+
+
 def first_primes(d: int) -> np.ndarray:
-    """The first ``d`` primes ``2, 3, 5, ...`` (int64 array)."""
-    d = check_int("d", d, 0)
+    """The first ``d`` primes ``2, 3, 5, ...`` (int64 array); ``0 <= d <= 2**23``."""
+    d = check_int("d", d, 0, MAX_PRIMES)
     if d == 0:
         return np.zeros(0, dtype=np.int64)
     # p_d < d (ln d + ln ln d) for d >= 6 (Rosser 1941)
@@ -221,16 +228,82 @@ def _digit_factors(b: int) -> tuple[float, ...]:
     return tuple(f)
 
 
-@functools.cache
+_LSD_TABLES: OrderedDict[int, np.ndarray] = OrderedDict()
+_LSD_BUDGET = 64 << 20  # bytes of unscrambled (LSD-order) tables kept, least recently used dropped
+_lsd_bytes = 0
+
+
 def _lsd_table(b: int, k: int) -> np.ndarray:
-    """Radical inverse of every r < b^k, summed from the least significant digit."""
+    """Radical inverse of every r < b^k, summed from the least significant digit (LRU-cached)."""
+    global _lsd_bytes
+    T = _LSD_TABLES.get(b)
+    if T is not None and T.size == b ** k:
+        _LSD_TABLES.move_to_end(b)
+        return T
     f = _digit_factors(b)
     q = np.arange(b ** k, dtype=np.int64)
-    out = np.zeros(q.shape)
+    T = np.zeros(q.shape)
     for j in range(k):
         q, digit = np.divmod(q, b)
-        out += f[j] * digit
-    return out
+        T += f[j] * digit
+    old = _LSD_TABLES.pop(b, None)
+    _lsd_bytes += T.nbytes - (old.nbytes if old is not None else 0)
+    _LSD_TABLES[b] = T
+    while _lsd_bytes > _LSD_BUDGET and len(_LSD_TABLES) > 1:
+        _lsd_bytes -= _LSD_TABLES.popitem(last=False)[1].nbytes
+    return T
+
+
+_FLOAT_EXACT = 1 << 53  # below it, floor(i / b) and i - q b are exact in float64
+
+
+def lsd_direct(i: np.ndarray, bases: np.ndarray, out: np.ndarray) -> None:
+    """``out[c, r] = phi_{bases[c]}(i[r])`` without tables (``i`` int64, ``out`` C-ordered
+    ``(len(bases), len(i))``), summed from the least significant digit in SciPy's float
+    order, in cache-sized blocks of columns x rows, each looping over as many digits as
+    its smallest base needs (the extra digits are 0: adding ``f * 0`` changes no bit).
+    Digits are split off in float64 (exact below 2**53, faster than int64 division)."""
+    if not i.size or not len(bases):
+        return
+    top = int(i.max())
+    exact = top < _FLOAT_EXACT
+    bases = np.asarray(bases, dtype=np.int64)
+    ndigs = np.ones(len(bases), dtype=np.int64)               # base-b digits of the largest index
+    for c, b_ in enumerate(bases.tolist()):
+        while b_ ** int(ndigs[c]) <= top:
+            ndigs[c] += 1
+    cuts = np.flatnonzero(np.diff(ndigs)) + 1                   # runs of columns with equal digit counts
+    blocks = [(a, e) for a, e in zip(np.r_[0, cuts].tolist(), np.r_[cuts, len(bases)].tolist())]
+    for a, e in blocks:
+        cb = min(e - a, 256)
+        rb = max(64, (1 << 13) // cb)
+        for c0 in range(a, e, cb):
+            _lsd_block(i, bases[c0:min(e, c0 + cb)], int(ndigs[c0]), exact, rb, out[c0:min(e, c0 + cb)])
+
+
+def _lsd_block(i: np.ndarray, bi: np.ndarray, ndig: int, exact: bool, rb: int, out: np.ndarray) -> None:
+    """One block of columns (bases ``bi``, all indices below ``bi ** ndig``) of
+    :func:`lsd_direct`, ``rb`` rows at a time."""
+    b = bi.astype(np.float64 if exact else np.int64)[:, None]
+    f0 = 1.0 / bi.astype(np.float64)[:, None]
+    for r0 in range(0, len(i), rb):
+        q = i[r0:r0 + rb].astype(np.float64 if exact else np.int64)[None, :]
+        acc = out[:, r0:r0 + rb]
+        f = f0
+        for k in range(ndig):
+            if k == ndig - 1:
+                digit = q                                  # the last digit: q < b already
+            elif exact:
+                quot = np.floor(q / b)
+                digit = q - quot * b
+                q = quot
+            else:
+                q, digit = np.divmod(q, b)
+            if k == 0:
+                np.multiply(f, digit, out=acc)             # 0 + f d == f d exactly
+            else:
+                acc += f * digit
+            f = f / b
 
 
 def radical_inverse(i: ArrayLike, base: int = 2) -> np.ndarray:
@@ -239,8 +312,11 @@ def radical_inverse(i: ArrayLike, base: int = 2) -> np.ndarray:
     ``i``: non-negative integers (any shape, int dtype); ``base``: integer >= 2.
     Returns float64 of the same shape (van der Corput 1935; Halton 1960).
     """
-    base = check_int("base", base, 2)
-    arr = np.asarray(i)
+    base = check_int("base", base, 2, np.iinfo(np.int64).max)
+    try:
+        arr = np.asarray(i)
+    except (TypeError, ValueError):
+        raise TypeError(f"i must be an array of integers, got {type(i).__name__}") from None
     if arr.dtype == object or arr.dtype.kind not in "iu":
         if arr.size == 0 and arr.dtype.kind == "f":
             arr = arr.astype(np.int64)
@@ -251,8 +327,13 @@ def radical_inverse(i: ArrayLike, base: int = 2) -> np.ndarray:
     if arr.dtype == np.uint64 and arr.size and arr.max() > np.iinfo(np.int64).max:
         raise ValueError("i must be < 2**63")
     flat = arr.astype(np.int64, copy=False).ravel()
-    # summed from the least significant digit, as Halton's points (and SciPy's) are
     k = _digits_per_group(base)
+    if base ** k > _TABLE_LIMIT or base ** k > 8 * flat.size:   # a table would not pay
+        out = np.empty((1, flat.size))
+        for c0 in range(0, flat.size, 1 << 16):
+            lsd_direct(flat[c0:c0 + (1 << 16)], np.array([base]), out[:, c0:c0 + (1 << 16)])
+        return clamp_open(out[0]).reshape(arr.shape)
+    # summed from the least significant digit, as Halton's points (and SciPy's) are
     q, low = np.divmod(flat, base ** k)
     out = _lsd_table(base, k)[low]
     f, j = _digit_factors(base), k
@@ -262,5 +343,3 @@ def radical_inverse(i: ArrayLike, base: int = 2) -> np.ndarray:
         j += 1
     # clamp: for i >= 2^53 the exact value 1 - b^-m can round up to 1.0
     return clamp_open(out).reshape(arr.shape)
-
-

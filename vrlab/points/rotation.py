@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from .._rng import RNGLike, spawn
-from .base import PointSet, check_int
+from .base import _NO_SEED, MAX_REPLICATES, PointSet, check_dim, check_int, child_seeds, spawn_checked
 
 
 class CranleyPatterson(PointSet):
@@ -28,27 +28,33 @@ class CranleyPatterson(PointSet):
     points : when ``base`` is an int: a name accepted by :func:`make_points`, a
         point-set class, or ``None`` for unscrambled Halton; built with ``d`` and a
         child of ``rng`` (and ``**kwargs``).
-    rng : seed or generator for the shift (drawn once, in the constructor).
+    rng : seed or generator for the shift (drawn once, in the constructor; legacy name
+        ``seed``).
 
     ``random``, ``reset`` and ``fast_forward`` act on the wrapped engine; the shift
-    stays.  The wrapped engine is used (advanced) in place, not copied.
+    stays.  The wrapped engine is used (advanced) in place, not copied.  Checked: ``base``
+    (``TypeError`` unless an engine or an int; ``ValueError`` for a negative ``d``),
+    ``points``, and every block the wrapped engine returns (``ValueError`` naming ``base``
+    unless it is ``(n, d)`` with values in [0, 1]).
     """
 
-    def __init__(self, base: Any, *, points: Any = None, rng: RNGLike = None, **kwargs: Any) -> None:
-        if isinstance(base, (int, np.integer)) and not isinstance(base, bool):
-            d = check_int("d", base, 1)
-            super().__init__(d, rng=rng)
-            child = spawn(self.rng, 1)[0]
+    def __init__(self, base: Any, *, points: Any = None, rng: RNGLike = None, seed: Any = _NO_SEED,
+                 **kwargs: Any) -> None:
+        if isinstance(base, (int, np.integer)) and not isinstance(base, (bool, np.bool_)):
+            d = check_dim(base, 0)
+            super().__init__(d, rng=rng, seed=seed)
+            child = spawn(self.rng, 1)[0].bit_generator.seed_seq
             self.base = _build(points, d, child, kwargs)
         else:
-            if not all(hasattr(base, a) for a in ("random", "reset", "d")):
+            if not all(hasattr(base, a) for a in ("random", "reset", "d")) or isinstance(base, type):
                 raise TypeError(
                     "base must be a point-set engine (with random, reset, d) or an int dimension, "
                     f"got {type(base).__name__}"
                 )
             if points is not None or kwargs:
-                raise TypeError("points=/keyword settings are only used when base is an int dimension")
-            super().__init__(int(base.d), rng=rng)
+                raise TypeError("points, " + ", ".join(kwargs) + ": points= and keyword settings are only "
+                                "used when base is an int dimension")
+            super().__init__(check_dim(base.d, 0, "base.d"), rng=rng, seed=seed)
             self.base = base
         self.shift = self.rng.random(self.d)
         self._points, self._kwargs = points, kwargs
@@ -58,12 +64,25 @@ class CranleyPatterson(PointSet):
         return getattr(self.base, "extensible", True)
 
     def _random(self, n: int) -> np.ndarray:
-        x = np.asarray(self.base.random(n), dtype=np.float64) + self.shift
-        x -= x >= 1.0          # both terms are in [0, 1): one wrap is enough
+        x = np.array(self.base.random(n), dtype=np.float64)
+        if x.shape != (n, self.d):
+            raise ValueError(f"base: the wrapped engine returned shape {x.shape} for random({n}), "
+                             f"expected {(n, self.d)}")
+        if x.size and not ((x.min() >= 0.0) & (x.max() <= 1.0)):   # NaN fails both
+            raise ValueError("base: the wrapped engine returned values outside [0, 1] (or NaN)")
+        x += self.shift
+        x -= x >= 1.0          # both terms are in [0, 1]: one wrap is enough
         return x
 
     def _fast_forward(self, n: int) -> None:
-        self.base.fast_forward(n)
+        if callable(getattr(self.base, "fast_forward", None)):
+            self.base.fast_forward(n)
+            return
+        if n * max(self.d, 1) > 1 << 36:
+            raise ValueError(f"n: the wrapped engine has no fast_forward, and drawing and discarding {n} "
+                             "points would not end")
+        for start in range(0, n, 1 << 16):       # an engine without fast_forward: draw and discard
+            self.base.random(min(1 << 16, n - start))
 
     def _reset(self) -> None:
         self.base.reset()
@@ -72,10 +91,10 @@ class CranleyPatterson(PointSet):
         """``R`` independently shifted copies.  The wrapped set is replicated too when it is
         randomised (a vrlab engine with ``randomized``); otherwise each copy shifts a
         fresh copy of it (``copy.deepcopy`` + ``reset``)."""
-        R = check_int("R", R, 0)
+        R = check_int("R", R, 0, MAX_REPLICATES)
         out = []
-        for child in spawn(rng, R):
-            c_base, c_shift = spawn(child, 2)
+        for child in spawn_checked(rng, R):
+            c_base, c_shift = child_seeds(child, 2)
             if getattr(self.base, "randomized", False) and hasattr(self.base, "replicate"):
                 base = self.base.replicate(1, rng=c_base)[0]
             else:
@@ -88,13 +107,19 @@ class CranleyPatterson(PointSet):
         return f"CranleyPatterson({self.base!r})"
 
 
-def _build(points: Any, d: int, rng: np.random.Generator, kwargs: dict) -> Any:
+def _build(points: Any, d: int, rng: np.random.SeedSequence, kwargs: dict) -> Any:
     from .tools import make_points  # late import: tools imports this module
 
     if points is None:
         return make_points("halton", d, rng=rng, scramble=False, **kwargs)
     if isinstance(points, str):
-        return make_points(points, d, rng=rng, **kwargs)
+        try:
+            return make_points(points, d, rng=rng, **kwargs)
+        except ValueError as exc:
+            if str(exc).startswith("name:"):
+                raise ValueError(f"points: {exc}") from None
+            raise
     if isinstance(points, type):
-        return points(d, rng=rng, **kwargs)
+        # vrlab engines take the seed; other classes (SciPy's) the Generator, as before
+        return points(d, rng=rng if issubclass(points, PointSet) else np.random.default_rng(rng), **kwargs)
     raise TypeError(f"points must be None, a name or a point-set class, got {type(points).__name__}")

@@ -12,6 +12,10 @@ error estimate)
   The infinitely many trailing zero digits of ``i`` are permuted too (``pi_k(0)`` is
   usually not 0), so the sum runs over ``K`` digit positions, the smallest ``K``
   with ``b^{-K} <= 2^{-53}``: the digits beyond it do not change a float64.
+  Bases ``b <= 2**12`` (the first 564 dimensions) get full permutation tables; larger
+  bases get random affine maps ``pi_k(d) = (a_k d + c_k) mod b`` (``a_k != 0``), which
+  have the same pairwise laws (see :class:`_AffineColumns`) and need no tables, so that
+  ``d = 10^4`` takes megabytes, not the ~12 GB of full tables.
 * ``scramble="owen"`` -- nested scrambling (Owen 1995): the permutation applied to
   digit ``k`` also depends on the digits ``d_0 .. d_{k-1}`` before it (the node
   ``p = i mod b^k`` of the b-ary tree the point is in).  Here each node's permutation
@@ -30,9 +34,20 @@ from __future__ import annotations
 import numpy as np
 
 from .base import clamp_open
-from .radical import _TABLE_LIMIT, _Digits, _digit_factors, _digits_per_group, _identity_digits, _lsd_table  # noqa: F401
+from .radical import (
+    _digit_factors,
+    _Digits,
+    _digits_per_group,
+    _identity_digits,
+    _lsd_table,
+    _precision_digits,
+    lsd_direct,
+)
 
 _OWEN_INDEX_LIMIT = 1 << 32
+#: scramble=True: bases up to this get full random permutation tables (SciPy's randomisation);
+#: larger ones random affine digit maps (same pairwise laws), see _AffineColumns
+PERMUTATION_TABLE_MAX_BASE = 1 << 12
 ScrambleArg = bool | str
 # ---------------------------------------------------------------------------------------
 # per-dimension generators
@@ -47,38 +62,73 @@ def _mix64(x: np.ndarray) -> np.ndarray:
     return x
 
 
-class _PlainDim:
-    """Unscrambled radical inverse, summed from the least significant digit:
-    ``((d_0 f_0 + d_1 f_1) + d_2 f_2) + ...`` with ``f_0 = 1/b``, ``f_(k+1) = f_k / b``.
+class _PlainColumns:
+    """Unscrambled radical inverses of several bases, summed from the least significant
+    digit: ``((d_0 f_0 + d_1 f_1) + d_2 f_2) + ...`` with ``f_0 = 1/b``, ``f_(k+1) = f_k / b``.
 
     This is the floating-point operation order of ``scipy.stats.qmc.Halton(d,
-    scramble=False)``, so the points agree with SciPy's bit for bit.  The first ``k``
-    digits come from a table built in the same order; the higher digits are constant
-    over blocks of ``b^k`` consecutive indices and are added per block.
+    scramble=False)``, so the points agree with SciPy's bit for bit.  Per call and column,
+    either a table (LRU-cached) gives the first ``k`` digits and the higher digits,
+    constant over blocks of ``b^k`` consecutive indices, are added per block -- when the
+    call is large enough to pay for the table -- or all columns without a table are done
+    together digit by digit (:func:`~vrlab.points.radical.lsd_direct`): the same sums, so
+    the choice never changes a point, and ``d = 10^4`` needs no per-base tables.
     """
 
-    def __init__(self, b: int) -> None:
-        self.b = b
-        self.k = _digits_per_group(b)
-        self.B = b ** self.k
-        self.f = _digit_factors(b)
-        self.table = _lsd_table(b, self.k)
+    def __init__(self, bases: list[int]) -> None:
+        self.bases = np.asarray(bases, dtype=np.int64)
+        self.width = len(bases)
+        self.k = np.array([_digits_per_group(b) for b in bases], dtype=np.int64)
+        self.B = np.array([b ** k for b, k in zip(bases, self.k)], dtype=np.int64)
 
     def fill(self, s: int, n: int, out: np.ndarray) -> None:
-        if n == 0:
+        if n == 0 or self.width == 0:
             return
-        q, low = np.divmod(np.arange(s, s + n, dtype=np.int64), self.B)
-        np.take(self.table, low, out=out)
+        ndig = np.ceil(np.log(s + n + 1.0) / np.log(self.bases.astype(np.float64)))
+        # a table of k >= 2 digits pays off once built (a one-digit table saves nothing)
+        tabled = (self.k >= 2) & (n * ndig >= self.B * self.k)
+        for c in np.flatnonzero(tabled):
+            self._fill_table(int(self.bases[c]), int(self.k[c]), s, n, out[:, c])
+        direct = np.flatnonzero(~tabled)
+        if direct.size:
+            i = np.arange(s, s + n, dtype=np.int64)
+            cuts = np.flatnonzero(np.diff(direct) != 1) + 1
+            for a, e in zip(np.r_[0, cuts].tolist(), np.r_[cuts, direct.size].tolist()):
+                c0, c1 = int(direct[a]), int(direct[e - 1]) + 1      # a run of adjacent columns:
+                target = out[:, c0:c1].T                             # C-ordered when out is F-ordered
+                if not target.flags.c_contiguous:
+                    target = np.empty((c1 - c0, n))
+                lsd_direct(i, self.bases[c0:c1], target)
+                if target.base is None:
+                    out[:, c0:c1] = target.T
+        if s + n > 1 << 50:  # only huge indices can round up to 1.0
+            clamp_open(out)
+
+    @staticmethod
+    def _fill_table(b: int, k: int, s: int, n: int, out: np.ndarray) -> None:
+        B, f = b ** k, _digit_factors(b)
+        q, low = np.divmod(np.arange(s, s + n, dtype=np.int64), B)
+        np.take(_lsd_table(b, k), low, out=out, mode="clip")  # clip: unbuffered
         q0 = int(q[0])
         block = q - q0 if q0 else q                       # block of each index, from 0
         qq = np.arange(q0, int(q[-1]) + 1, dtype=np.int64)  # one entry per block
-        j = self.k
+        j = k
         while qq.size and qq.max() > 0:
-            qq, digit = np.divmod(qq, self.b)
-            out += (self.f[j] * digit)[block]
+            qq, digit = np.divmod(qq, b)
+            out += (f[j] * digit)[block]
             j += 1
-        if s + n > 1 << 50:  # only huge indices can round up to 1.0
-            clamp_open(out)
+
+
+class _PerColumn:
+    """One generator per column (``fill(s, n, out_column)``)."""
+
+    def __init__(self, dims: list) -> None:
+        self.dims = dims
+        self.width = len(dims)
+
+    def fill(self, s: int, n: int, out: np.ndarray) -> None:
+        for c, dim in enumerate(self.dims):
+            dim.fill(s, n, out[:, c])
 
 
 class _PermutedDim:
@@ -92,6 +142,63 @@ class _PermutedDim:
 
     def fill(self, s: int, n: int, out: np.ndarray) -> None:
         self.digits.fill_range(s, n, out)
+        clamp_open(out)
+
+
+class _AffineColumns:
+    """Random digit permutations of large bases (``b > 2**12``) as random affine maps
+    ``d -> (a_k d + c_k) mod b``, ``a_k`` uniform on ``1..b-1`` and ``c_k`` on ``0..b-1``,
+    independent per column and digit position ``k < K``.
+
+    For a prime ``b`` these maps form a sharply 2-transitive group, so every pair of
+    distinct digits goes to a uniformly random pair of distinct digits: each point is
+    uniform and every pairwise law -- hence the estimator's mean and variance -- is
+    exactly that of uniform random permutations, with two integers per position instead
+    of a table of ``b`` (``K b`` integers per column would be ~12 GB at ``d = 10^4``).
+    All columns are computed together, most significant digit last (Horner).
+    """
+
+    def __init__(self, bases: list[int], rng: np.random.Generator) -> None:
+        self.bases = np.asarray(bases, dtype=np.int64)
+        self.width = len(bases)
+        K = np.array([_precision_digits(b) for b in bases], dtype=np.int64)
+        self.K = int(K.max()) if len(bases) else 0
+        active = np.arange(self.K)[:, None] < K[None, :]              # (K, width)
+        self.a = np.where(active, rng.integers(1, self.bases, size=(self.K, self.width)), 0)
+        self.c = np.where(active, rng.integers(0, self.bases, size=(self.K, self.width)), 0)
+
+    def fill(self, s: int, n: int, out: np.ndarray) -> None:
+        if n == 0 or self.width == 0:
+            return
+        top = s + n - 1
+        exact = top < 1 << 53                      # digits split off in float64 (exact)
+        cb = min(self.width, 256)
+        rb = max(64, (1 << 13) // cb)
+        for c0 in range(0, self.width, cb):
+            bi = self.bases[c0:c0 + cb]
+            ndig = 1                               # digits of the indices (the rest are 0)
+            while int(bi[0]) ** ndig <= top and ndig < self.K:
+                ndig += 1
+            a, c = self.a[:, c0:c0 + cb], self.c[:, c0:c0 + cb]
+            b = bi.astype(np.float64 if exact else np.int64)
+            tail = np.zeros(len(bi))               # positions >= ndig: digit 0 -> c_k
+            for k in range(self.K - 1, ndig - 1, -1):
+                tail += c[k]
+                tail /= bi
+            for r0 in range(0, n, rb):
+                m = min(rb, n - r0)
+                q = np.arange(s + r0, s + r0 + m, dtype=np.float64 if exact else np.int64)[:, None]
+                digits = []
+                for _ in range(ndig):              # least significant first
+                    quot = np.floor(q / b) if exact else q // b
+                    digits.append(q - quot * b)
+                    q = quot
+                res = np.broadcast_to(tail, (m, len(bi))).copy()
+                for k in range(ndig - 1, -1, -1):  # Horner, same operations as for all K digits
+                    e = a[k] * digits[k] + c[k]
+                    res += e - (np.floor(e / b) if exact else e // b) * b
+                    res /= b
+                out[r0:r0 + m, c0:c0 + cb] = res
         clamp_open(out)
 
 
@@ -153,7 +260,7 @@ class _OwenDim:
 
     def fill(self, s: int, n: int, out: np.ndarray) -> None:
         if s + n > _OWEN_INDEX_LIMIT:
-            raise ValueError(f"scramble='owen' supports point indices below 2**32, asked up to {s + n - 1}")
+            raise ValueError(f"n: scramble='owen' supports point indices below 2**32, asked up to {s + n - 1}")
         b, L = self.b, self.L
         # tabulate levels 0 .. k0-1 only when the call is large enough to pay for the table
         # (the table caches the very same formula, so results do not depend on this choice)
@@ -199,14 +306,18 @@ def _scramble_mode(scramble: ScrambleArg) -> str | None:
         return "permutation"
     if isinstance(scramble, str) and scramble.lower() in ("permutation", "owen"):
         return scramble.lower()
-    raise ValueError(f"scramble must be False, True (random digit permutations), 'permutation' or 'owen'; got {scramble!r}")
+    raise ValueError("scramble must be False, True (random digit permutations), 'permutation' or 'owen'; "
+                     f"got {scramble!r}")
 
 
 def _make_dims(bases: list[int], mode: str | None, rng: np.random.Generator) -> list:
+    """Column groups, in column order, each with ``width`` and ``fill(s, n, out_block)``."""
     if mode is None:
-        return [_PlainDim(b) for b in bases]
-    if mode == "permutation":
-        return [_PermutedDim(b, rng) for b in bases]
-    return [_OwenDim(b, rng) for b in bases]
-
-
+        return [_PlainColumns(bases)]
+    if mode == "owen":
+        return [_PerColumn([_OwenDim(b, rng) for b in bases])]
+    small = [b for b in bases if b <= PERMUTATION_TABLE_MAX_BASE]
+    groups: list = [_PerColumn([_PermutedDim(b, rng) for b in small])]
+    if len(small) < len(bases):
+        groups.append(_AffineColumns(bases[len(small):], rng))
+    return groups

@@ -25,12 +25,16 @@ Choice of grid
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from .._rng import RNGLike
-from .base import PointSet, check_int, clamp_open
+from .base import _NO_SEED, MAX_POINTS, PointSet, check_int, clamp_open
+
+_MAX_FACTOR_N = 1 << 40  # balanced_strata factors n by trial division (sqrt(n) steps)
 
 
 def _prime_factors(n: int) -> list[int]:
@@ -48,9 +52,10 @@ def _prime_factors(n: int) -> list[int]:
 def balanced_strata(n: int, d: int) -> tuple[int, ...]:
     """Per-axis counts ``(m_1 >= ... >= m_d)`` with product ``n``, as balanced as the
     prime factorisation of ``n`` allows (greedy: largest prime factor first, to the
-    axis with the smallest count).  ``n = m^d`` gives ``(m, ..., m)``."""
-    n = check_int("n", n, 1)
-    d = check_int("d", d, 1)
+    axis with the smallest count).  ``n = m^d`` gives ``(m, ..., m)``.  ``1 <= n <= 2**40``,
+    ``1 <= d <= 2**24`` (integers; ``TypeError``/``ValueError`` naming the argument otherwise)."""
+    n = check_int("n", n, 1, _MAX_FACTOR_N)
+    d = check_int("d", d, 1, PointSet.MAXDIM)
     m = round(n ** (1.0 / d))
     for c in (m - 1, m, m + 1):  # exact d-th power: the full grid
         if c >= 1 and c ** d == n:
@@ -68,9 +73,10 @@ class Stratified(PointSet):
     Parameters
     ----------
     d : dimension.
-    strata : optional per-axis counts ``(m_1, ..., m_d)``; default: chosen from ``n``
-        at each ``random(n)`` call by :func:`balanced_strata` (see module docstring).
-    rng : seed or generator for the jitter.
+    strata : optional per-axis counts ``(m_1, ..., m_d)`` (positive integers); default:
+        chosen from ``n`` at each ``random(n)`` call by :func:`balanced_strata` (see
+        module docstring).
+    rng : seed or generator for the jitter (legacy name ``seed``).
 
     Each ``random(n)`` call returns a new, independently jittered ``n``-point
     stratified set (cells in row-major order, first axis slowest).  A stratified set
@@ -80,12 +86,17 @@ class Stratified(PointSet):
 
     extensible = False
 
-    def __init__(self, d: int, *, strata: Sequence[int] | None = None, rng: RNGLike = None) -> None:
-        super().__init__(d, rng=rng)
+    def __init__(self, d: int, *, strata: Sequence[int] | None = None, rng: RNGLike = None,
+                 seed: Any = _NO_SEED) -> None:
+        super().__init__(d, rng=rng, seed=seed)
         if strata is not None:
-            if np.ndim(strata) != 1 or len(strata) != self.d:
+            try:
+                ok = not isinstance(strata, (str, bytes)) and np.ndim(strata) == 1 and len(strata) == self.d
+            except (TypeError, ValueError):   # ragged sequences
+                ok = False
+            if not ok:
                 raise ValueError(f"strata must be a sequence of d={self.d} positive integers, got {strata!r}")
-            strata = tuple(check_int("strata", s, 1) for s in strata)
+            strata = tuple(check_int("strata", s, 1, MAX_POINTS) for s in strata)
         self.strata = strata
         self._params = {"strata": strata}
 
@@ -93,15 +104,20 @@ class Stratified(PointSet):
         """The per-axis counts used for an ``n``-point set."""
         n = check_int("n", n, 0)
         if self.strata is not None:
-            cells = int(np.prod(self.strata))
+            cells = math.prod(self.strata)
             if n % cells:
                 raise ValueError(f"n must be a multiple of prod(strata) = {cells} for strata={self.strata}, got {n}")
             return self.strata
+        if self.d == 0:
+            return ()
         return balanced_strata(max(n, 1), self.d)
 
     def _random(self, n: int) -> np.ndarray:
+        if self.d == 0:
+            self.grid(n)
+            return np.empty((n, 0))
         counts = np.asarray(self.grid(n), dtype=np.int64)
-        cells = int(np.prod(counts))
+        cells = math.prod(int(c) for c in counts)
         cell = np.arange(n, dtype=np.int64) // (n // cells) if n else np.zeros(0, np.int64)
         # multi-index of each point's cell (row-major), then jitter inside the cell
         idx = np.stack(np.unravel_index(cell, tuple(counts)), axis=-1)

@@ -7,8 +7,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .._rng import RNGLike, spawn
-from .base import PointSet, check_int
+from .. import checks
+from .._rng import RNGLike
+from .base import MAX_REPLICATES, PointSet, check_dim, check_int, check_workers, spawn_checked
 from .halton import Halton, Hammersley
 from .iid import Independent
 from .lhs import LatinHypercube
@@ -40,10 +41,11 @@ def make_points(name: str, d: int, *, rng: RNGLike = None, **kwargs: Any) -> Poi
     Names (case-insensitive): ``independent`` (``iid``, ``mc``), ``stratified``
     (``jittered``), ``lhs`` (``latin-hypercube``), ``halton``, ``hammersley``, ``sobol``,
     ``cranley-patterson`` (``cp``; ``points=`` names the shifted set, default unscrambled
-    Halton).  ``kwargs`` go to the class.  Unknown names raise ``ValueError``.
+    Halton).  ``kwargs`` go to the class (which checks them).  Unknown names raise
+    ``ValueError``, a non-string name ``TypeError``.
     """
     if not isinstance(name, str):
-        raise TypeError(f"name must be a string, got {type(name).__name__}")
+        raise TypeError(f"name must be a string naming a point set, got {type(name).__name__}")
     key = name.strip().lower().replace(" ", "-")
     key = _ALIASES.get(key, key)
     if key not in POINT_SETS:
@@ -69,8 +71,12 @@ def replicates(points: Any, R: int, *, rng: RNGLike = None, d: int | None = None
     ``R`` identical copies, so it raises ``ValueError``: scramble it or wrap it in
     :class:`CranleyPatterson`.
     """
-    R = check_int("R", R, 0)
+    R = check_int("R", R, 0, MAX_REPLICATES)
     if isinstance(points, PointSet):
+        if kwargs:
+            raise TypeError(f"{', '.join(kwargs)}: keyword settings are only used when points is a name or a class")
+        if d is not None and check_dim(d, 0) != points.d:
+            raise ValueError(f"d: points is an engine of dimension {points.d}, but d = {d} was given")
         return points.replicate(R, rng=rng)
     from scipy.stats import qmc
 
@@ -82,20 +88,24 @@ def replicates(points: Any, R: int, *, rng: RNGLike = None, d: int | None = None
     if isinstance(points, (str, type)):
         if d is None:
             raise TypeError("d is required when points is a name or a class")
-        d = check_int("d", d, 1)
+        d = check_dim(d, 0)
         if isinstance(points, str):
             def factory(g):
-                return make_points(points, d, rng=g, **kwargs)
+                return make_points(points, d, rng=g.bit_generator.seed_seq, **kwargs)
+        elif issubclass(points, PointSet):
+            def factory(g):
+                return points(d, rng=g.bit_generator.seed_seq, **kwargs)
         else:
             def factory(g):
                 return points(d, rng=g, **kwargs)
     elif callable(points):
         if d is not None or kwargs:
-            raise TypeError("d=/keyword settings are not used with a factory function")
+            raise TypeError("d, " + ", ".join(kwargs) + ": d= and keyword settings are not used with a "
+                            "factory function")
         factory = points
     else:
         raise TypeError(f"points must be a point set, a name, a class or a factory, got {type(points).__name__}")
-    reps = [factory(child) for child in spawn(rng, R)]
+    reps = [factory(child) for child in spawn_checked(rng, R)]
     _check_not_identical(reps)
     return reps
 
@@ -124,14 +134,16 @@ def discrepancy(points: ArrayLike, method: str = "CD", *, workers: int = 1) -> f
 
     ``method``: ``"CD"`` centered L2 (Hickernell 1998, default), ``"WD"`` wrap-around,
     ``"MD"`` mixture, ``"L2-star"`` (Warnock 1972).  Lower is more uniform; the cost is
-    O(n^2 d).
+    O(n^2 d).  Checked: ``points`` a finite ``(n, d)`` array, ``n, d >= 1``, values in
+    ``[0, 1]``; ``method`` one of the four; ``workers`` -1 or > 0 (``ValueError``,
+    ``TypeError`` for a non-numeric array or a non-string method).
     """
-    if method not in _DISCREPANCY_METHODS:
-        raise ValueError(f"method must be one of {', '.join(_DISCREPANCY_METHODS)}, got {method!r}")
-    x = np.asarray(points, dtype=np.float64)
-    if x.ndim != 2:
-        raise ValueError(f"points must have shape (n, d), got {x.shape}")
-    if x.size and ((x.min() < 0) or (x.max() > 1)):
+    checks.choice(method, "method", _DISCREPANCY_METHODS)
+    check_workers(workers)
+    x = checks.finite_array(points, "points", ndim=2)
+    if x.shape[0] < 1 or x.shape[1] < 1:
+        raise ValueError(f"points must have shape (n, d) with n, d >= 1, got {x.shape}")
+    if (x.min() < 0) or (x.max() > 1):
         raise ValueError("points must lie in [0, 1]^d")
     from scipy.stats import qmc
 

@@ -6,9 +6,10 @@ for the supported subset and :mod:`vrlab.render.transforms` for the conventions.
 """
 from . import transforms
 from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor
-from .loader import builtin_scene_path, list_builtin_scenes, load_scene, read_obj
+from .builtin import builtin_scene_path, describe_builtin_scene, export_builtin_scene, list_builtin_scenes
+from .loader import load_scene, read_obj
 from .scene import BSDF, AreaEmitter, Integrator, Scene, SceneError, Sensor, Shape
 from .film import render
 
 __all__ = ["BSDFModel", "Diffuse", "Phong", "RoughConductor", "AreaEmitter", "BSDF", "Integrator", "Scene", "SceneError", "Sensor", "Shape",
-           "builtin_scene_path", "list_builtin_scenes", "load_scene", "read_obj", "render", "transforms"]
+           "builtin_scene_path", "describe_builtin_scene", "export_builtin_scene", "list_builtin_scenes", "load_scene", "read_obj", "render", "transforms"]

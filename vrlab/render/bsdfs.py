@@ -20,6 +20,11 @@ Conventions (those of Mitsuba 3's ``BSDF.eval``/``sample``):
 * Every model is one-sided: f = 0 when wo.z <= 0 or wi.z <= 0.
 * The base class is ``BSDFModel`` (``vrlab.render.BSDF`` is the scene loader's
   description of a ``<bsdf>`` element, a different thing).
+* Constructors check their arguments (``TypeError``/``ValueError`` naming them):
+  colours a number or an RGB array ``(..., 3)``, finite and in [0, 1e15]; ``alpha`` in
+  (0, 1e4]; ``exponent`` in [0, 1e6]; ``distribution`` ``"ggx"`` or ``"beckmann"``.
+  ``f``/``eval``/``pdf``/``sample`` check shapes only (``(..., 3)`` directions,
+  ``(..., 2)`` uniforms): they run per ray.
 
 Sources: Walter et al. 2007, "Microfacet Models for Refraction through Rough
 Surfaces" (D, Beckmann G1 approximation, sampling); Heitz 2014, "Understanding the
@@ -33,11 +38,13 @@ from typing import Any
 
 import numpy as np
 
+from .. import checks
 from .._vec import dot as vdot
 from .._vec import norm as vnorm
 from .._vec import outer3, scale, side
 from ..distributions import GGX, CosineHemisphere, Mixture, PhongLobe
-from ..distributions.base import Distribution, as_points, as_uniforms, positive_float
+from ..distributions.base import Distribution, as_points, as_uniforms
+from .scene_checks import MAX_ALPHA, MAX_EXPONENT, MAX_VALUE
 
 INV_PI = 1.0 / np.pi
 TWO_PI = 2.0 * np.pi
@@ -65,12 +72,18 @@ def mirror(w: np.ndarray) -> np.ndarray:
 
 
 def _rgb(value: Any, name: str) -> np.ndarray:
-    v = np.asarray(value, dtype=float)
+    if value is None:
+        raise TypeError(f"{name} must be a number or an RGB array, got None")
+    v = checks.finite_array(value, name)
     if v.ndim == 0:
         v = np.full(3, float(v))
-    if v.shape[-1:] != (3,) or not np.all(np.isfinite(v)) or np.any(v < 0):
-        raise ValueError(f"{name}: expected a finite, non-negative scalar or RGB array (..., 3), got {value!r}")
+    if v.shape[-1:] != (3,) or v.size == 0 or np.any(v < 0) or np.any(v > MAX_VALUE):
+        raise ValueError(f"{name}: expected a scalar or RGB array (..., 3) in [0, {MAX_VALUE:g}], got {value!r}")
     return v
+
+
+def _alpha(value: Any) -> float:
+    return checks.real(value, "alpha", low=0, high=MAX_ALPHA, low_open=True)
 
 
 def _dirs(wo: Any, wi: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -178,7 +191,7 @@ class Beckmann(Distribution):
     measure = "solid angle"
 
     def __init__(self, alpha: float):
-        self.alpha = positive_float(alpha, "alpha")
+        self.alpha = _alpha(alpha)
 
     def D(self, m: np.ndarray) -> np.ndarray:
         """The normal distribution function D(m)."""
@@ -230,9 +243,8 @@ class RoughConductor(BSDFModel):
     DISTRIBUTIONS = ("ggx", "beckmann")
 
     def __init__(self, alpha: float = 0.1, distribution: str = "ggx", specular_reflectance: Any = 1.0):
-        if distribution not in self.DISTRIBUTIONS:
-            raise ValueError(f"distribution must be one of {self.DISTRIBUTIONS}, got {distribution!r}")
-        self.alpha = positive_float(alpha, "alpha")
+        checks.choice(distribution, "distribution", self.DISTRIBUTIONS)
+        self.alpha = _alpha(alpha)
         self.kind = distribution
         self.normals = GGX(self.alpha) if distribution == "ggx" else Beckmann(self.alpha)
         self.specular_reflectance = _rgb(specular_reflectance, "specular_reflectance")
@@ -315,9 +327,7 @@ class Phong(BSDFModel):
     def __init__(self, kd: Any = 0.5, ks: Any = 0.2, exponent: float = 20.0):
         self.kd = _rgb(kd, "kd")
         self.ks = _rgb(ks, "ks")
-        e = float(exponent)
-        if not np.isfinite(e) or e < 0:
-            raise ValueError(f"exponent must be finite and >= 0, got {exponent!r}")
+        e = checks.real(exponent, "exponent", low=0, high=MAX_EXPONENT)
         self.exponent = e
         md, ms = float(np.mean(self.kd)), float(np.mean(self.ks))
         self.p_diffuse = md / (md + ms) if md + ms > 0 else 1.0

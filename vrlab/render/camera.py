@@ -13,6 +13,9 @@ Conventions (Mitsuba 3; see :mod:`vrlab.render.transforms`):
 * the local direction of ``(x, y)`` is ``((1 - 2x/W) tan(fov_x/2), (1 - 2y/H)
   tan(fov_y/2), 1)``, with ``fov_x``/``fov_y`` from :class:`~vrlab.render.Sensor`
   (``fov`` along ``fov_axis``, tan(fov_y/2) = tan(fov_x/2) / aspect).
+
+``Camera(sensor)`` checks that ``sensor`` is a :class:`~vrlab.render.Sensor` (whose
+constructor checked its fields); the ray methods run per block and are not checked.
 """
 from __future__ import annotations
 
@@ -28,6 +31,8 @@ class Camera:
     """Pinhole camera of a :class:`~vrlab.render.Sensor` (``width`` x ``height`` pixels)."""
 
     def __init__(self, sensor: Sensor):
+        if not isinstance(sensor, Sensor):
+            raise TypeError(f"sensor must be a vrlab.render.Sensor, got {type(sensor).__name__}")
         self.width, self.height = int(sensor.width), int(sensor.height)
         self.tan_x = float(np.tan(np.deg2rad(sensor.fov_x) / 2))
         self.tan_y = float(np.tan(np.deg2rad(sensor.fov_y) / 2))

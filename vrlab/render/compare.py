@@ -8,6 +8,11 @@ relMSE under each.  Equal spp by default; with ``equal_time=True`` each strategy
 renders a pilot (spp/4 samples) to measure its cost per sample, then gets the spp that
 fit in the time the *last* strategy (MIS in the Veach order) needs for ``spp``: the
 comparison that counts, error at equal cost (Veach 1997, ch. 9).
+
+Checked before any rendering: ``strategies`` a non-empty list of distinct strategy
+names, ``spp``/``ref_spp`` integers >= 1, ``rng`` an integer >= 0, ``reference`` a
+finite image of the scene's shape, ``equal_time`` a bool; ``compare_figure`` checks the
+result dict, the path (suffix and folder) and ``exposure``.
 """
 from __future__ import annotations
 
@@ -17,8 +22,10 @@ from typing import Sequence
 
 import numpy as np
 
-from .film import render
-from .image import rel_mse, srgb_encode
+from .. import checks
+from .direct import STRATEGIES
+from .film import _as_scene, render
+from .image import _image, rel_mse, srgb_encode
 from .scene import Scene
 
 VEACH_STRATEGIES = ("bsdf", "light", "mis-power")
@@ -27,7 +34,25 @@ VEACH_STRATEGIES = ("bsdf", "light", "mis-power")
 def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int = 16, *, rng: int = 0,
             reference: np.ndarray | None = None, ref_spp: int = 256, equal_time: bool = False) -> dict:
     """Render ``scene`` with each strategy; ``{"images", "seconds", "rel_mse", "reference",
-    "spp"}`` where ``spp`` is an int (equal spp) or a dict per strategy (equal time)."""
+    "spp"}`` where ``spp`` is an int (equal spp) or a dict per strategy (equal time).
+    ``scene`` may be a path or a built-in name (as for ``render``)."""
+    scene = _as_scene(scene)
+    if isinstance(strategies, str) or not isinstance(strategies, Sequence):
+        raise TypeError(f"strategies must be a list of strategy names, got {type(strategies).__name__}")
+    strategies = [checks.choice(s, f"strategies[{k}]", STRATEGIES) for k, s in enumerate(strategies)]
+    if not strategies:
+        raise ValueError(f"strategies: need at least one of {', '.join(STRATEGIES)}")
+    if len(set(strategies)) != len(strategies):
+        raise ValueError(f"strategies: each strategy at most once, got {strategies}")
+    spp = checks.integer(spp, "spp", low=1)
+    ref_spp = checks.integer(ref_spp, "ref_spp", low=1)
+    rng = checks.integer(rng, "rng", low=0)
+    equal_time = checks.flag(equal_time, "equal_time")
+    if reference is not None:
+        reference = _image(reference, "reference", True)
+        want = (scene.sensor.height, scene.sensor.width, 3)
+        if reference.shape != want:
+            raise ValueError(f"reference: shape {reference.shape} differs from the scene's image {want}")
     if reference is None:
         reference, _ = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([rng, 1]))
     counts = {s: spp for s in strategies}
@@ -52,7 +77,21 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
 
 
 def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure: float = 1.0) -> Path:
-    """Panels side by side with relMSE and time under each (matplotlib, Agg)."""
+    """Panels side by side with relMSE and time under each (matplotlib, Agg); ``path``'s
+    suffix picks the format (.png, .pdf, .svg, ...)."""
+    keys = ("images", "seconds", "rel_mse", "reference", "spp")
+    if not isinstance(result, dict) or any(k not in result for k in keys) or not result["images"]:
+        raise ValueError(f"result must be the dict returned by compare() (keys {', '.join(keys)})")
+    if not isinstance(path, (str, Path)):
+        raise TypeError(f"path must be a file path, got {type(path).__name__}")
+    path = Path(path)
+    if path.suffix.lower().lstrip(".") not in ("png", "pdf", "svg", "jpg", "jpeg", "eps", "ps", "tif", "tiff", "webp"):
+        raise ValueError(f"path: unknown figure format {path.suffix!r}; use .png, .pdf or .svg")
+    if not path.parent.is_dir():
+        raise ValueError(f"path: the folder {str(path.parent)!r} does not exist")
+    exposure = checks.real(exposure, "exposure", low=0, low_open=True)
+    if not isinstance(title, str):
+        raise TypeError(f"title must be a string, got {type(title).__name__}")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 

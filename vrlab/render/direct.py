@@ -11,7 +11,7 @@ settings, Mitsuba's defaults 1 and 1):
   hemisphere / cos/pi / ``bsdf.distribution(wo)``, each f L_e / p;
 * ``"light"``: the mean of n_l samples: light j with probability P_j
   (``light_selection``: ``"uniform"`` or ``"power"`` = mean radiance x area, an alias
-  table), a direction towards it (spheres by their cone, other shapes by area converted
+  table; uniform when every emitter is black), a direction towards it (spheres by their cone, other shapes by area converted
   to solid angle over every hit), pdf P_j p_j(w); a sample counts only emission of light
   j itself, so each light's contribution has one sampling density;
 * ``"mis-balance"`` / ``"mis-power"``: Veach's multi-sample MIS, n_l light and n_b BSDF
@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import checks
 from .._vec import dot, scale, side
 from ..distributions import CosineHemisphere, Frame, UniformHemisphere, to_local
 from ..distributions.base import uniforms32
@@ -69,7 +70,7 @@ from .lights import LIGHT_SELECTIONS, LightSet, luminance
 from .pixel_samplers import PIXEL_SAMPLERS  # noqa: F401  (re-exported for the CLI)
 from .scene import BSDF, Scene
 
-__all__ = ["DIMS", "STRATEGIES", "DirectLighting", "UniformLayout", "make_bsdf"]
+__all__ = ["DIMS", "STRATEGIES", "DirectLighting", "UniformLayout", "check_sample_counts", "make_bsdf"]
 
 STRATEGIES = ("uniform", "cosine", "bsdf", "light", "mis-balance", "mis-power", "mixture", "ris", "cv")
 _BSDF_ONLY = ("uniform", "cosine", "bsdf")
@@ -82,6 +83,8 @@ _UNIFORM = UniformHemisphere()
 
 def make_bsdf(desc: BSDF) -> BSDFModel:
     """The :mod:`vrlab.render.bsdfs` model of a scene ``BSDF`` description."""
+    if not isinstance(desc, BSDF):
+        raise TypeError(f"desc must be a vrlab.render.BSDF, got {type(desc).__name__}")
     p = desc.params
     if desc.type == "diffuse":
         return Diffuse(p["reflectance"])
@@ -150,27 +153,33 @@ def _mean_of(values: np.ndarray, k: int) -> np.ndarray:
     return values.reshape((k, -1) + values.shape[1:]).mean(0) if k > 1 else values
 
 
+def check_sample_counts(strategy: str, emitter_samples: int, bsdf_samples: int) -> None:
+    """``ValueError`` naming ``bsdf_samples`` / ``emitter_samples`` when ``strategy`` has
+    no sample of the kind it needs (BSDF-only strategies need a BSDF sample; light, ris
+    and cv a light sample; every strategy at least one sample)."""
+    if strategy in _BSDF_ONLY and bsdf_samples < 1:
+        raise ValueError(f"bsdf_samples: strategy {strategy!r} needs bsdf_samples >= 1, got {bsdf_samples}")
+    if strategy in ("light", "ris", "cv") and emitter_samples < 1:
+        raise ValueError(f"emitter_samples: strategy {strategy!r} needs emitter_samples >= 1, got {emitter_samples}")
+    if emitter_samples + bsdf_samples < 1:
+        raise ValueError("emitter_samples and bsdf_samples are both 0: nothing to sample")
+
+
 class DirectLighting:
     """The radiance of camera rays under one strategy (see the module docstring)."""
 
     def __init__(self, scene: Scene, strategy: str = "mis-power", light_selection: str = "uniform", *,
                  emitter_samples: int | None = None, bsdf_samples: int | None = None,
                  ris_candidates: int = 8):
-        if strategy not in STRATEGIES:
-            raise ValueError(f"strategy: unknown {strategy!r}; allowed: {', '.join(STRATEGIES)}")
-        if light_selection not in LIGHT_SELECTIONS:
-            raise ValueError(f"light_selection: unknown {light_selection!r}; allowed: "
-                             f"{', '.join(LIGHT_SELECTIONS)}")
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
+        checks.choice(strategy, "strategy", STRATEGIES)
+        checks.choice(light_selection, "light_selection", LIGHT_SELECTIONS)
         integ = scene.integrator
         n_l = check_int("emitter_samples", integ.emitter_samples if emitter_samples is None else emitter_samples, 0)
         n_b = check_int("bsdf_samples", integ.bsdf_samples if bsdf_samples is None else bsdf_samples, 0)
         m = check_int("ris_candidates", ris_candidates, 0)
-        if strategy in _BSDF_ONLY and n_b < 1:
-            raise ValueError(f"strategy {strategy!r} needs bsdf_samples >= 1")
-        if strategy in ("light", "ris", "cv") and n_l < 1:
-            raise ValueError(f"strategy {strategy!r} needs emitter_samples >= 1")
-        if n_l + n_b < 1:
-            raise ValueError("emitter_samples and bsdf_samples are both 0")
+        check_sample_counts(strategy, n_l, n_b)
         if strategy == "ris" and m < 1:
             raise ValueError(f"ris_candidates must be >= 1, got {ris_candidates!r}")
         self.strategy, self.n_l, self.n_b, self.ris_candidates = strategy, n_l, n_b, m

@@ -7,27 +7,62 @@ pixel; inside a tile pixels are processed in blocks of ``chunk_pixels``.  So the
 depends on the seed only: not on the block size, the number of worker processes or
 the order in which tiles finish (seeds per work unit, never per worker).  Memory is
 bounded by the block size (rays x uniforms) plus the image accumulators.
+
+``render`` has no process-wide side effects on the calling process: the glibc allocator
+tuning of :mod:`vrlab._alloc` is applied only in the worker processes it starts (and by
+the ``vrlab render`` command, whose process is vrlab's own).
+
+``render`` checks its arguments once per call (see its docstring); the per-ray work
+(:mod:`vrlab.render.direct`) is not checked again.
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 from concurrent.futures import ProcessPoolExecutor
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
+from .. import checks
 from .._alloc import keep_freed_memory
 from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Moments
-from ..points.base import check_int
-from .direct import DirectLighting
-from .pixel_samplers import PixelSampler
+from .direct import STRATEGIES, DirectLighting
+from .lights import LIGHT_SELECTIONS
+from .pixel_samplers import PIXEL_SAMPLERS, PixelSampler
 from .scene import Scene
+from .scene_checks import MAX_SAMPLES
 
 __all__ = ["TILE_PIXELS", "default_workers", "render"]
 
 TILE_PIXELS = 1024           # pixels per work unit (fixed: it defines the random streams)
 _RAYS_PER_CHUNK = 5 << 14    # block size budget (1024 pixels x 64 spp of mis-power: one block per tile)
+#: one pixel's block (spp x (rays + uniforms/4) per sample) may be at most 32 default blocks (~1 GB)
+MAX_PIXEL_WORK = 32 * 4 * _RAYS_PER_CHUNK
+MAX_QMC_DIMS = 1024          # uniforms per sample of the sobol/halton pixel samplers (their set's memory)
+
+
+def _as_scene(scene: Any) -> Scene:
+    """A :class:`Scene`, or one loaded from an XML path, an XML string or a built-in name."""
+    if isinstance(scene, Scene):
+        return scene.validate()
+    if not isinstance(scene, (str, os.PathLike)) or isinstance(scene, bytes):
+        raise TypeError("scene must be a vrlab.render.Scene, a path to a scene XML file or a built-in "
+                        f"scene name, got {type(scene).__name__}")
+    from .builtin import builtin_scene_path, list_builtin_scenes
+    from .loader import load_scene
+    if isinstance(scene, str) and not scene.lstrip().startswith("<") and not os.path.exists(scene):
+        stem = scene[:-4] if scene.endswith(".xml") else scene
+        if stem in list_builtin_scenes():
+            return load_scene(builtin_scene_path(stem))
+        raise ValueError(f"scene: {scene!r} is neither a scene file nor a built-in scene; built-in: "
+                         f"{', '.join(list_builtin_scenes())}")
+    return load_scene(scene)
+
+
+def _optional_int(value: Any, name: str, low: int, high: int | None = None) -> int | None:
+    return None if value is None else checks.integer(value, name, low=low, high=high)
 
 
 class _Job:
@@ -35,7 +70,6 @@ class _Job:
 
     def __init__(self, scene, spp, strategy, pixel_sampler, light_selection, chunk_pixels, root, options,
                  integrator: DirectLighting | None = None):
-        keep_freed_memory()             # reuse freed ray temporaries (see vrlab._alloc)
         self.integrator = integrator or DirectLighting(scene, strategy, light_selection, **options)
         self.spp, self.root, self.chunk = spp, root, chunk_pixels
         self.width, self.n_pixels = scene.sensor.width, scene.sensor.width * scene.sensor.height
@@ -71,14 +105,16 @@ def _init_worker(args) -> None:
 
 
 def _run_tiles(tiles: list[int]) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    keep_freed_memory()     # worker processes are vrlab's own: reuse freed ray temporaries (vrlab._alloc)
     return [_WORKER_JOB.tile(t) for t in tiles]
 
 
-def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *, rng: RNGLike = None,
-           pixel_sampler: str = "independent", chunk_pixels: int | None = None,
+def render(scene: Scene | str | os.PathLike, spp: int | None = None, strategy: str = "mis-power", *,
+           rng: RNGLike = None, pixel_sampler: str = "independent", chunk_pixels: int | None = None,
            light_selection: str = "uniform", emitter_samples: int | None = None,
-           bsdf_samples: int | None = None, ris_candidates: int = 8, workers: int = 1,
-           progress: Callable[[int, int], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
+           bsdf_samples: int | None = None, ris_candidates: int = 8, workers: int | None = 1,
+           progress: Callable[[int, int], None] | None = None, width: int | None = None,
+           height: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Render ``scene`` with direct lighting: ``(image, stderr)``, both ``(H, W, 3)`` float32.
 
     ``spp`` samples per pixel (default: the scene's sampler ``sample_count``); ``strategy``
@@ -89,16 +125,62 @@ def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *,
     after each tile.  ``stderr`` is the per-pixel standard error sqrt(s^2 / spp) (NaN
     when spp = 1), valid for the ``independent`` pixel sampler only (the others
     correlate a pixel's samples; the i.i.d. formula then overestimates).
+
+    ``scene`` may also be a path to a scene XML file, an XML string or a built-in scene
+    name (loaded with :func:`~vrlab.render.load_scene`); ``width``/``height`` override the
+    sensor's resolution; ``workers=None`` uses :func:`default_workers`.
+
+    Checked once per call: the scene (``Scene.validate()``); ``strategy``,
+    ``pixel_sampler`` and ``light_selection`` among their names; ``spp``,
+    ``chunk_pixels`` and ``workers`` (at most max(256, 4 x CPUs)) integers >= 1;
+    ``emitter_samples``, ``bsdf_samples`` and ``ris_candidates`` integers in [0, 4096]
+    (``"ris"`` needs ``ris_candidates`` >= 1); ``rng`` as in :mod:`vrlab._rng`; ``progress``
+    callable.  One pixel's block must fit :data:`MAX_PIXEL_WORK` (spp x (rays +
+    uniforms/4) per sample, about 1 GB) and the ``sobol``/``halton`` samplers at most
+    :data:`MAX_QMC_DIMS` uniforms per sample: else a ``ValueError`` naming ``spp`` /
+    ``pixel_sampler`` and the sample counts.  Errors are ``TypeError``/``ValueError``
+    naming the argument (:class:`~vrlab.render.SceneError` for a scene file).
     """
-    spp = check_int("spp", scene.sensor.spp if spp is None else spp, 1)
-    workers = check_int("workers", workers, 1)
+    scene = _as_scene(scene)
+    strategy = checks.choice(strategy, "strategy", STRATEGIES)
+    pixel_sampler = checks.choice(pixel_sampler, "pixel_sampler", PIXEL_SAMPLERS)
+    light_selection = checks.choice(light_selection, "light_selection", LIGHT_SELECTIONS)
+    spp = checks.integer(scene.sensor.spp if spp is None else spp, "spp", low=1)
+    emitter_samples = _optional_int(emitter_samples, "emitter_samples", 0, MAX_SAMPLES)
+    bsdf_samples = _optional_int(bsdf_samples, "bsdf_samples", 0, MAX_SAMPLES)
+    ris_candidates = checks.integer(ris_candidates, "ris_candidates", low=0, high=MAX_SAMPLES)
+    chunk_pixels = _optional_int(chunk_pixels, "chunk_pixels", 1)
+    limit = max(256, 4 * (os.cpu_count() or 1))
+    workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1, high=limit)
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a callable progress(done, total) or None, got {type(progress).__name__}")
+    if isinstance(rng, (bool, np.bool_)):
+        raise TypeError("rng: expected None, an int seed, a numpy SeedSequence, BitGenerator or Generator, got bool")
+    if width is not None or height is not None:
+        sensor = dataclasses.replace(scene.sensor, width=scene.sensor.width if width is None else width,
+                                     height=scene.sensor.height if height is None else height)
+        scene = dataclasses.replace(scene, sensor=sensor)
     options = dict(emitter_samples=emitter_samples, bsdf_samples=bsdf_samples, ris_candidates=ris_candidates)
     root = as_seed_sequence(rng)
     probe = DirectLighting(scene, strategy, light_selection, **options)   # validates the settings
     rays_cost = 1 + probe.n_l + probe.n_b + (probe.n_l * probe.ris_candidates if strategy == "ris" else 0)
+    work = rays_cost + probe.dims // 4
+    if spp * work > MAX_PIXEL_WORK:
+        raise ValueError(f"spp: {spp} samples per pixel x {work} (rays + uniforms/4 per sample, from "
+                         f"emitter_samples={probe.n_l}, bsdf_samples={probe.n_b}, ris_candidates="
+                         f"{probe.ris_candidates}) exceeds the per-pixel block limit {MAX_PIXEL_WORK}; "
+                         f"use spp <= {MAX_PIXEL_WORK // work}, or fewer samples per shading point")
+    if pixel_sampler in ("sobol", "halton") and probe.dims > MAX_QMC_DIMS:
+        raise ValueError(f"pixel_sampler {pixel_sampler!r} supports at most {MAX_QMC_DIMS} uniforms per "
+                         f"sample, these settings need {probe.dims} (emitter_samples={probe.n_l}, "
+                         f"bsdf_samples={probe.n_b}, ris_candidates={probe.ris_candidates}); use "
+                         "'independent' or 'stratified'")
     if chunk_pixels is None:
-        chunk_pixels = max(1, (4 * _RAYS_PER_CHUNK) // (spp * (rays_cost + probe.dims // 4)))
-    chunk_pixels = check_int("chunk_pixels", chunk_pixels, 1)
+        chunk_pixels = max(1, (4 * _RAYS_PER_CHUNK) // (spp * work))
+    elif min(chunk_pixels, TILE_PIXELS) * spp * work > MAX_PIXEL_WORK:
+        raise ValueError(f"chunk_pixels: a block of {chunk_pixels} pixels x {spp} spp x {work} (rays + "
+                         f"uniforms/4 per sample) exceeds the block limit {MAX_PIXEL_WORK}; use "
+                         f"chunk_pixels <= {MAX_PIXEL_WORK // (spp * work)} or None (automatic)")
     args = (scene, spp, strategy, pixel_sampler, light_selection, min(chunk_pixels, TILE_PIXELS), root,
             options)
     height, width = scene.sensor.height, scene.sensor.width
@@ -115,7 +197,7 @@ def render(scene: Scene, spp: int | None = None, strategy: str = "mis-power", *,
             if progress is not None:
                 progress(done, n_pixels)
 
-    workers = min(int(workers), len(tiles))
+    workers = min(workers, len(tiles))
     if workers == 1:
         job = _Job(*args, integrator=probe)
         for t in tiles:

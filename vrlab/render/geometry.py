@@ -40,6 +40,11 @@ Among equal ``t`` (coincident surfaces; in the float32 pass, t equal to about 1e
 relative) the first group (parallelograms, triangles, quadrics, disks) and then the
 lowest primitive wins (a parallelogram before a cube face).  Loops run over
 primitive groups and blocks, never over single rays.
+
+Checked: ``scene`` is a ``Scene`` and ``only`` distinct shape indices in range;
+``intersect``/``distance`` check the ray arrays' shapes (``(N, 3)`` or broadcastable
+``(..., 3)``), ``t_min`` (finite, >= 0) and ``chunk`` (integer >= 1), not the ray values
+(the renderer calls them per block): rays with NaN components miss.
 """
 from __future__ import annotations
 
@@ -48,6 +53,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .. import checks
 from .._vec import scale
 from .groups import Planar, Quadrics, parallelograms, unit
 from .scene import Scene
@@ -69,11 +75,36 @@ class Hits(NamedTuple):
 
 
 
+def _rays(origin, direction, t_min, chunk) -> tuple[np.ndarray, np.ndarray]:
+    """O(1) checks of ``intersect``'s arguments (not the values: a hot path)."""
+    o, d = np.asarray(origin), np.asarray(direction)
+    for name, a in (("origin", o), ("direction", d)):
+        if a.dtype.kind not in "fiu" or a.ndim == 0 or a.shape[-1] != 3:
+            raise ValueError(f"{name} must be real numbers of shape (N, 3), got {a.dtype} {a.shape}")
+    if o.size // 3 not in (1, d.size // 3) and d.size // 3 != 1:
+        raise ValueError(f"origin and direction hold {o.size // 3} and {d.size // 3} rays; they must match "
+                         "(or one of them be a single ray)")
+    if type(t_min) is not float or not t_min >= 0:      # fast path for the renderer's 0.0
+        checks.real(t_min, "t_min", low=0)
+    if type(chunk) is not int or chunk < 1:
+        checks.integer(chunk, "chunk", low=1)
+    return o, d
+
+
 class SceneGeometry:
     """All shapes of ``scene`` as arrays of primitives (see the module docstring), or only
     the shapes ``only`` (indices into ``scene.shapes``, which the hits report)."""
 
     def __init__(self, scene: Scene, only: Sequence[int] | None = None):
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
+        if only is not None:
+            idx = np.asarray(only)
+            if idx.ndim != 1 or (idx.size and idx.dtype.kind not in "iu"):
+                raise TypeError(f"only must be a list of shape indices (integers), got {only!r}")
+            if idx.size and (idx.min() < 0 or idx.max() >= len(scene.shapes) or len(set(idx.tolist())) < idx.size):
+                raise ValueError(f"only: shape indices must be distinct and in [0, {len(scene.shapes) - 1}], "
+                                 f"got {idx.tolist()}")
         para, tris, quad, disk, pts, boxes = [], [], [], [], [np.zeros(3)], {}
         self._n_tri = 0
         self.n_shapes = len(scene.shapes) if only is None else len(only)
@@ -131,9 +162,7 @@ class SceneGeometry:
 
         float32 rays give float32 points and normals (t is float64 either way; it and the
         normal are computed in float64 from the float32 ray), anything else float64."""
-        if not t_min >= 0:
-            raise ValueError(f"t_min must be >= 0, got {t_min!r}")
-        o, d = np.asarray(origin), np.asarray(direction)
+        o, d = _rays(origin, direction, t_min, chunk)
         dt = np.float32 if o.dtype == d.dtype == np.float32 else np.float64
         o, d = np.broadcast_arrays(o.astype(dt, copy=False).reshape(-1, 3), d.astype(dt, copy=False).reshape(-1, 3))
         n_rays = len(d)
@@ -154,12 +183,10 @@ class SceneGeometry:
         """t of the closest hit of each ray (inf on a miss), and with ``with_shape`` the
         shape hit (-1 on a miss), without the point or normal: for float32 rays the
         float32 pass's t (no finish), else ``intersect()``'s."""
-        o, d = np.asarray(origin), np.asarray(direction)
+        o, d = _rays(origin, direction, t_min, chunk)
         if not o.dtype == d.dtype == np.float32:
             h = self.intersect(o, d, t_min, chunk)
             return (h.t, h.shape) if with_shape else h.t
-        if not t_min >= 0:
-            raise ValueError(f"t_min must be >= 0, got {t_min!r}")
         o, d = np.broadcast_arrays(o.reshape(-1, 3), d.reshape(-1, 3))
         n_rays = len(d)
         t = np.full(n_rays, np.inf)

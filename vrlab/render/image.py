@@ -1,55 +1,133 @@
-"""Images: saving linear renders, tone mapping for PNG, and error metrics.
+"""Images: saving and loading linear renders, tone mapping for PNG, and error metrics.
 
-* ``.npy``: the linear float32 (H, W, 3) image, unchanged.
+* ``.npy``: the linear float32 (H, W, 3) image, unchanged (NaN kept: the standard error
+  of a 1-spp render is NaN).
 * ``.png``: clamp to [0, 1] after an exposure scale, then the sRGB transfer curve
-  (IEC 61966-2-1: 12.92 v for v <= 0.0031308, else 1.055 v^(1/2.4) - 0.055), 8 bits.
+  (IEC 61966-2-1: 12.92 v for v <= 0.0031308, else 1.055 v^(1/2.4) - 0.055), 8 bits;
+  NaN or infinite pixels are an error (they have no colour).
 * ``.exr``: through the ``OpenEXR`` package when it is installed (not a dependency).
 * ``rel_mse(img, ref) = mean((img - ref)^2 / (ref^2 + 0.01))`` (relative MSE as used in
   rendering papers, e.g. Rousselle et al. 2011).
+
+Checked: the path's type, suffix and folder (``save_image``) or existence
+(``load_image``), the image's shape ``(H, W, 3)`` with H, W >= 1 and real values,
+``exposure`` finite and > 0; errors name the argument.
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from .. import checks
+
+__all__ = ["load_image", "rel_mse", "save_image", "srgb_encode"]
+
+SUFFIXES = (".npy", ".png", ".exr")
+
+
+def _image(value: Any, name: str, finite: bool) -> np.ndarray:
+    """``value`` as a float array ``(H, W, 3)``, H, W >= 1 (finite if ``finite``)."""
+    if finite:
+        a = checks.finite_array(value, name)
+    else:
+        try:
+            a = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(f"{name} must be an array of real numbers, got {type(value).__name__}") from None
+    if a.ndim != 3 or a.shape[-1] != 3 or a.size == 0:
+        raise ValueError(f"{name}: expected an image of shape (H, W, 3) with H, W >= 1, got {a.shape}")
+    return a
+
+
+def _path(path: Any, name: str = "path") -> Path:
+    if not isinstance(path, (str, os.PathLike)) or isinstance(path, bytes):
+        raise TypeError(f"{name} must be a file path (str or os.PathLike), got {type(path).__name__}")
+    p = Path(path)
+    if p.suffix.lower() not in SUFFIXES:
+        raise ValueError(f"{name}: unknown image format {p.suffix!r} in {str(p)!r}; use .npy, .png or .exr")
+    return p
+
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:
-    """Linear values in [0, 1] to sRGB-encoded values in [0, 1]."""
-    v = np.clip(linear, 0.0, 1.0)
+    """Linear values to sRGB-encoded values in [0, 1] (clamped to [0, 1] first; NaN is an error)."""
+    v = np.asarray(linear)
+    if v.dtype.kind not in "fiub":
+        raise TypeError(f"linear must be an array of real numbers, got dtype {v.dtype}")
+    if np.isnan(v).any():
+        raise ValueError("linear: the image has NaN values (no colour to encode)")
+    v = np.clip(v.astype(float, copy=False), 0.0, 1.0)
     return np.where(v <= 0.0031308, 12.92 * v, 1.055 * np.power(v, 1 / 2.4) - 0.055)
 
 
 def rel_mse(img: np.ndarray, ref: np.ndarray) -> float:
-    """mean((img - ref)^2 / (ref^2 + 0.01)) over all pixels and channels."""
-    img, ref = np.asarray(img, float), np.asarray(ref, float)
+    """mean((img - ref)^2 / (ref^2 + 0.01)) over all pixels and channels of two finite
+    images of the same shape ``(H, W, 3)``."""
+    img, ref = _image(img, "img", True), _image(ref, "ref", True)
     if img.shape != ref.shape:
-        raise ValueError(f"reference: shape {ref.shape} differs from the image's {img.shape}")
+        raise ValueError(f"ref: shape {ref.shape} of the reference differs from the image's {img.shape}")
     return float(np.mean((img - ref) ** 2 / (ref * ref + 0.01)))
 
 
 def save_image(path: str | Path, img: np.ndarray, exposure: float = 1.0) -> Path:
-    """Save a linear (H, W, 3) image as .npy, .png (tonemapped sRGB) or .exr."""
-    path = Path(path)
-    img = np.asarray(img, dtype=np.float32)
-    if img.ndim != 3 or img.shape[-1] != 3:
-        raise ValueError(f"image: expected shape (H, W, 3), got {img.shape}")
+    """Save a linear (H, W, 3) image as .npy, .png (tonemapped sRGB) or .exr; returns the path.
+
+    ``ValueError`` for another suffix, a folder that does not exist, a wrong shape, NaN or
+    infinite pixels in a PNG, or ``exposure`` not finite and > 0."""
+    path = _path(path)
+    img = _image(img, "img", False).astype(np.float32)
+    exposure = checks.real(exposure, "exposure", low=0, low_open=True)
+    folder = path.parent
+    if not folder.is_dir():
+        raise ValueError(f"path: the folder {str(folder)!r} does not exist")
+    if path.is_dir():
+        raise ValueError(f"path: {str(path)!r} is a folder")
     suffix = path.suffix.lower()
     if suffix == ".npy":
         np.save(path, img)
     elif suffix == ".png":
+        bad = ~np.isfinite(img)
+        if bad.any():
+            i, j, c = (int(k) for k in np.argwhere(bad)[0])
+            raise ValueError(f"img: pixel ({i}, {j}) channel {c} is {img[i, j, c]} ({int(bad.sum())} "
+                             "non-finite values); a PNG cannot hold it, save as .npy")
         import matplotlib.image
 
-        matplotlib.image.imsave(path, srgb_encode(np.nan_to_num(img) * exposure))
-    elif suffix == ".exr":
+        with np.errstate(over="ignore"):
+            matplotlib.image.imsave(path, srgb_encode(img.astype(float) * exposure))
+    else:
         try:
             import OpenEXR  # type: ignore[import-not-found]
         except ImportError:
-            raise ValueError("writing .exr needs the OpenEXR package (pip install OpenEXR); "
+            raise ValueError("path: writing .exr needs the OpenEXR package (pip install OpenEXR); "
                              "use .npy for the linear image") from None
         header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
         with OpenEXR.File(header, {"RGB": img}) as f:
             f.write(str(path))
-    else:
-        raise ValueError(f"output: unknown image format {path.suffix!r}; use .npy, .png or .exr")
     return path
+
+
+def load_image(path: str | Path, name: str = "path") -> np.ndarray:
+    """A linear (H, W, 3) float image from ``.npy`` (or ``.exr`` with ``OpenEXR``), e.g. a
+    reference for :func:`rel_mse`.  ``ValueError`` naming ``name`` if the file is missing,
+    unreadable, not (H, W, 3) or not finite."""
+    p = _path(path, name)
+    if p.suffix.lower() == ".png":
+        raise ValueError(f"{name}: a .png is tone mapped; load a linear .npy or .exr image")
+    if not p.is_file():
+        raise ValueError(f"{name}: no such file {str(p)!r}")
+    try:
+        if p.suffix.lower() == ".npy":
+            data = np.load(p, allow_pickle=False)
+        else:
+            import OpenEXR  # type: ignore[import-not-found]
+
+            with OpenEXR.File(str(p)) as f:
+                data = f.channels()["RGB"].pixels
+    except ImportError:
+        raise ValueError(f"{name}: reading .exr needs the OpenEXR package (pip install OpenEXR)") from None
+    except Exception as exc:  # noqa: BLE001 - any unreadable file
+        raise ValueError(f"{name}: cannot read image {str(p)!r}: {exc}") from None
+    return _image(data, name, True)

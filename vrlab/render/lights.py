@@ -4,7 +4,9 @@
   (``SphereCone``), rectangles, cubes, disks and ellipsoids by area, converted to solid
   angle over every hit (``SolidAngleFromArea``: p_w = sum_k p_A d_k^2 / |cos theta_k|).
 * :class:`LightSet`: all lights plus the light-selection table (uniform, or by power =
-  mean radiance x area through an ``AliasTable``).  ``sample`` draws (light j, direction)
+  mean radiance x area through an ``AliasTable``).  When every emitter is black, power
+  selection has nothing to weigh: it falls back to uniform selection and the lights
+  contribute zero, as they do under any selection (a black image, as in Mitsuba).  ``sample`` draws (light j, direction)
   pairs with density P_j p_j(w); all sphere lights are sampled in one batched call, so
   scenes with hundreds of spheres cost no Python loop per light.
 * ``LightSet.cos_integral``: the closed-form unoccluded integral of cos(theta) over the
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import checks
 from .._vec import dot, norm
 from ..distributions import (
     AliasTable,
@@ -186,8 +189,9 @@ class LightSet:
     """All lights of a scene and the selection probabilities P_j (see the module docstring)."""
 
     def __init__(self, shapes: list[Shape], selection: str = "uniform"):
-        if selection not in LIGHT_SELECTIONS:
-            raise ValueError(f"light_selection: unknown {selection!r}; allowed: {', '.join(LIGHT_SELECTIONS)}")
+        checks.choice(selection, "light_selection", LIGHT_SELECTIONS)
+        if isinstance(shapes, (str, bytes)) or not all(isinstance(s, Shape) for s in shapes):
+            raise TypeError(f"shapes must be a list of vrlab.render.Shape, got {shapes!r:.60}")
         self.light_of_shape = np.full(len(shapes), -1)
         self.lights: list[Light] = []
         for k, s in enumerate(shapes):
@@ -210,6 +214,8 @@ class LightSet:
             weights = np.ones(len(self.lights))
         else:
             weights = np.array([max(l.radiance.mean(), 0.0) * l.area for l in self.lights])
+            if not weights.sum() > 0:            # every emitter is black: nothing to weigh
+                weights = np.ones(len(self.lights))
         self.selection = AliasTable(weights)
 
     def __len__(self) -> int:

@@ -16,10 +16,16 @@ direction, light choice, point on the light), so any point set can drive it:
 Every pixel's randomness is drawn in one call per block of pixels, pixel after pixel,
 so images do not depend on the block size.  The per-pixel standard error from the
 i.i.d. formula is only valid for ``independent`` (it overestimates for the others).
+
+``PixelSampler`` checks its arguments (``name`` among :data:`PIXEL_SAMPLERS`, ``spp``
+and ``d`` integers >= 1, ``gen`` a NumPy ``Generator``, ``groups`` tuples of distinct
+dimensions in [0, d)); ``draw`` checks ``npix`` (an integer >= 0).
 """
 from __future__ import annotations
 
 import numpy as np
+
+from .. import checks
 
 
 PIXEL_SAMPLERS = ("independent", "stratified", "sobol", "halton")
@@ -32,11 +38,18 @@ class PixelSampler:
     """
 
     def __init__(self, name: str, spp: int, d: int, gen: np.random.Generator, groups):
-        if name not in PIXEL_SAMPLERS:
-            raise ValueError(f"pixel_sampler: unknown {name!r}; allowed: {', '.join(PIXEL_SAMPLERS)}")
-        self.name, self.spp, self.d, self.gen = name, int(spp), int(d), gen
-        self.groups = [tuple(g) for g in groups]
+        self.name = checks.choice(name, "pixel_sampler", PIXEL_SAMPLERS)
+        self.spp, self.d = checks.integer(spp, "spp", low=1), checks.integer(d, "d", low=1)
+        if not isinstance(gen, np.random.Generator):
+            raise TypeError(f"gen must be a numpy.random.Generator, got {type(gen).__name__}")
+        self.gen = gen
+        try:
+            self.groups = [tuple(checks.integer(k, "groups", low=0, high=self.d - 1) for k in g) for g in groups]
+        except TypeError:
+            raise TypeError(f"groups must be a list of tuples of dimension indices, got {groups!r}") from None
         covered = sorted(k for g in self.groups for k in g)
+        if len(covered) != len(set(covered)) or any(len(g) == 0 for g in self.groups):
+            raise ValueError(f"groups must be non-empty tuples of distinct dimensions, got {groups!r}")
         self.singles = [k for k in range(self.d) if k not in covered]
         if name in ("sobol", "halton"):
             from ..points import Halton, Sobol         # imported on first use (import time)
@@ -54,6 +67,7 @@ class PixelSampler:
     def draw(self, npix: int, gen: np.random.Generator | None = None) -> np.ndarray:
         """Uniforms ``(npix, spp, d)`` of the next ``npix`` pixels from ``gen`` (default:
         the generator given at construction)."""
+        npix = checks.integer(npix, "npix", low=0)
         spp, d = self.spp, self.d
         gen = self.gen if gen is None else gen
         if self.name == "independent":

@@ -34,8 +34,18 @@ Supported (Mitsuba 3 conventions and defaults unless marked *vrlab*):
 * ``<emitter type="area">`` with ``radiance`` (rgb, single-value spectrum or float) only
   inside a shape.
 
-Anything else raises :class:`SceneError` naming the element (tag, type, id, line) and
-what is supported.
+Checked at load time (:mod:`vrlab.render.scene_checks` has the limits): the XML is
+well formed, every element, attribute and parameter is known and of the right kind,
+numbers are finite and in range (``fov`` in (0, 180), ``width``/``height`` >= 1,
+``sample_count`` >= 1, ``near_clip`` > 0 and < ``far_clip``, ``radius``/``radii``/
+``alpha`` > 0, colours >= 0, coordinates within +-1e8), transforms are non-singular
+(shapes affine, the sensor rigid, spheres uniformly scaled), ``$name`` parameters are
+defined and every ``params`` key is used, and ``obj`` files hold finite vertices and
+faces whose indices exist (errors name the file and line).  Anything else raises
+:class:`SceneError` naming the file, the element (tag, type, id) and its line, and what
+is supported.  The dataclasses check the same ranges when built from Python (a
+``ValueError``/``TypeError`` naming the field); ``Scene.validate()`` checks again after
+fields were changed in place (``render`` calls it once per call).
 """
 from __future__ import annotations
 
@@ -44,6 +54,7 @@ from typing import Any
 
 import numpy as np
 
+from . import scene_checks as _checks
 from . import transforms as tf
 
 __all__ = ["SceneError", "Scene", "Integrator", "Sensor", "Shape", "BSDF", "AreaEmitter"]
@@ -61,6 +72,13 @@ class Integrator:
     emitter_samples: int
     bsdf_samples: int
 
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Check the fields: ``type`` 'direct', sample counts integers in [0, 4096], not both 0."""
+        _checks.check_integrator(self)
+
 
 @dataclass
 class Sensor:
@@ -72,6 +90,13 @@ class Sensor:
     height: int
     spp: int
     rfilter: str = "box"
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Check the fields (ranges in :mod:`vrlab.render.scene_checks`)."""
+        _checks.check_sensor(self)
 
     @property
     def aspect(self) -> float:
@@ -111,11 +136,26 @@ class BSDF:
     params: dict[str, Any]
     twosided: bool = False
 
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Check ``type``, the parameter names and values (missing ones get Mitsuba's
+        defaults; colours become ``(3,)`` arrays)."""
+        _checks.check_bsdf(self)
+
 
 @dataclass
 class AreaEmitter:
     """Diffuse area light with constant ``radiance`` (rgb, shape (3,))."""
     radiance: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """``radiance``: one number or RGB, finite, >= 0 (stored as ``(3,)``)."""
+        _checks.check_emitter(self)
 
 
 @dataclass
@@ -127,6 +167,21 @@ class Shape:
     emitter: AreaEmitter | None = None
     flip_normals: bool = False
     params: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Check the type, ``to_world`` (finite, affine, non-singular), the BSDF and emitter,
+        and an ``obj`` mesh's ``params['vertices']``/``params['faces']``."""
+        _checks.check_shape(self)
+        for name in ("bsdf", "emitter"):
+            obj = getattr(self, name)
+            if obj is not None:
+                try:
+                    obj.validate()
+                except (TypeError, ValueError) as exc:
+                    raise type(exc)(f"{name}: {exc}") from None
 
     @property
     def center(self) -> np.ndarray:
@@ -191,7 +246,15 @@ class Scene:
     integrator: Integrator
     sensor: Sensor
     shapes: list[Shape]
-    source: str
+    source: str = "<python>"
+
+    def __post_init__(self) -> None:
+        _checks.check_scene(self, deep=False)
+
+    def validate(self) -> Scene:
+        """Check every object of the scene again (after changes in place); returns it."""
+        _checks.check_scene(self)
+        return self
 
     @property
     def emitters(self) -> list[Shape]:

@@ -9,6 +9,11 @@ origin)``, ``left = normalize(cross(up, dir))``, ``new_up = cross(dir, left)`` a
 matrix columns are ``(left, new_up, dir, origin)``.  A camera therefore looks along its
 local +z, with +y up and local +x pointing to the *left* of the image (the image x axis
 grows towards local -x).  The frame is right-handed (``left x new_up = dir``).
+
+The builders check their arguments (``TypeError``/``ValueError`` naming them: numbers
+finite, vectors of 3, ``matrix`` 16 or 9 numbers, look_at's origin != target and up
+not parallel to the view); ``transform_*`` check that ``m`` is a finite 4x4 matrix and
+the points or vectors have shape ``(..., 3)``.
 """
 from __future__ import annotations
 
@@ -16,15 +21,31 @@ from typing import Sequence
 
 import numpy as np
 
+from .. import checks
+
 __all__ = ["translate", "scale", "rotate", "look_at", "matrix", "compose",
            "transform_points", "transform_vectors", "transform_normals"]
 
 
 def _vec3(v: Sequence[float] | np.ndarray, name: str) -> np.ndarray:
-    a = np.asarray(v, dtype=float).reshape(-1)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
+    a = checks.finite_array(v, name).reshape(-1)
+    if a.shape != (3,):
         raise ValueError(f"{name} must be 3 finite numbers, got {v!r}")
     return a
+
+
+def _matrix(m, name: str = "m") -> np.ndarray:
+    m = checks.finite_array(m, name)
+    if m.shape != (4, 4):
+        raise ValueError(f"{name} must be a 4x4 matrix, got shape {m.shape}")
+    return m
+
+
+def _vectors(p, name: str) -> np.ndarray:
+    p = np.asarray(p)
+    if p.dtype.kind not in "fiu" or p.ndim == 0 or p.shape[-1] != 3:
+        raise ValueError(f"{name} must be real numbers of shape (..., 3), got {p.dtype} {p.shape}")
+    return p.astype(float, copy=False)
 
 
 def translate(v: Sequence[float]) -> np.ndarray:
@@ -36,7 +57,7 @@ def translate(v: Sequence[float]) -> np.ndarray:
 
 def scale(s: float | Sequence[float]) -> np.ndarray:
     """Scale, uniform (one number) or per axis (three numbers)."""
-    a = np.asarray(s, dtype=float).reshape(-1)
+    a = checks.finite_array(s, "scale").reshape(-1)
     if a.size == 1:
         a = np.repeat(a, 3)
     a = _vec3(a, "scale")
@@ -50,7 +71,7 @@ def rotate(axis: Sequence[float], angle: float) -> np.ndarray:
     if nk == 0:
         raise ValueError("rotate axis must be non-zero")
     k = k / nk
-    t = np.deg2rad(float(angle))
+    t = np.deg2rad(checks.real(angle, "angle"))
     c, s = np.cos(t), np.sin(t)
     kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     m = np.eye(4)
@@ -77,29 +98,27 @@ def look_at(origin: Sequence[float], target: Sequence[float], up: Sequence[float
 
 def matrix(values: Sequence[float]) -> np.ndarray:
     """Matrix from 16 numbers in row-major order (or 9 for a 3x3 linear part)."""
-    a = np.asarray(values, dtype=float).reshape(-1)
-    if not np.all(np.isfinite(a)):
-        raise ValueError("matrix entries must be finite")
+    a = checks.finite_array(values, "values").reshape(-1)
     if a.size == 16:
         return a.reshape(4, 4).copy()
     if a.size == 9:
         m = np.eye(4)
         m[:3, :3] = a.reshape(3, 3)
         return m
-    raise ValueError(f"matrix needs 16 (or 9) numbers, got {a.size}")
+    raise ValueError(f"values: matrix needs 16 (or 9) numbers, got {a.size}")
 
 
 def compose(*ops: np.ndarray) -> np.ndarray:
     """Apply ``ops`` in order: ``compose(A, B) = B @ A`` (Mitsuba's left-multiplication)."""
     m = np.eye(4)
-    for op in ops:
-        m = np.asarray(op, float) @ m
+    for k, op in enumerate(ops):
+        m = _matrix(op, f"ops[{k}]") @ m
     return m
 
 
 def transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Transform points of shape ``(..., 3)`` (with the perspective divide)."""
-    p = np.asarray(p, dtype=float)
+    m, p = _matrix(m), _vectors(p, "p")
     q = p @ m[:3, :3].T + m[:3, 3]
     w = p @ m[3, :3] + m[3, 3]
     return q if np.all(w == 1.0) else q / w[..., None]
@@ -107,10 +126,12 @@ def transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 def transform_vectors(m: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Transform direction vectors of shape ``(..., 3)`` (linear part only)."""
-    return np.asarray(v, dtype=float) @ m[:3, :3].T
+    return _vectors(v, "v") @ _matrix(m)[:3, :3].T
 
 
 def transform_normals(m: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Transform normals of shape ``(..., 3)`` by the inverse transpose (not normalised)."""
-    inv = np.linalg.inv(m[:3, :3])
-    return np.asarray(n, dtype=float) @ inv
+    m = _matrix(m)
+    if not abs(np.linalg.det(m[:3, :3])) > 0:
+        raise ValueError("m: the linear part is singular, normals have no transform")
+    return _vectors(n, "n") @ np.linalg.inv(m[:3, :3])

@@ -22,9 +22,11 @@ _VAR = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*)")
 
 
 class _Ctx:
-    def __init__(self, lines: dict[int, int], parents: dict[int, ET.Element], base: Path):
-        self.lines, self.parents, self.base = lines, parents, base
+    def __init__(self, lines: dict[int, int], parents: dict[int, ET.Element], base: Path,
+                 source: str = "<string>"):
+        self.lines, self.parents, self.base, self.source = lines, parents, base, source
         self.vars: dict[str, str] = {}
+        self.overridden: set[str] = set()     # names set through load_scene(params=...)
         self.bsdfs: dict[str, BSDF] = {}
 
     def describe(self, el: ET.Element) -> str:
@@ -35,13 +37,23 @@ class _Ctx:
             e = self.parents.get(id(e))
         line = self.lines.get(id(el))
         where = f" at line {line}" if line is not None else ""
-        return f"<{el.tag}{attrs}>{where} (in {'/'.join(reversed(path))})"
+        return f"<{el.tag}{attrs}>{where} of {self.source} (in {'/'.join(reversed(path))})"
 
-    def error(self, el: ET.Element, msg: str, supported: Any = None) -> SceneError:
+    def error(self, el: ET.Element, msg: str, supported: Any = None,
+              scope: ET.Element | None = None) -> SceneError:
+        """A :class:`SceneError` naming the file, the element and its line, the ``$name``
+        parameters used in it (or in ``scope``, the plugin it belongs to, with their values)
+        and what is supported."""
         text = f"{self.describe(el)}: {msg}"
         if supported is not None:
             items = supported if isinstance(supported, str) else ", ".join(supported)
             text += f"; supported: {items}"
+        used = sorted({m for e in (scope if scope is not None else el).iter() for v in e.attrib.values()
+                       for m in _VAR.findall(v) if m in self.vars})
+        if used:
+            notes = [f"${n} = {self.vars[n]!r}" + (" (from params)" if n in self.overridden else "")
+                     for n in used]
+            text += f" [parameters used here: {', '.join(notes)}]"
         return SceneError(text)
 
     def attr(self, el: ET.Element, key: str, required: bool = True) -> str | None:
@@ -75,7 +87,7 @@ class _Ctx:
             raise self.error(el, f"unknown attribute(s) {', '.join(extra)}", allowed)
 
 
-def _parse_xml(text: str) -> tuple[ET.Element, dict[int, int], dict[int, ET.Element]]:
+def _parse_xml(text: str, source: str = "<string>") -> tuple[ET.Element, dict[int, int], dict[int, ET.Element]]:
     """Build an ElementTree with expat, recording each element's line number."""
     lines: dict[int, int] = {}
     builder = ET.TreeBuilder()
@@ -90,7 +102,7 @@ def _parse_xml(text: str) -> tuple[ET.Element, dict[int, int], dict[int, ET.Elem
         parser.Parse(text, True)
         root = builder.close()
     except (expat.ExpatError, AssertionError) as exc:
-        raise SceneError(f"not a well-formed XML scene: {exc}") from None
+        raise SceneError(f"{source}: not a well-formed XML scene: {exc}") from None
     parents = {id(c): p for p in root.iter() for c in p}
     return root, lines, parents
 
@@ -143,10 +155,9 @@ class _Props:
             return default
         self.ctx.check_attrs(c, ("name", "value"))
         text = self.ctx.attr(c, "value")
-        try:
-            return int(text.strip())
-        except ValueError:
-            raise self.ctx.error(c, f"value={text!r} is not an integer") from None
+        if not re.fullmatch(r"\s*[+-]?\d+\s*", text):
+            raise self.ctx.error(c, f"'{name}': value={text!r} is not an integer")
+        return int(text)
 
     def bool(self, name: str, default: bool) -> bool:
         c = self.props.get(name)
@@ -155,7 +166,7 @@ class _Props:
         self.ctx.check_attrs(c, ("name", "value"))
         text = self.ctx.attr(c, "value").strip().lower()
         if text not in ("true", "false"):
-            raise self.ctx.error(c, f"value={text!r} is not a boolean", ["true", "false"])
+            raise self.ctx.error(c, f"'{name}': value={text!r} is not a boolean", ["true", "false"])
         return text == "true"
 
     def string(self, name: str, default: str | None, choices: tuple[str, ...] | None = None) -> str:
@@ -180,7 +191,7 @@ class _Props:
         counts = {"rgb": (1, 3), "spectrum": (1,), "float": (1,)}[c.tag]
         v = self.ctx.numbers(c, "value", counts)
         if np.any(v < 0):
-            raise self.ctx.error(c, f"'{name}' must be non-negative")
+            raise self.ctx.error(c, f"'{name}' must be non-negative, got {self.ctx.attr(c, 'value')!r}")
         return np.broadcast_to(v, (3,)).astype(float)
 
     def vector(self, name: str, default: tuple[float, float, float]) -> np.ndarray:
@@ -238,5 +249,5 @@ def _parse_transform(ctx: _Ctx, el: ET.Element) -> np.ndarray:
             raise ctx.error(c, str(exc)) from None
         m = op @ m
     if abs(np.linalg.det(m[:3, :3])) < 1e-300:
-        raise ctx.error(el, "transform is singular")
+        raise ctx.error(el, f"the transform '{el.get('name')}' is singular (a zero scale?)")
     return m

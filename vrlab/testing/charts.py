@@ -5,12 +5,39 @@ gives ``jacobian(s)``: the domain measure (length, area, solid angle) per unit o
 parameter volume.  The chi-square harness histograms ``to_param(x)`` on a regular
 grid and integrates ``pdf(from_param(s)) * jacobian(s)`` over each cell, so one
 harness serves intervals, boxes, disks, spheres, caps and light surfaces.
+
+Constructors check their arguments (finite numbers, positive sizes, non-degenerate
+shapes; errors name the argument).  ``to_param(x)`` checks that ``x`` holds real numbers of
+shape ``(..., dim_x)`` (NaN rows are allowed: the harness counts them as off the chart);
+``from_param`` and ``jacobian`` are the harness's inner loop and take its grid unchecked.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .. import checks
 from ..distributions.base import as_points
+
+#: Relative size below which a shape counts as degenerate (sine of the angle between edges).
+DEGENERATE = 1e-9
+
+
+def _points(x, k: int) -> np.ndarray:
+    """``x`` as points ``(..., k)``: ``TypeError`` naming ``x`` unless it holds real numbers."""
+    a = np.asarray(x)
+    if a.dtype.kind not in "biuf":
+        raise TypeError(f"x must be an array of real numbers, got {checks.describe(x)}")
+    return as_points(a, k)
+
+
+def _vector(value, name: str, size: int | tuple[int, ...]) -> np.ndarray:
+    """A finite float vector of length ``size`` (or one of the lengths in a tuple)."""
+    sizes = (size,) if isinstance(size, int) else size
+    v = checks.finite_array(value, name)
+    if v.ndim != 1 or len(v) not in sizes:
+        want = " or ".join(str(k) for k in sizes)
+        raise ValueError(f"{name} must be a vector of {want} numbers, got shape {v.shape}")
+    return v
 
 
 class Chart:
@@ -30,17 +57,24 @@ class Chart:
 
 
 class BoxChart(Chart):
-    """Axis-aligned box ``[(a1, b1), ...]`` (1 or 2 dims), x = a + (b - a) s."""
+    """Axis-aligned box ``[(a1, b1), ...]`` (1 or 2 dims), x = a + (b - a) s.
+
+    ``bounds``: finite numbers, one or two pairs ``(a, b)`` with ``a < b``.
+    """
 
     def __init__(self, bounds):
-        b = np.asarray(bounds, dtype=float).reshape(-1, 2)
+        b = checks.finite_array(bounds, "bounds")
+        if b.size not in (2, 4) or b.ndim > 2 or (b.ndim == 2 and b.shape[1] != 2):
+            raise ValueError(f"bounds must be [(a, b)] or [(a1, b1), (a2, b2)] (a chart has 1 or 2 "
+                             f"parameters), got shape {b.shape}")
+        b = b.reshape(-1, 2)
         if not np.all(b[:, 1] > b[:, 0]):
-            raise ValueError(f"bounds must satisfy a < b, got {bounds}")
+            raise ValueError(f"bounds must satisfy a < b, got {b.tolist()}")
         self.lo, self.hi = b[:, 0], b[:, 1]
         self.p = self.dim_x = len(b)
 
     def to_param(self, x):
-        return (as_points(x, self.dim_x) - self.lo) / (self.hi - self.lo)
+        return (_points(x, self.dim_x) - self.lo) / (self.hi - self.lo)
 
     def from_param(self, s):
         return self.lo + (self.hi - self.lo) * s
@@ -50,18 +84,21 @@ class BoxChart(Chart):
 
 
 def IntervalChart(a: float, b: float) -> BoxChart:
-    """The interval [a, b] (points of shape (..., 1))."""
+    """The interval [a, b] (points of shape (..., 1)); ``a < b`` finite."""
+    a, b = checks.real(a, "a"), checks.real(b, "b")
+    if not b > a:
+        raise ValueError(f"a, b: need a < b, got a = {a:g}, b = {b:g}")
     return BoxChart([(a, b)])
 
 
 class HalfLineChart(Chart):
-    """[0, inf) with x = -scale * log(1 - s), so cells are equal-mass for Exp(1/scale)."""
+    """[0, inf) with x = -scale * log(1 - s), so cells are equal-mass for Exp(1/scale); ``scale > 0``."""
 
     def __init__(self, scale: float = 1.0):
-        self.scale = float(scale)
+        self.scale = checks.real(scale, "scale", low=0.0, low_open=True)
 
     def to_param(self, x):
-        return -np.expm1(-as_points(x, 1) / self.scale)
+        return -np.expm1(-_points(x, 1) / self.scale)
 
     def from_param(self, s):
         return -self.scale * np.log1p(-s)
@@ -71,16 +108,19 @@ class HalfLineChart(Chart):
 
 
 class DiskChart(Chart):
-    """Disk of radius R about c with s = (r/R)^2, t = phi / 2pi (equal-area cells)."""
+    """Disk of radius R about c with s = (r/R)^2, t = phi / 2pi (equal-area cells).
+
+    ``radius > 0``; ``center``: 2 finite numbers.
+    """
 
     p = dim_x = 2
 
     def __init__(self, radius: float = 1.0, center=(0.0, 0.0)):
-        self.radius = float(radius)
-        self.center = np.asarray(center, dtype=float)
+        self.radius = checks.real(radius, "radius", low=0.0, low_open=True)
+        self.center = _vector(center, "center", 2)
 
     def to_param(self, x):
-        d = as_points(x, 2) - self.center
+        d = _points(x, 2) - self.center
         r2 = np.sum(d * d, -1) / self.radius**2
         t = np.mod(np.arctan2(d[..., 1], d[..., 0]) / (2 * np.pi), 1.0)
         return np.stack([r2, t], -1)
@@ -102,25 +142,28 @@ class TriangleChart(Chart):
     depends on the CPU's BLAS kernel).  At vertex a the square collapses and t is
     undefined: within ``VERTEX_TOL`` of it (1 - s <= VERTEX_TOL), where rounding of order
     1e-16 in the barycentrics makes t = b1 / (1 - s) meaningless, t is clipped to [0, 1].
+    ``a, b, c``: finite 2D or 3D points of one dimension, not collinear (``ValueError``).
     """
 
     p = 2
     VERTEX_TOL = 1e-9
 
     def __init__(self, a, b, c):
-        self.v = np.stack([np.asarray(a, float), np.asarray(b, float), np.asarray(c, float)])
+        va = _vector(a, "a", (2, 3))
+        vb, vc = _vector(b, "b", len(va)), _vector(c, "c", len(va))
+        self.v = np.stack([va, vb, vc])
         self.dim_x = self.v.shape[1]
         e = np.stack([self.v[0] - self.v[2], self.v[1] - self.v[2]])
         self.e = e
         self._gram = (float(e[0] @ e[0]), float(e[0] @ e[1]), float(e[1] @ e[1]))
         g00, g01, g11 = self._gram
         self._det = g00 * g11 - g01 * g01
-        if not self._det > 0:
-            raise ValueError("a, b, c: the triangle is degenerate (zero area)")
+        if not self._det > DEGENERATE**2 * g00 * g11:
+            raise ValueError("a, b, c: the triangle is degenerate (zero area: coincident or collinear vertices)")
         self.area = 0.5 * float(np.sqrt(self._det))
 
     def to_param(self, x):
-        d = as_points(x, self.dim_x) - self.v[2]
+        d = _points(x, self.dim_x) - self.v[2]
         r0 = sum(d[..., k] * self.e[0, k] for k in range(self.dim_x))
         r1 = sum(d[..., k] * self.e[1, k] for k in range(self.dim_x))
         g00, g01, g11 = self._gram
@@ -146,17 +189,17 @@ class CapChart(Chart):
     ``z_min = -1`` is the whole sphere, ``0`` the hemisphere; ``power = 2`` makes
     ``s`` roughly proportional to the polar angle, which resolves peaked lobes.
     Jacobian (solid angle per unit parameter area): 2 pi (1 - z_min) power s^(power-1).
+    Checked: ``z_min`` in [-1, 1), ``power > 0``.
     """
 
     p, dim_x = 2, 3
 
     def __init__(self, z_min: float = 0.0, power: float = 1.0):
-        if not -1.0 <= z_min < 1.0:
-            raise ValueError(f"z_min must be in [-1, 1), got {z_min}")
-        self.z_min, self.power = float(z_min), float(power)
+        self.z_min = checks.real(z_min, "z_min", low=-1.0, high=1.0, high_open=True)
+        self.power = checks.real(power, "power", low=0.0, low_open=True)
 
     def to_param(self, x):
-        w = as_points(x, 3)
+        w = _points(x, 3)
         h = np.clip((1.0 - w[..., 2]) / (1.0 - self.z_min), 0.0, None)
         t = np.mod(np.arctan2(w[..., 1], w[..., 0]) / (2 * np.pi), 1.0)
         return np.stack([h ** (1.0 / self.power), t], -1)
@@ -182,21 +225,25 @@ def HemisphereChart(power: float = 1.0) -> CapChart:
 
 
 class ParallelogramChart(Chart):
-    """Planar parallelogram in 3D: x = corner + s e1 + t e2, area element |e1 x e2|."""
+    """Planar parallelogram in 3D: x = corner + s e1 + t e2, area element |e1 x e2|.
+
+    ``corner``, ``edge1``, ``edge2``: 3 finite numbers each; the edges must span an area.
+    """
 
     p, dim_x = 2, 3
 
     def __init__(self, corner, edge1, edge2):
-        self.corner = np.asarray(corner, dtype=float)
-        self.e = np.stack([np.asarray(edge1, float), np.asarray(edge2, float)])
+        self.corner = _vector(corner, "corner", 3)
+        self.e = np.stack([_vector(edge1, "edge1", 3), _vector(edge2, "edge2", 3)])
         self.area = float(np.linalg.norm(np.cross(self.e[0], self.e[1])))
-        if self.area == 0:
-            raise ValueError("edges must not be parallel")
+        if not self.area > DEGENERATE * np.linalg.norm(self.e[0]) * np.linalg.norm(self.e[1]):
+            raise ValueError("edge1, edge2: the parallelogram is degenerate (an edge is zero or the edges are "
+                             "parallel)")
         self.normal = np.cross(self.e[0], self.e[1]) / self.area
         self._dual = np.linalg.pinv(self.e)  # (3, 2): x @ dual gives (s, t)
 
     def to_param(self, x):
-        return (as_points(x, 3) - self.corner) @ self._dual
+        return (_points(x, 3) - self.corner) @ self._dual
 
     def from_param(self, s):
         return self.corner + s @ self.e
@@ -205,7 +252,7 @@ class ParallelogramChart(Chart):
         return np.full(s.shape[:-1], self.area)
 
     def contains(self, x, tol: float = 1e-9):
-        d = as_points(x, 3) - self.corner
+        d = _points(x, 3) - self.corner
         s = d @ self._dual
         off = np.abs(d @ self.normal)
         scale = np.sqrt(self.area)
@@ -216,20 +263,21 @@ class EllipsoidChart(Chart):
     """Ellipsoid x = c + M d, d on the unit sphere (chart of ``SphereChart``).
 
     Area element: dA = |det M| * ||M^-T d|| * d(omega) (the Jacobian of a linear map
-    restricted to the tangent plane of the unit sphere, normal d).
+    restricted to the tangent plane of the unit sphere, normal d).  ``center``: 3 finite
+    numbers; ``matrix``: a finite non-singular 3x3 matrix.
     """
 
     p, dim_x = 2, 3
 
     def __init__(self, center, matrix):
-        self.center = np.asarray(center, dtype=float)
-        self.M = np.asarray(matrix, dtype=float)
+        self.center = _vector(center, "center", 3)
+        self.M = _matrix3(matrix, "matrix")
         self.Minv = np.linalg.inv(self.M)
         self.det = abs(np.linalg.det(self.M))
         self.sphere = SphereChart()
 
     def to_param(self, x):
-        d = (as_points(x, 3) - self.center) @ self.Minv.T
+        d = (_points(x, 3) - self.center) @ self.Minv.T
         d = d / np.linalg.norm(d, axis=-1, keepdims=True)
         return self.sphere.to_param(d)
 
@@ -241,21 +289,43 @@ class EllipsoidChart(Chart):
         return self.sphere.jacobian(s) * self.det * np.linalg.norm(d @ self.Minv, axis=-1)
 
 
+def _matrix3(value, name: str) -> np.ndarray:
+    """A finite, non-singular 3x3 matrix."""
+    m = checks.finite_array(value, name)
+    if m.shape != (3, 3):
+        raise ValueError(f"{name} must be a 3x3 matrix, got shape {m.shape}")
+    if not abs(np.linalg.det(m)) > DEGENERATE * np.prod(np.linalg.norm(m, axis=1)):
+        raise ValueError(f"{name} must be non-singular (a degenerate 3x3 matrix was given)")
+    return m
+
+
 class AtlasChart(Chart):
     """Several 2-parameter charts side by side: chart k owns s in [k/K, (k+1)/K).
 
     Charts must provide ``contains(x)``; a point goes to the first chart containing it
-    (points on shared edges have measure zero).
+    (points on shared edges have measure zero).  ``charts``: a non-empty list of such
+    charts, all with the same point dimension.
     """
 
     p = 2
 
     def __init__(self, charts):
+        if isinstance(charts, (str, Chart)) or not hasattr(charts, "__iter__"):
+            raise TypeError(f"charts must be a list of charts, got {checks.describe(charts)}")
         self.charts = list(charts)
+        if not self.charts:
+            raise ValueError("charts: give at least one chart")
+        for k, c in enumerate(self.charts):
+            if not callable(getattr(c, "contains", None)) or getattr(c, "p", None) != 2:
+                raise TypeError(f"charts[{k}]: needs a 2-parameter chart with contains(x) "
+                                f"(e.g. ParallelogramChart), got {checks.describe(c)}")
+        dims = {c.dim_x for c in self.charts}
+        if len(dims) > 1:
+            raise ValueError(f"charts: all charts must have the same point dimension, got {sorted(dims)}")
         self.dim_x = self.charts[0].dim_x
 
     def to_param(self, x):
-        x = as_points(x, self.dim_x)
+        x = _points(x, self.dim_x)
         K = len(self.charts)
         out = np.full(x.shape[:-1] + (2,), np.nan)
         todo = np.ones(x.shape[:-1], bool)
@@ -290,10 +360,19 @@ class AtlasChart(Chart):
 
 
 def box_surface_chart(center, half_extents, rotation=None) -> AtlasChart:
-    """The six faces of an oriented box as an atlas of parallelograms."""
-    c = np.asarray(center, float)
-    h = np.asarray(half_extents, float) * np.ones(3)
-    R = np.eye(3) if rotation is None else np.asarray(rotation, float)
+    """The six faces of an oriented box as an atlas of parallelograms.
+
+    ``center``: 3 numbers; ``half_extents``: one or 3 positive numbers; ``rotation``: a
+    non-singular 3x3 matrix (default identity).
+    """
+    c = _vector(center, "center", 3)
+    h = checks.finite_array(half_extents, "half_extents")
+    if h.ndim > 1 or h.size not in (1, 3):
+        raise ValueError(f"half_extents must be one number or 3 numbers, got shape {h.shape}")
+    if not np.all(h > 0):
+        raise ValueError(f"half_extents must be > 0, got {h.tolist()}")
+    h = h * np.ones(3)
+    R = np.eye(3) if rotation is None else _matrix3(rotation, "rotation")
     charts = []
     for axis in range(3):
         i, j = [a for a in range(3) if a != axis]

@@ -15,6 +15,11 @@ Expected counts are *not* renormalised, so a pdf with the wrong constant fails.
 Samples landing in cells whose expected count is zero fail immediately (the
 sampler produces points where its pdf says it cannot).  Several tests at once
 use a Šidák correction: reject when p < 1 - (1 - alpha)^(1/m).
+
+Every entry point checks its arguments (``TypeError``/``ValueError`` naming them): ``n``
+and bin counts are integers >= 1, ``alpha`` lies in (0, 1), ``min_expected > 0``, and a
+test needs at least 2 pooled cells (else too few samples for any verdict).  A sampler
+that returns NaN/inf or points off the chart fails (p = 0) with a message counting them.
 """
 from __future__ import annotations
 
@@ -24,13 +29,15 @@ from typing import Callable, Iterable, Sequence
 import numpy as np
 from scipy import stats
 
-from .._rng import as_generator
+from .. import checks
+from ._args import (MAX_SAMPLES, bins_tuple, chart_like, check_nodes, draw_uniforms, quad_orders,
+                    real_values, sample_points, text)
 from .charts import Chart
 
 
 @dataclass
 class GofResult:
-    """Outcome of one goodness-of-fit test."""
+    """Outcome of one goodness-of-fit test (fields checked on construction)."""
 
     name: str
     statistic: float
@@ -40,6 +47,19 @@ class GofResult:
     expected_total: float
     outside: int = 0
     worst: list = field(default_factory=list)  # [(cell, observed, expected)], largest contributions
+    nonfinite: int = 0  # samples that were NaN or infinite (also counted in ``outside``)
+
+    def __post_init__(self):
+        self.name = text(self.name, "name")
+        self.statistic = checks.real(self.statistic, "statistic", low=0.0, finite=False)
+        self.dof = checks.integer(self.dof, "dof", low=1)
+        self.pvalue = checks.real(self.pvalue, "pvalue", low=0.0, high=1.0)
+        self.n = checks.integer(self.n, "n", low=0)
+        self.expected_total = checks.real(self.expected_total, "expected_total", low=0.0)
+        self.outside = checks.integer(self.outside, "outside", low=0)
+        self.nonfinite = checks.integer(self.nonfinite, "nonfinite", low=0)
+        if not isinstance(self.worst, list):
+            raise TypeError(f"worst must be a list of (cell, observed, expected), got {type(self.worst).__name__}")
 
     def message(self) -> str:
         lines = [
@@ -48,6 +68,8 @@ class GofResult:
         ]
         if self.outside:
             lines.append(f"  {self.outside} samples fell where the pdf integrates to zero or outside the domain")
+        if self.nonfinite:
+            lines.append(f"  ({self.nonfinite} of them were NaN or infinite)")
         for cell, o, e in self.worst:
             lines.append(f"  cell {cell}: observed {o}, expected {e:.1f}")
         return "\n".join(lines)
@@ -56,9 +78,25 @@ class GofResult:
         return self.message()
 
 
+class _TooFewCells(ValueError):
+    """Fewer than 2 pooled cells: no test (callers rephrase it with their argument names)."""
+
+    def __init__(self, pools: int, total: float, min_expected: float):
+        self.pools, self.total = pools, total
+        super().__init__(f"expected, min_expected: the expected counts (total {total:.3g}) pool into {pools} "
+                         f"cell(s) of at least min_expected = {min_expected:g}; a chi-square test needs at "
+                         "least 2 (more samples n, or a lower min_expected)")
+
+
+def _alpha(alpha) -> float:
+    return checks.real(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
+
+
 def sidak_threshold(alpha: float, m: int) -> float:
-    """Per-test level that keeps the family-wise error rate at ``alpha`` over ``m`` tests."""
-    return 1.0 - (1.0 - alpha) ** (1.0 / max(int(m), 1))
+    """Per-test level that keeps the family-wise error rate at ``alpha`` (in (0, 1)) over
+    ``m >= 1`` tests."""
+    alpha, m = _alpha(alpha), checks.integer(m, "m", low=1)
+    return 1.0 - (1.0 - alpha) ** (1.0 / m)
 
 
 def pooled_chi2(observed: np.ndarray, expected: np.ndarray, min_expected: float = 5.0,
@@ -67,14 +105,24 @@ def pooled_chi2(observed: np.ndarray, expected: np.ndarray, min_expected: float 
 
     Cells are sorted by expected count; consecutive small cells are merged until
     each pooled cell expects at least ``min_expected``.  Samples in cells with
-    zero expectation make the test fail outright (p = 0).
+    zero expectation make the test fail outright (p = 0).  Checked: ``observed`` and
+    ``expected`` finite, >= 0, of one size; ``min_expected > 0``; at least 2 pooled cells
+    unless only one cell has a non-zero expectation (``ValueError``: too few samples).
     """
-    obs = np.asarray(observed, dtype=float).ravel()
-    exp = np.asarray(expected, dtype=float).ravel()
+    obs = checks.finite_array(observed, "observed").ravel()
+    exp = checks.finite_array(expected, "expected").ravel()
     if obs.shape != exp.shape:
         raise ValueError(f"observed and expected differ in size: {obs.shape} vs {exp.shape}")
-    if np.any(exp < 0) or not np.all(np.isfinite(exp)):
+    if obs.size == 0:
+        raise ValueError("observed, expected: no cells (empty arrays)")
+    if np.any(obs < 0):
+        raise ValueError(f"observed: counts must be >= 0, got {obs[obs < 0][0]:g}")
+    if np.any(exp < 0):
         raise ValueError("expected counts must be finite and >= 0 (check the pdf for negatives/NaN)")
+    min_expected = checks.real(min_expected, "min_expected", low=0.0, low_open=True)
+    name = text(name, "name")
+    if cells is not None and (not hasattr(cells, "__len__") or len(cells) != obs.size):
+        raise ValueError(f"cells: need one label per cell ({obs.size}), got {checks.describe(cells)}")
     n = int(obs.sum())
     zero = exp <= 1e-12 * max(exp.sum(), 1.0)
     outside = int(obs[zero].sum())
@@ -84,6 +132,8 @@ def pooled_chi2(observed: np.ndarray, expected: np.ndarray, min_expected: float 
     groups = _pool_groups(e_sorted, min_expected)
     e_pool = np.bincount(groups, e_sorted, minlength=groups.max(initial=-1) + 1)
     o_pool = np.bincount(groups, o_sorted, minlength=groups.max(initial=-1) + 1)
+    if len(e_pool) < 2 and len(e_sorted) != 1:   # several cells merged into one: too few samples
+        raise _TooFewCells(len(e_pool), float(exp.sum()), min_expected)
     contrib = (o_pool - e_pool) ** 2 / e_pool
     stat = float(contrib.sum())
     dof = max(len(e_pool) - 1, 1)
@@ -133,13 +183,22 @@ def cell_integrals(fn: Callable[[np.ndarray], np.ndarray], chart: Chart, bins: S
                    quad: int = 6, sub: int = 1) -> np.ndarray:
     """Integral of ``fn(x)`` (x = chart point) over each cell of a ``bins`` grid.
 
-    Returns an array of shape ``bins``.  ``fn`` must be vectorised over leading axes.
+    Returns an array of shape ``bins``.  ``fn`` must be vectorised over leading axes
+    and return one real value per point (NaN is refused; +-inf gives an infinite cell).
     ``sub > 1`` splits each cell per axis (for densities with edges or kinks inside cells,
-    e.g. the solid-angle density of a polygon light at its outline).
+    e.g. the solid-angle density of a polygon light at its outline).  ``bins``: one
+    integer >= 1 per chart parameter (or one for all); at most ``2**24`` nodes in all.
     """
-    bins = tuple(int(b) for b in np.atleast_1d(bins))
-    if len(bins) != chart.p:
-        raise ValueError(f"bins: the chart has {chart.p} parameters, got {len(bins)} bin counts")
+    if not callable(fn):
+        raise TypeError(f"fn must be callable (x -> values), got {checks.describe(fn)}")
+    chart = chart_like(chart)
+    bins = bins_tuple(bins, chart.p)
+    quad, sub = quad_orders(quad, sub)
+    return _cell_integrals(fn, chart, bins, quad, sub, "fn")
+
+
+def _cell_integrals(fn, chart, bins, quad, sub, fname: str) -> np.ndarray:
+    check_nodes(bins, quad, sub)
     nodes, weights = _gauss_cells(bins, quad, sub)
     if chart.p == 1:
         s = nodes[0][..., None]                      # (b, q, 1)
@@ -149,15 +208,41 @@ def cell_integrals(fn: Callable[[np.ndarray], np.ndarray], chart: Chart, bins: S
         s1 = nodes[1][None, :, None, :]              # (1, b1, 1, q)
         s = np.stack(np.broadcast_arrays(s0, s1), -1)  # (b0, b1, q, q, 2)
         wt = weights[0][:, None, :, None] * weights[1][None, :, None, :]
-    vals = np.asarray(fn(chart.from_param(s)), dtype=float) * chart.jacobian(s)
-    vals = np.where(wt > 0, vals, 0.0) * wt
-    return vals.sum(axis=(-1,) if chart.p == 1 else (-2, -1))
+    x = chart.from_param(s)
+    jac = np.asarray(chart.jacobian(s), dtype=float)
+    vals = real_values(fn(x), f"{fname}(x)")
+    try:
+        same = np.broadcast_shapes(vals.shape, jac.shape) == jac.shape
+    except ValueError:
+        same = False
+    if not same:
+        raise ValueError(f"{fname} must return one value per point: shape {jac.shape} for points {np.shape(x)}, "
+                         f"got {vals.shape}")
+    if np.isnan(vals).any():
+        where = tuple(int(i) for i in np.argwhere(np.isnan(np.broadcast_to(vals, jac.shape)))[0])
+        raise ValueError(f"{fname} returned NaN at the point {np.asarray(x)[where].tolist()}")
+    vals = np.where(wt > 0, vals * jac, 0.0) * wt
+    out = vals.sum(axis=(-1,) if chart.p == 1 else (-2, -1))
+    if np.isnan(out).any():
+        raise ValueError(f"{fname}: the cell integrals are NaN (+inf and -inf values in one cell)")
+    return out
 
 
 def histogram(param: np.ndarray, bins: Sequence[int]) -> tuple[np.ndarray, int]:
-    """Counts of chart parameters on a regular grid; also how many fell outside [0, 1)^p."""
-    bins = tuple(int(b) for b in np.atleast_1d(bins))
-    param = np.asarray(param).reshape(-1, len(bins))
+    """Counts of chart parameters on a regular grid; also how many fell outside [0, 1]^p
+    (NaN included).  ``param``: real numbers of shape ``(n, p)`` (any shape if p = 1), n >= 1."""
+    bins = bins_tuple(bins)
+    a = real_values(param, "param")
+    p = len(bins)
+    if (p > 1 and (a.ndim == 0 or a.shape[-1] != p)) or (p == 1 and a.ndim > 1 and a.shape[-1] != 1):
+        raise ValueError(f"param: expected shape (n, {p}) for {p} bin counts, got {a.shape}")
+    if a.size == 0:
+        raise ValueError("param: no points to count (an empty array)")
+    return _histogram(a, bins)
+
+
+def _histogram(param: np.ndarray, bins: tuple[int, ...]) -> tuple[np.ndarray, int]:
+    param = np.asarray(param, dtype=float).reshape(-1, len(bins))
     ok = np.all(np.isfinite(param) & (param >= 0) & (param <= 1), -1)
     idx = np.minimum((param[ok] * np.asarray(bins)).astype(np.int64), np.asarray(bins) - 1)
     flat = np.ravel_multi_index(tuple(idx.T), bins)
@@ -171,57 +256,135 @@ def chi2_gof(dist, chart: Chart, bins: Sequence[int], *, n: int = 200_000, rng=0
 
     ``points`` may be a point set (anything with ``random(n)``) to draw the
     uniforms; default: independent uniforms from ``rng``.  Samples whose own pdf is
-    zero (or that fall off the chart) fail the test outright; ``sub`` refines the
-    quadrature of expected counts (see ``cell_integrals``).
+    zero, that fall off the chart or are NaN/inf fail the test outright; ``sub`` refines
+    the quadrature of expected counts (see ``cell_integrals``).  Checked: ``n`` an integer
+    in [1, 10^8], ``bins`` one integer >= 1 per chart parameter, ``quad``/``sub`` integers
+    >= 1, ``min_expected > 0``, ``dist`` with ``sample`` and ``pdf``; too few samples for
+    2 pooled cells is a ``ValueError`` (no verdict), not a pass.
     """
-    if points is None:
-        u = as_generator(rng).random((n, dist.dim_u))
+    if not (callable(getattr(dist, "sample", None)) and callable(getattr(dist, "pdf", None))):
+        raise TypeError(f"dist must be a distribution with sample(u) and pdf(x), got {checks.describe(dist)}")
+    chart = chart_like(chart)
+    bins = bins_tuple(bins, chart.p)
+    if np.prod(bins) < 2:
+        raise ValueError(f"bins: a test needs at least 2 cells, got {bins}")
+    n = checks.integer(n, "n", low=1, high=MAX_SAMPLES)
+    quad, sub = quad_orders(quad, sub)
+    min_expected = checks.real(min_expected, "min_expected", low=0.0, low_open=True)
+    name = repr(dist) if name is None else text(name, "name")
+    check_nodes(bins, quad, sub)
+    x = sample_points(dist, draw_uniforms(dist, n, rng, points), n, chart)
+    finite = np.all(np.isfinite(x), -1)
+    nonfinite = int(n - finite.sum())
+    xf = x if not nonfinite else x[finite]
+    bad = np.zeros(len(xf), bool)               # per finite sample: off the chart or pdf <= 0
+    if len(xf):
+        prm = real_values(chart.to_param(xf), "chart.to_param(x)")
+        if prm.size != len(xf) * chart.p:
+            raise ValueError(f"chart: to_param(x) returned shape {prm.shape} for {len(xf)} points")
+        prm = prm.reshape(len(xf), chart.p)
+        bad |= ~np.all(np.isfinite(prm) & (prm >= 0) & (prm <= 1), -1)
+        dens = real_values(dist.pdf(xf), "dist.pdf(x)")
+        try:
+            dens = np.broadcast_to(dens, (len(xf),))
+        except ValueError:
+            raise ValueError(f"dist: pdf(x) must return one value per point ({len(xf)}), "
+                             f"got shape {dens.shape}") from None
+        bad |= ~(dens > 0)
     else:
-        u = points.random(n)
-    x = dist.sample(u)
-    counts, outside = histogram(chart.to_param(x), bins)
-    outside += int(np.sum(~(np.asarray(dist.pdf(x)) > 0)))
-    expected = n * cell_integrals(dist.pdf, chart, bins, quad, sub)
+        prm = np.empty((0, chart.p))
+    counts, _ = _histogram(prm, bins)
+    outside = int(bad.sum()) + nonfinite
+    expected = n * _cell_integrals(dist.pdf, chart, bins, quad, sub, "dist.pdf")
+    if not np.all(np.isfinite(expected) & (expected >= 0)):
+        raise ValueError("dist: pdf integrates to a negative or infinite value on some cells "
+                         f"(min {np.min(expected):.3g}, max {np.max(expected):.3g}); check dist.pdf")
     # a cell the quadrature sees as empty may still hold a sliver of support: the
     # pdf(x) > 0 check above is the real support test, so give such cells a tiny
     # expectation and let pooling (not an outright failure) judge them
     expected = np.where((expected <= 0) & (counts > 0), 1e-9, expected)
-    res = pooled_chi2(counts, expected, min_expected, name or repr(dist),
-                      cells=list(np.ndindex(*counts.shape)))
+    try:
+        res = pooled_chi2(counts, expected, min_expected, name, cells=list(np.ndindex(*counts.shape)))
+    except _TooFewCells as exc:
+        if not outside:
+            raise ValueError(f"n, bins, min_expected: {n} samples on {counts.size} cells expect {exc.total:.3g} "
+                             f"in all and pool into {exc.pools} cell(s) of at least {min_expected:g}; a "
+                             "chi-square test needs at least 2: raise n (or lower min_expected)") from None
+        res = GofResult(name, np.inf, 1, 0.0, int(counts.sum()), float(expected.sum()))
+    res.outside += outside
+    res.nonfinite = nonfinite
     if outside:
-        res.outside += outside
         res.pvalue = 0.0
     return res
 
 
 def chi2_discrete(indices: np.ndarray, pmf: np.ndarray, *, min_expected: float = 5.0,
                   name: str = "discrete") -> GofResult:
-    """Goodness of fit of integer samples against probabilities ``pmf`` (which should sum to 1)."""
-    pmf = np.asarray(pmf, dtype=float)
-    idx = np.asarray(indices).ravel()
-    bad = (idx < 0) | (idx >= len(pmf))
-    counts = np.bincount(idx[~bad], minlength=len(pmf))
-    res = pooled_chi2(counts, len(idx) * pmf, min_expected, name)
+    """Goodness of fit of integer samples against probabilities ``pmf`` (which should sum to 1).
+
+    ``pmf``: finite, >= 0, not all zero (not renormalised: a wrong total fails);
+    ``indices``: at least one sample.  Samples that are no valid index (negative, too large,
+    NaN or fractional) fail the test (p = 0).
+    """
+    pmf = checks.finite_array(pmf, "pmf", ndim=1)
+    if pmf.size == 0 or np.any(pmf < 0) or not pmf.sum() > 0:
+        raise ValueError(f"pmf must be a non-empty vector of probabilities >= 0, not all zero, got {pmf[:8]}")
+    idx = real_values(indices, "indices").ravel()
+    if idx.size == 0:
+        raise ValueError("indices: no samples (an empty array)")
+    min_expected = checks.real(min_expected, "min_expected", low=0.0, low_open=True)
+    name = text(name, "name")
+    with np.errstate(invalid="ignore"):
+        bad = ~((idx >= 0) & (idx < len(pmf)) & (idx == np.floor(idx)))
+    counts = np.bincount(idx[~bad].astype(np.int64), minlength=len(pmf))
+    try:
+        res = pooled_chi2(counts, len(idx) * pmf, min_expected, name)
+    except _TooFewCells as exc:
+        if not bad.any():
+            raise ValueError(f"indices, min_expected: {len(idx)} samples expect {exc.total:.3g} in all and pool "
+                             f"into {exc.pools} cell(s) of at least {min_expected:g}; a chi-square test needs at "
+                             "least 2: give more samples (or lower min_expected)") from None
+        res = GofResult(name, np.inf, 1, 0.0, int(counts.sum()), float(len(idx) * pmf.sum()))
     if bad.any():
         res.outside += int(bad.sum())
+        res.nonfinite = int((~np.isfinite(idx)).sum())
         res.pvalue = 0.0
     return res
 
 
 def integrate(fn: Callable[[np.ndarray], np.ndarray], chart: Chart, bins: Sequence[int] | int = 64,
               quad: int = 8) -> float:
-    """Integral of ``fn`` over the chart's whole domain (e.g. a pdf, which should give 1)."""
-    if np.ndim(bins) == 0:
-        bins = (int(bins),) * chart.p
-    return float(cell_integrals(fn, chart, bins, quad).sum())
+    """Integral of ``fn`` over the chart's whole domain (e.g. a pdf, which should give 1).
+
+    Arguments as for ``cell_integrals``; a non-finite integral is a ``ValueError``."""
+    total = float(cell_integrals(fn, chart, bins, quad).sum())
+    if not np.isfinite(total):
+        raise ValueError(f"fn: the integral over the chart is not finite ({total})")
+    return total
 
 
 def assert_gof(results: GofResult | Iterable[GofResult], alpha: float = 0.01, m: int | None = None) -> None:
     """Raise ``AssertionError`` with a readable message if any test rejects at the
-    Šidák-corrected level for ``m`` tests (default: the number of results given)."""
-    results = [results] if isinstance(results, GofResult) else list(results)
-    level = sidak_threshold(alpha, m if m is not None else len(results))
-    failed = [r for r in results if not r.pvalue >= level]
+    Šidák-corrected level for ``m`` tests (default: the number of results given).
+
+    Checked: ``results`` one or more ``GofResult``; ``alpha`` in (0, 1); ``m`` an integer
+    >= the number of results.  A result without samples (n = 0) fails.
+    """
+    if isinstance(results, GofResult):
+        results = [results]
+    elif isinstance(results, (str, bytes)) or not hasattr(results, "__iter__"):
+        raise TypeError(f"results must be a GofResult or a list of them, got {checks.describe(results)}")
+    results = list(results)
+    if not results:
+        raise ValueError("results: no test results given (an empty list passes nothing)")
+    for k, r in enumerate(results):
+        if not isinstance(r, GofResult):
+            raise TypeError(f"results[{k}] must be a GofResult (from chi2_gof, chi2_discrete, pooled_chi2), "
+                            f"got {checks.describe(r)}")
+    alpha = _alpha(alpha)
+    m = len(results) if m is None else checks.integer(m, "m", low=len(results))
+    level = sidak_threshold(alpha, m)
+    failed = [r for r in results if not (r.pvalue >= level and r.n > 0)]
     if failed:
         msg = "\n".join(r.message() for r in failed)
         raise AssertionError(f"chi-square test rejected at level {level:.3g} (alpha={alpha}, Šidák):\n{msg}")

@@ -6,15 +6,23 @@
   1 - alpha.  Used to check that z-scores of an estimator have spread 1 (calibrated stderr).
 * ``u_nodes(d, cells, quad)``: composite Gauss–Legendre nodes and weights on [0, 1]^d
   (d = 1, 2), for predicting variances as integrals over the uniforms.
+
+Arguments are checked (errors name them): ``r >= 2``, ``alpha`` in (0, 1), ``d`` in {1, 2},
+``cells`` and ``quad`` integers >= 1 with at most 2^24 nodes in all.
 """
 from __future__ import annotations
 
 import numpy as np
 from scipy import stats
 
+from .. import checks
+from ._args import MAX_NODES, MAX_QUAD
+
 
 def std_band(r: int, alpha: float = 1e-3) -> tuple[float, float]:
     """Band for the sample std of ``r`` standard normal values (chi-square, r - 1 dof)."""
+    r = checks.integer(r, "r", low=2)
+    alpha = checks.real(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
     q = stats.chi2.ppf([alpha / 2, 1 - alpha / 2], r - 1) / (r - 1)
     return float(np.sqrt(q[0])), float(np.sqrt(q[1]))
 
@@ -22,8 +30,11 @@ def std_band(r: int, alpha: float = 1e-3) -> tuple[float, float]:
 def u_nodes(d: int, cells: int = 96, quad: int = 6) -> tuple[np.ndarray, np.ndarray]:
     """Composite Gauss–Legendre nodes (N, d) and weights (N,) on [0, 1]^d (d = 1, 2);
     in 1D ``8 * cells`` cells are used."""
-    if d not in (1, 2):
-        raise ValueError(f"d must be 1 or 2, got {d}")
+    d = checks.integer(d, "d", low=1, high=2)
+    cells = checks.integer(cells, "cells", low=1)
+    quad = checks.integer(quad, "quad", low=1, high=MAX_QUAD)
+    if float(cells * (8 if d == 1 else 1) * quad) ** d > MAX_NODES:
+        raise ValueError(f"cells, quad: {cells} cells x {quad} nodes in {d}D make more than {MAX_NODES} nodes")
     g, w = np.polynomial.legendre.leggauss(quad)
     cells = cells * 8 if d == 1 else cells
     x = ((g[None, :] + 1) / 2 + np.arange(cells)[:, None]).ravel() / cells

@@ -1,0 +1,115 @@
+"""Every option of every ``vrlab`` subcommand has help text that says what it does.
+
+The walk goes through ``vrlab.cli.build_parser()`` and each subparser.  An option fails when
+its help is missing, hidden (``argparse.SUPPRESS``) or only a default note such as
+"(default: mis-power)"; a subcommand fails without its one-line help; an option whose
+metavar hides its choices (``--strategy NAME``) must name every choice in its help.
+"""
+from __future__ import annotations
+
+import argparse
+import re
+
+import pytest
+
+from vrlab.cli import build_parser, main
+
+
+def _parsers(parser: argparse.ArgumentParser, path: str | None = None):
+    path = parser.prog if path is None else path
+    yield path, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from _parsers(sub, f"{path} {name}")
+
+
+def _name(action: argparse.Action) -> str:
+    return "/".join(action.option_strings) or action.metavar or action.dest
+
+
+def _words(text: str) -> list[str]:
+    """The words of a help text outside its "(default: ...)" notes and %-placeholders."""
+    text = re.sub(r"\(default:[^)]*\)", " ", text)
+    return re.findall(r"[A-Za-z]{2,}", text.replace("%(default)s", " "))
+
+
+def undocumented(parser: argparse.ArgumentParser) -> list[str]:
+    """``"vrlab render --strategy: why"`` for every option or subcommand of ``parser`` (and its
+    subparsers) whose help text is missing or says nothing."""
+    bad = []
+    for path, p in _parsers(parser):
+        for action in p._actions:
+            where = f"{path} {_name(action)}"
+            text = action.help
+            if text is None or text == argparse.SUPPRESS:
+                bad.append(f"{where}: no help text")
+                continue
+            if len(_words(text)) < 2:
+                bad.append(f"{where}: help {text!r} says nothing beyond its default")
+            if isinstance(action, argparse._SubParsersAction):   # add_parser(help=...) lists a subcommand
+                helps = {c.dest: c.help for c in action._choices_actions}
+                for name in action.choices:
+                    if not helps.get(name) or len(_words(helps[name])) < 2:
+                        bad.append(f"{path} {name}: subcommand without help text")
+            elif action.choices and action.metavar is not None:      # the usage line hides the choices
+                missing = [c for c in action.choices if not re.search(rf"(?<![\w-]){re.escape(c)}(?![\w-])", text)]
+                if missing:
+                    bad.append(f"{where}: help does not name the choices {missing}")
+    return bad
+
+
+def test_every_option_has_help_text():
+    assert undocumented(build_parser()) == []
+
+
+def test_the_walk_reaches_every_subcommand_and_option():
+    paths = {path: p for path, p in _parsers(build_parser())}
+    assert {"vrlab", "vrlab demo", "vrlab lab", "vrlab render", "vrlab bench"} <= set(paths)
+    options = {s for a in paths["vrlab render"]._actions for s in a.option_strings}
+    assert {"--strategy", "--pixel-sampler", "--light-selection", "--seed", "--list", "--export", "--to"} <= options
+
+
+def test_the_walk_catches_options_without_help():
+    parser = argparse.ArgumentParser(prog="x")
+    sub = parser.add_subparsers(dest="command", help="the subcommand to run")
+    render = sub.add_parser("render")                      # no help= for the subcommand
+    render.add_argument("--strategy", choices=["a", "b"], metavar="NAME", help="the sampling strategy, a")
+    render.add_argument("--seed", help="(default: 0)")
+    render.add_argument("--hidden", help=argparse.SUPPRESS)
+    render.add_argument("--bare")
+    render.add_argument("--ok", help="a documented option")
+    found = "\n".join(undocumented(parser))
+    for name in ("x render:", "--strategy: help does not name the choices ['b']", "--seed: help",
+                 "--hidden: no help", "--bare: no help"):
+        assert name in found, (name, found)
+    assert "--ok" not in found
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["demo", "--help"], ["lab", "--help"], ["render", "--help"],
+                                  ["bench", "--help"]])
+def test_help_prints_and_exits_0(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: vrlab") and "exit status" in out
+
+
+def test_render_help_explains_the_strategies_and_keeps_flag_names_whole(capsys):
+    from vrlab.render.direct import PIXEL_SAMPLERS, STRATEGIES
+
+    with pytest.raises(SystemExit):
+        main(["render", "--help"])
+    out = capsys.readouterr().out
+    for name in (*STRATEGIES, *PIXEL_SAMPLERS, "power", "--export", "--to"):
+        assert f"{name}:" in out or f"{name} " in out, name
+    assert "--light-\n" not in out and "mis-\n" not in out      # not broken at a hyphen
+
+
+def test_every_strategy_and_pixel_sampler_has_a_description():
+    from vrlab.cli_render import PIXEL_SAMPLER_HELP, STRATEGY_HELP
+    from vrlab.render.direct import PIXEL_SAMPLERS, STRATEGIES
+
+    assert set(STRATEGY_HELP) == set(STRATEGIES)
+    assert set(PIXEL_SAMPLER_HELP) == set(PIXEL_SAMPLERS)

@@ -1,0 +1,649 @@
+"""Bad inputs to the renderer's public entry points: each gives a clear error naming the argument.
+
+Scenes are tiny (4 x 3 pixels, 1 spp) so that the whole module runs in seconds.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from vrlab.render import (BSDF, AreaEmitter, Integrator, Scene, SceneError, Sensor, Shape,
+                          builtin_scene_path, load_scene, read_obj, render)
+from vrlab.render import transforms as tf
+from vrlab.render.bsdfs import Beckmann, Diffuse, Phong, RoughConductor
+from vrlab.render.camera import Camera
+from vrlab.render.compare import compare, compare_figure
+from vrlab.render.direct import DirectLighting, make_bsdf
+from vrlab.render.geometry import SceneGeometry
+from vrlab.render.image import load_image, rel_mse, save_image, srgb_encode
+from vrlab.render.lights import LightSet
+from vrlab.render.pixel_samplers import PixelSampler
+
+NAN, INF = float("nan"), float("inf")
+
+# ----------------------------------------------------------------------------- a tiny scene
+XML = """<scene version="3.0.0">
+  <integrator type="direct">{integ}</integrator>
+  <sensor type="perspective">
+    <float name="fov" value="{fov}"/>{clip}
+    <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="{spp}"/>{seed}</sampler>
+    <film type="hdrfilm">
+      <integer name="width" value="{width}"/><integer name="height" value="3"/>{film}
+      <rfilter type="box"/>
+    </film>
+  </sensor>
+  <shape type="sphere">
+    <float name="radius" value="{radius}"/>
+    <transform name="to_world">{transform}</transform>
+    <emitter type="area"><rgb name="radiance" value="{radiance}"/></emitter>
+  </shape>
+  <shape type="rectangle">
+    <bsdf type="diffuse"><rgb name="reflectance" value="{reflectance}"/></bsdf>
+  </shape>
+  <shape type="disk">
+    <bsdf type="roughconductor">
+      <float name="alpha" value="{alpha}"/><boolean name="sample_visible" value="false"/>
+    </bsdf>
+  </shape>
+  <shape type="cube">
+    <transform name="to_world"><translate z="-3"/></transform>
+    <bsdf type="phong"><float name="exponent" value="{exponent}"/></bsdf>
+  </shape>
+</scene>"""
+GOOD = dict(integ="", fov="40", clip="", spp="1", seed="", width="4", film="", radius="0.5",
+            transform='<translate y="2"/>', radiance="2", reflectance="0.5", alpha="0.1", exponent="10")
+
+
+def xml(**changes) -> str:
+    return XML.format(**{**GOOD, **changes})
+
+
+def tiny() -> Scene:
+    return load_scene(xml())
+
+
+def test_the_tiny_scene_renders():
+    img, err = render(tiny(), 1, rng=0)
+    assert img.shape == (3, 4, 3) and np.all(np.isfinite(img))
+
+
+# (changes, words the message must contain)
+BAD_XML = {
+    "fov 0": (dict(fov="0"), ["fov", "(0, 180)"]),
+    "fov 180": (dict(fov="180"), ["fov"]),
+    "fov negative": (dict(fov="-10"), ["fov"]),
+    "fov nan": (dict(fov="nan"), ["fov", "finite"]),
+    "fov inf": (dict(fov="inf"), ["fov", "finite"]),
+    "fov text": (dict(fov="wide"), ["fov", "wide"]),
+    "width 0": (dict(width="0"), ["width", ">= 1"]),
+    "width negative": (dict(width="-4"), ["width"]),
+    "width float": (dict(width="4.5"), ["width", "integer"]),
+    "width huge": (dict(width="100000"), ["width", "65536"]),
+    "spp 0": (dict(spp="0"), ["sample_count", ">= 1"]),
+    "spp text": (dict(spp="many"), ["sample_count", "integer"]),
+    "seed negative": (dict(seed='<integer name="seed" value="-1"/>'), ["seed"]),
+    "near_clip 0": (dict(clip='<float name="near_clip" value="0"/>'), ["near_clip"]),
+    "far < near": (dict(clip='<float name="near_clip" value="2"/><float name="far_clip" value="1"/>'),
+                   ["far_clip", "near_clip"]),
+    "file_format": (dict(film='<string name="file_format" value="jpeg"/>'), ["file_format", "openexr"]),
+    "radius 0": (dict(radius="0"), ["radius", "> 0"]),
+    "radius negative": (dict(radius="-1"), ["radius"]),
+    "radius nan": (dict(radius="nan"), ["radius", "finite"]),
+    "radius huge": (dict(radius="1e300"), ["to_world", "1e+08"]),
+    "radius tiny": (dict(radius="1e-15"), ["to_world", "scale"]),
+    "translate nan": (dict(transform='<translate x="nan"/>'), ["translate", "finite"]),
+    "translate far": (dict(transform='<translate x="1e12"/>'), ["to_world"]),
+    "scale 0": (dict(transform='<scale value="0"/>'), ["to_world", "singular"]),
+    "rotate angle inf": (dict(transform='<rotate x="1" angle="inf"/>'), ["rotate", "angle"]),
+    "rotate zero axis": (dict(transform='<rotate x="0" angle="30"/>'), ["rotate", "axis"]),
+    "projective matrix": (dict(transform='<matrix value="1 0 0 0  0 1 0 0  0 0 1 0  0 0 1 1"/>'),
+                          ["to_world", "affine"]),
+    "non-uniform sphere": (dict(transform='<scale x="1" y="2" z="1"/>'), ["sphere", "ellipsoid"]),
+    "radiance negative": (dict(radiance="-1"), ["radiance", "non-negative"]),
+    "radiance nan": (dict(radiance="nan"), ["radiance", "finite"]),
+    "radiance huge": (dict(radiance="1e20"), ["radiance", "1e+15"]),
+    "radiance two values": (dict(radiance="1, 2"), ["radiance", "1 or 3"]),
+    "reflectance negative": (dict(reflectance="-0.5"), ["reflectance"]),
+    "reflectance inf": (dict(reflectance="inf"), ["reflectance", "finite"]),
+    "alpha 0": (dict(alpha="0"), ["alpha", "> 0"]),
+    "alpha negative": (dict(alpha="-0.1"), ["alpha"]),
+    "alpha huge": (dict(alpha="1e9"), ["alpha", "10000"]),
+    "exponent negative": (dict(exponent="-1"), ["exponent", ">= 0"]),
+    "exponent huge": (dict(exponent="1e9"), ["exponent"]),
+    "emitter_samples negative": (dict(integ='<integer name="emitter_samples" value="-1"/>'),
+                                 ["emitter_samples", ">= 0"]),
+    "bsdf_samples float": (dict(integ='<integer name="bsdf_samples" value="1.5"/>'),
+                           ["bsdf_samples", "integer"]),
+    "both samples 0": (dict(integ='<integer name="shading_samples" value="0"/>'),
+                       ["emitter_samples", "bsdf_samples"]),
+    "emitter_samples huge": (dict(integ='<integer name="emitter_samples" value="1000000000"/>'),
+                             ["emitter_samples", "4096"]),
+    "xml junk": (dict(integ='<integer name="bsdf_samples" value="1"'), ["well-formed"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_XML))
+def test_bad_xml_value_names_element_line_and_file(tmp_path, case):
+    changes, words = BAD_XML[case]
+    path = tmp_path / "scene.xml"
+    path.write_text(xml(**changes))
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    msg = str(info.value)
+    assert str(path) in msg and "line" in msg, msg
+    for w in words:
+        assert w in msg, (case, msg)
+
+
+def test_bad_xml_points_at_the_property_line():
+    text = xml(alpha="0")
+    line = next(i for i, s in enumerate(text.splitlines(), 1) if 'name="alpha"' in s)
+    with pytest.raises(SceneError, match=f"line {line} of <string>"):
+        load_scene(text)
+
+
+def test_duplicate_default_and_undefined_parameter():
+    head = '<scene version="3.0.0"><default name="r" value="1"/><default name="r" value="2"/>'
+    with pytest.raises(SceneError, match="duplicate"):
+        load_scene(xml(radius="$r").replace('<scene version="3.0.0">', head))
+    with pytest.raises(SceneError, match=r"\$r"):
+        load_scene(xml(radius="$r"))
+
+
+# ----------------------------------------------------------------------------- load_scene params
+PARAM_XML = xml(radius="$r").replace('<scene version="3.0.0">',
+                                     '<scene version="3.0.0"><default name="r" value="0.5"/>')
+
+
+@pytest.mark.parametrize("value, exc", [(NAN, ValueError), (INF, ValueError), (None, TypeError),
+                                        ({"a": 1}, TypeError), ([[1, 2]], ValueError), ([NAN], ValueError),
+                                        (1 + 2j, TypeError)])
+def test_params_bad_value_names_params(raises_naming, value, exc):
+    with raises_naming(exc, "params"):
+        load_scene(PARAM_XML, {"r": value})
+
+
+@pytest.mark.parametrize("value, words", [(-1, ["radius", "$r", "params"]), (0, ["radius", "$r"]),
+                                          ("abc", ["radius", "abc", "$r"]), ("1e300", ["$r"])])
+def test_params_bad_substitution_names_the_parameter(value, words):
+    with pytest.raises(SceneError) as info:
+        load_scene(PARAM_XML, {"r": value})
+    for w in words:
+        assert w in str(info.value), str(info.value)
+
+
+def test_params_kinds(raises_naming):
+    assert load_scene(PARAM_XML, {"r": 0.25}).shapes[0].sphere()[1] == pytest.approx(0.25)
+    assert load_scene(PARAM_XML, {"r": np.float32(2)}).shapes[0].sphere()[1] == pytest.approx(2)
+    with raises_naming(TypeError, "params"):
+        load_scene(PARAM_XML, [("r", 1)])
+    with raises_naming(TypeError, "params"):
+        load_scene(PARAM_XML, {1: 1})
+    with raises_naming(ValueError, "params"):
+        load_scene(PARAM_XML, {"not a name": 1})
+    with raises_naming(SceneError, "params"):
+        load_scene(PARAM_XML, {"unused": 1})
+
+
+@pytest.mark.parametrize("source, exc", [(12, TypeError), (None, TypeError), (b"<scene/>", TypeError),
+                                         ("", ValueError), ("/nonexistent/scene.xml", SceneError)])
+def test_load_scene_bad_source(raises_naming, source, exc):
+    with pytest.raises(exc):
+        load_scene(source)
+    if exc is not SceneError:
+        with raises_naming(exc, "source"):
+            load_scene(source)
+
+
+def test_builtin_scene_path_bad_name(raises_naming):
+    with raises_naming(TypeError, "name"):
+        builtin_scene_path(3)
+    with raises_naming(ValueError, "name"):
+        builtin_scene_path("nope")
+
+
+# ----------------------------------------------------------------------------- OBJ files
+OBJ_BAD = {
+    "nan vertex": ("v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", 3, "finite"),
+    "inf vertex": ("v 0 0 0\nv 1 0 0\nv 0 inf 0\nf 1 2 3\n", 3, "finite"),
+    "huge vertex": ("v 0 0 0\nv 1e30 0 0\nv 0 1 0\nf 1 2 3\n", 2, "within"),
+    "text vertex": ("v 0 0 0\nv a b c\n", 2, "not numbers"),
+    "short vertex": ("v 0 0\n", 1, "3 coordinates"),
+    "index out of range": ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", 4, "out of range"),
+    "index 0": ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n", 4, "start at 1"),
+    "negative out of range": ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n", 4, "out of range"),
+    "float index": ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 2.5\n", 4, "integer"),
+    "two-vertex face": ("v 0 0 0\nv 1 0 0\nf 1 2\n", 3, ">= 3"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(OBJ_BAD))
+def test_read_obj_bad_line_names_file_and_line(tmp_path, case):
+    text, line, words = OBJ_BAD[case]
+    path = tmp_path / "m.obj"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=f"m.obj:{line}: .*{words}"):
+        read_obj(path)
+    (tmp_path / "s.xml").write_text(xml().replace(
+        '<shape type="rectangle">', '<shape type="obj"><string name="filename" value="m.obj"/></shape>'
+        '<shape type="rectangle">'))
+    with pytest.raises(SceneError, match=f"filename.*line .* of .*s.xml.*m.obj:{line}"):
+        load_scene(tmp_path / "s.xml")
+
+
+@pytest.mark.parametrize("text, words", [("v 0 0 0\nv 1 0 0\nv 0 1 0\n", "no faces"), ("", "no faces"),
+                                         ("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n", "zero area")])
+def test_read_obj_empty_or_degenerate(tmp_path, text, words):
+    path = tmp_path / "m.obj"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=words):
+        read_obj(path)
+
+
+def test_obj_shape_missing_file_names_filename(tmp_path):
+    (tmp_path / "s.xml").write_text(xml().replace(
+        '<shape type="rectangle">', '<shape type="obj"><string name="filename" value="gone.obj"/></shape>'
+        '<shape type="rectangle">'))
+    with pytest.raises(SceneError, match="filename.*s.xml.*gone.obj"):
+        load_scene(tmp_path / "s.xml")
+
+
+def test_read_obj_unreadable(tmp_path, raises_naming):
+    with raises_naming(ValueError, "path"):
+        read_obj(tmp_path / "missing.obj")
+    with raises_naming(ValueError, "path"):
+        read_obj(tmp_path)
+    (tmp_path / "bin.obj").write_bytes(b"v \xff\xfe 0 0\n")
+    with raises_naming(ValueError, "path"):
+        read_obj(tmp_path / "bin.obj")
+    with raises_naming(TypeError, "path"):
+        read_obj(3)
+
+
+# ----------------------------------------------------------------------------- Python constructors
+def sensor(**kw):
+    base = dict(fov=40.0, fov_axis="x", to_world=np.eye(4), width=4, height=3, spp=1)
+    return Sensor(**{**base, **kw})
+
+
+def shape(**kw):
+    base = dict(type="rectangle", to_world=np.eye(4), bsdf=BSDF("diffuse", {"reflectance": 0.5}))
+    return Shape(**{**base, **kw})
+
+
+BAD_SENSOR = [("fov", 0, ValueError), ("fov", 180, ValueError), ("fov", NAN, ValueError), ("fov", "40", TypeError),
+              ("fov", None, TypeError), ("fov_axis", "z", ValueError), ("fov_axis", 1, TypeError),
+              ("to_world", np.eye(3), ValueError), ("to_world", np.full((4, 4), NAN), ValueError),
+              ("to_world", np.diag([2.0, 2, 2, 1]), ValueError), ("to_world", "eye", TypeError),
+              ("width", 0, ValueError), ("width", -3, ValueError), ("width", 4.0, TypeError),
+              ("width", True, TypeError), ("height", 0, ValueError), ("height", 10**6, ValueError),
+              ("spp", 0, ValueError), ("spp", 1.5, TypeError), ("rfilter", "gaussian", ValueError)]
+
+
+@pytest.mark.parametrize("name, value, exc", BAD_SENSOR)
+def test_sensor_constructor(raises_naming, name, value, exc):
+    with raises_naming(exc, name):
+        sensor(**{name: value})
+
+
+def test_sensor_too_many_pixels(raises_naming):
+    with raises_naming(ValueError, "width", "height"):
+        sensor(width=65536, height=65536)
+
+
+@pytest.mark.parametrize("kw, exc, name", [
+    (dict(type="path"), ValueError, "type"), (dict(emitter_samples=-1), ValueError, "emitter_samples"),
+    (dict(bsdf_samples=1.5), TypeError, "bsdf_samples"), (dict(emitter_samples=0, bsdf_samples=0), ValueError,
+                                                          "bsdf_samples")])
+def test_integrator_constructor(raises_naming, kw, exc, name):
+    with raises_naming(exc, name):
+        Integrator(**{"type": "direct", "emitter_samples": 1, "bsdf_samples": 1, **kw})
+
+
+@pytest.mark.parametrize("bsdf_type, params, exc, name", [
+    ("dielectric", {}, ValueError, "type"), (3, {}, TypeError, "type"),
+    ("diffuse", {"roughness": 1}, ValueError, "params"), ("diffuse", [1], TypeError, "params"),
+    ("diffuse", {"reflectance": -0.1}, ValueError, "reflectance"),
+    ("diffuse", {"reflectance": NAN}, ValueError, "reflectance"),
+    ("diffuse", {"reflectance": "red"}, TypeError, "reflectance"),
+    ("diffuse", {"reflectance": [0.1, 0.2]}, ValueError, "reflectance"),
+    ("roughconductor", {"alpha": 0}, ValueError, "alpha"), ("roughconductor", {"alpha": INF}, ValueError, "alpha"),
+    ("roughconductor", {"alpha": "rough"}, TypeError, "alpha"),
+    ("roughconductor", {"distribution": "phong"}, ValueError, "distribution"),
+    ("roughconductor", {"sample_visible": True}, ValueError, "sample_visible"),
+    ("phong", {"exponent": -1}, ValueError, "exponent"), ("phong", {"exponent": NAN}, ValueError, "exponent"),
+    ("phong", {"specular_reflectance": -1}, ValueError, "specular_reflectance")])
+def test_bsdf_constructor(raises_naming, bsdf_type, params, exc, name):
+    with raises_naming(exc, name):
+        BSDF(bsdf_type, params)
+
+
+def test_bsdf_twosided_must_be_bool(raises_naming):
+    with raises_naming(TypeError, "twosided"):
+        BSDF("diffuse", {}, twosided="yes")
+
+
+@pytest.mark.parametrize("value, exc", [(NAN, ValueError), (-1, ValueError), (INF, ValueError),
+                                        ([1, 2], ValueError), ("bright", TypeError), (None, TypeError)])
+def test_emitter_constructor(raises_naming, value, exc):
+    with raises_naming(exc, "radiance"):
+        AreaEmitter(value)
+
+
+SINGULAR = np.diag([1.0, 1.0, 0.0, 1.0])
+PROJECTIVE = np.eye(4)
+PROJECTIVE[3, 2] = 1.0
+
+
+@pytest.mark.parametrize("kw, exc, name", [
+    (dict(type="torus"), ValueError, "type"), (dict(to_world=SINGULAR), ValueError, "to_world"),
+    (dict(to_world=PROJECTIVE), ValueError, "to_world"), (dict(to_world=np.full((4, 4), NAN)), ValueError, "to_world"),
+    (dict(to_world=np.eye(4) * 1e10), ValueError, "to_world"), (dict(to_world=[[1, 2]]), ValueError, "to_world"),
+    (dict(bsdf="diffuse"), TypeError, "bsdf"), (dict(emitter=2.0), TypeError, "emitter"),
+    (dict(flip_normals="no"), TypeError, "flip_normals"), (dict(params=[]), TypeError, "params"),
+    (dict(type="sphere", to_world=np.diag([1.0, 2, 1, 1])), ValueError, "to_world"),
+    (dict(type="obj"), ValueError, "params"),
+    (dict(type="obj", params={"vertices": [[0, 0, NAN]], "faces": [[0, 0, 0]]}), ValueError, "vertices"),
+    (dict(type="obj", params={"vertices": np.eye(3), "faces": [[0, 1, 3]]}), ValueError, "faces"),
+    (dict(type="obj", params={"vertices": np.eye(3), "faces": [[0.0, 1.0, 2.0]]}), ValueError, "faces"),
+    (dict(type="obj", params={"vertices": np.eye(3), "faces": np.zeros((0, 3), int)}), ValueError, "faces")])
+def test_shape_constructor(raises_naming, kw, exc, name):
+    with raises_naming(exc, name):
+        shape(**kw)
+
+
+def test_scene_constructor(raises_naming):
+    good = tiny()
+    with raises_naming(ValueError, "shapes"):
+        Scene(good.integrator, good.sensor, [])
+    with raises_naming(TypeError, "shapes"):
+        Scene(good.integrator, good.sensor, [1])
+    with raises_naming(TypeError, "sensor"):
+        Scene(good.integrator, None, good.shapes)
+    with raises_naming(TypeError, "integrator"):
+        Scene("direct", good.sensor, good.shapes)
+    with raises_naming(TypeError, "source"):
+        Scene(good.integrator, good.sensor, good.shapes, source=3)
+
+
+def test_changes_in_place_are_checked_by_render(raises_naming):
+    sc = tiny()
+    sc.sensor.width = 0
+    with raises_naming(ValueError, "width"):
+        render(sc, 1)
+    sc = tiny()
+    sc.shapes[0].emitter.radiance = np.array([NAN, 1, 1])
+    with raises_naming(ValueError, "radiance"):
+        render(sc, 1)
+    sc = tiny()
+    sc.shapes[1].bsdf.params["reflectance"] = -1.0
+    with raises_naming(ValueError, "reflectance"):
+        sc.validate()
+    with raises_naming(ValueError, "width"):          # dataclasses.replace runs the checks
+        dataclasses.replace(tiny().sensor, width=-2)
+
+
+# ----------------------------------------------------------------------------- render()
+BAD_RENDER = [
+    ("spp", 0, ValueError), ("spp", -1, ValueError), ("spp", 1.5, TypeError), ("spp", "4", TypeError),
+    ("spp", True, TypeError), ("spp", 10**12, ValueError),
+    ("strategy", "best", ValueError), ("strategy", 3, TypeError), ("strategy", None, TypeError),
+    ("rng", "seed", TypeError), ("rng", -1, ValueError), ("rng", 1.5, TypeError), ("rng", True, TypeError),
+    ("pixel_sampler", "sobel", ValueError), ("pixel_sampler", 0, TypeError),
+    ("light_selection", "max", ValueError), ("light_selection", None, TypeError),
+    ("emitter_samples", -1, ValueError), ("emitter_samples", 1.5, TypeError), ("emitter_samples", 10**9, ValueError),
+    ("bsdf_samples", -1, ValueError), ("bsdf_samples", "1", TypeError),
+    ("ris_candidates", -1, ValueError), ("ris_candidates", 2.0, TypeError), ("ris_candidates", 10**9, ValueError),
+    ("workers", 0, ValueError), ("workers", 2.5, TypeError), ("workers", 10**6, ValueError),
+    ("chunk_pixels", 0, ValueError), ("chunk_pixels", 1.0, TypeError),
+    ("width", 0, ValueError), ("width", -4, ValueError), ("width", 4.5, TypeError),
+    ("height", 0, ValueError), ("height", 10**6, ValueError),
+    ("progress", 3, TypeError)]
+
+
+@pytest.mark.parametrize("name, value, exc", BAD_RENDER)
+def test_render_bad_argument(raises_naming, name, value, exc):
+    args = {"spp": 1, name: value}
+    with raises_naming(exc, name):
+        render(tiny(), **args)
+
+
+@pytest.mark.parametrize("kw, name", [
+    (dict(strategy="ris", ris_candidates=0), "ris_candidates"),
+    (dict(strategy="bsdf", bsdf_samples=0), "bsdf_samples"),
+    (dict(strategy="light", emitter_samples=0), "emitter_samples"),
+    (dict(emitter_samples=0, bsdf_samples=0), "bsdf_samples"),
+    (dict(pixel_sampler="sobol", emitter_samples=400), "pixel_sampler"),
+    (dict(chunk_pixels=1000, spp=100000), "chunk_pixels")])
+def test_render_bad_combination(raises_naming, kw, name):
+    with raises_naming(ValueError, name):
+        render(tiny(), **{"spp": 1, **kw})
+
+
+def test_render_accepts_paths_xml_and_builtin_names(tmp_path, raises_naming):
+    path = tmp_path / "scene.xml"
+    path.write_text(xml())
+    a, _ = render(path, 1, rng=3)
+    b, _ = render(str(path), 1, rng=3)
+    c, _ = render(xml(), 1, rng=3)
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(a, c)
+    img, _ = render("furnace", 1, rng=0, width=4, height=3)
+    assert img.shape == (3, 4, 3) and np.all(np.isfinite(img))
+    with raises_naming(ValueError, "scene"):
+        render("no_such_scene", 1)
+    with raises_naming(TypeError, "scene"):
+        render(3, 1)
+    with raises_naming(TypeError, "scene"):
+        render(None, 1)
+    with pytest.raises(SceneError, match="cannot read"):
+        render(tmp_path / "missing.xml", 1)
+
+
+@pytest.mark.parametrize("strategy", ["light", "mis-power", "mixture", "ris", "cv"])
+def test_power_selection_with_black_emitters_renders_black(strategy):
+    """Every emitter black: power selection has nothing to weigh, falls back to uniform,
+    and the image is black (as with uniform selection)."""
+    sc = load_scene(xml(radiance="0"))
+    img, _ = render(sc, 1, strategy, light_selection="power", rng=0)
+    np.testing.assert_array_equal(img, 0.0)
+    ref, _ = render(sc, 1, strategy, light_selection="uniform", rng=0)
+    np.testing.assert_array_equal(ref, 0.0)
+
+
+def test_power_selection_with_one_black_emitter():
+    text = xml().replace('<shape type="rectangle">', '<shape type="rectangle"><transform name="to_world">'
+                         '<translate z="-9"/></transform><emitter type="area"><rgb name="radiance" '
+                         'value="0"/></emitter></shape><shape type="rectangle">', 1)
+    img, _ = render(load_scene(text), 4, "mis-power", light_selection="power", rng=0)
+    assert np.all(np.isfinite(img)) and img.max() > 0
+
+
+def test_direct_lighting_and_light_set_arguments(raises_naming):
+    sc = tiny()
+    with raises_naming(TypeError, "sensor"):
+        Camera(sc)
+    with raises_naming(TypeError, "scene"):
+        DirectLighting("scene.xml")
+    with raises_naming(TypeError, "strategy"):
+        DirectLighting(sc, ["bsdf"])
+    with raises_naming(ValueError, "light_selection"):
+        DirectLighting(sc, "light", "max")
+    with raises_naming(ValueError, "light_selection"):
+        LightSet(sc.shapes, "max")
+    with raises_naming(TypeError, "shapes"):
+        LightSet([1, 2])
+    with raises_naming(TypeError, "desc"):
+        make_bsdf("diffuse")
+
+
+# ----------------------------------------------------------------------------- images
+def test_save_image_bad_inputs(tmp_path, raises_naming):
+    img = np.zeros((3, 4, 3))
+    with raises_naming(ValueError, "path"):
+        save_image(tmp_path / "x.jpg", img)
+    with raises_naming(ValueError, "path"):
+        save_image(tmp_path / "x", img)
+    with raises_naming(ValueError, "path"):
+        save_image(tmp_path / "missing" / "x.png", img)
+    with raises_naming(TypeError, "path"):
+        save_image(3, img)
+    for bad in (np.zeros((3, 4)), np.zeros((3, 4, 4)), np.zeros((0, 4, 3)), np.zeros(3)):
+        with raises_naming(ValueError, "img"):
+            save_image(tmp_path / "x.npy", bad)
+    with raises_naming(TypeError, "img"):
+        save_image(tmp_path / "x.npy", "image")
+    nan = img.copy()
+    nan[1, 2, 0] = NAN
+    with raises_naming(ValueError, "img"):
+        save_image(tmp_path / "x.png", nan)
+    nan[1, 2, 0] = INF
+    with raises_naming(ValueError, "img"):
+        save_image(tmp_path / "x.png", nan)
+    for exposure, exc in ((0, ValueError), (-1, ValueError), (NAN, ValueError), ("2", TypeError)):
+        with raises_naming(exc, "exposure"):
+            save_image(tmp_path / "x.png", img, exposure)
+    assert save_image(tmp_path / "ok.npy", nan).exists()     # .npy keeps the values as they are
+    assert save_image(tmp_path / "ok.png", img).exists()
+
+
+def test_load_image_bad_inputs(tmp_path, raises_naming):
+    with raises_naming(ValueError, "path"):
+        load_image(tmp_path / "missing.npy")
+    with raises_naming(ValueError, "path"):
+        load_image(tmp_path / "x.txt")
+    np.save(tmp_path / "flat.npy", np.zeros((3, 4)))
+    with raises_naming(ValueError, "path"):
+        load_image(tmp_path / "flat.npy")
+    np.save(tmp_path / "nan.npy", np.full((3, 4, 3), NAN))
+    with raises_naming(ValueError, "reference"):
+        load_image(tmp_path / "nan.npy", "reference")
+    (tmp_path / "junk.npy").write_text("not numpy")
+    with raises_naming(ValueError, "path"):
+        load_image(tmp_path / "junk.npy")
+    np.save(tmp_path / "ok.npy", np.ones((3, 4, 3)))
+    assert load_image(tmp_path / "ok.npy").shape == (3, 4, 3)
+
+
+def test_rel_mse_and_srgb_bad_inputs(raises_naming):
+    a = np.ones((3, 4, 3))
+    with raises_naming(ValueError, "ref"):
+        rel_mse(a, np.ones((4, 3, 3)))
+    with raises_naming(ValueError, "img"):
+        rel_mse(np.full((3, 4, 3), NAN), a)
+    with raises_naming(ValueError, "ref"):
+        rel_mse(a, np.zeros((3, 4)))
+    with raises_naming(ValueError, "linear"):
+        srgb_encode(np.array([0.5, NAN]))
+    with raises_naming(TypeError, "linear"):
+        srgb_encode(np.array(["a"]))
+
+
+def test_compare_bad_inputs(tmp_path, raises_naming):
+    sc = tiny()
+    for strategies, exc in (("bsdf", TypeError), ([], ValueError), (["bsdf", "bsdf"], ValueError),
+                            (["best"], ValueError), ([3], TypeError)):
+        with raises_naming(exc, "strategies"):
+            compare(sc, strategies, 1, ref_spp=1)
+    with raises_naming(ValueError, "spp"):
+        compare(sc, ["bsdf"], 0, ref_spp=1)
+    with raises_naming(ValueError, "ref_spp"):
+        compare(sc, ["bsdf"], 1, ref_spp=0)
+    with raises_naming(ValueError, "rng"):
+        compare(sc, ["bsdf"], 1, rng=-1, ref_spp=1)
+    with raises_naming(ValueError, "reference"):
+        compare(sc, ["bsdf"], 1, reference=np.zeros((5, 5, 3)))
+    with raises_naming(ValueError, "reference"):
+        compare(sc, ["bsdf"], 1, reference=np.full((3, 4, 3), NAN))
+    with raises_naming(TypeError, "equal_time"):
+        compare(sc, ["bsdf"], 1, ref_spp=1, equal_time="yes")
+    res = compare(sc, ["bsdf"], 1, ref_spp=1)
+    with raises_naming(ValueError, "result"):
+        compare_figure({}, tmp_path / "f.png")
+    with raises_naming(ValueError, "path"):
+        compare_figure(res, tmp_path / "f.xyz")
+    with raises_naming(ValueError, "path"):
+        compare_figure(res, tmp_path / "missing" / "f.png")
+    with raises_naming(ValueError, "exposure"):
+        compare_figure(res, tmp_path / "f.png", exposure=0)
+
+
+# ----------------------------------------------------------------------------- transforms, BSDF models
+@pytest.mark.parametrize("call, exc, name", [
+    (lambda: tf.translate("abc"), TypeError, "translate"), (lambda: tf.translate([1, 2]), ValueError, "translate"),
+    (lambda: tf.translate([1, NAN, 0]), ValueError, "translate"), (lambda: tf.scale([1, INF, 1]), ValueError, "scale"),
+    (lambda: tf.rotate([0, 0, 1], NAN), ValueError, "angle"), (lambda: tf.rotate([0, 0, 1], "90"), TypeError, "angle"),
+    (lambda: tf.rotate([0, 0, 0], 90), ValueError, "axis"), (lambda: tf.look_at([0, 0, 0], [0, 0, 0], [0, 1, 0]),
+                                                            ValueError, "origin"),
+    (lambda: tf.look_at([0, 0, 0], [0, 0, 1], [0, 0, 2]), ValueError, "up"),
+    (lambda: tf.matrix(range(5)), ValueError, "values"), (lambda: tf.matrix("1 2"), TypeError, "values"),
+    (lambda: tf.compose(np.eye(3)), ValueError, "ops"), (lambda: tf.transform_points(np.eye(3), [0, 0, 0]),
+                                                         ValueError, "m"),
+    (lambda: tf.transform_points(np.eye(4), [0, 0]), ValueError, "p"),
+    (lambda: tf.transform_normals(SINGULAR, [0, 0, 1]), ValueError, "m")])
+def test_transforms_bad_inputs(raises_naming, call, exc, name):
+    with raises_naming(exc, name):
+        call()
+
+
+@pytest.mark.parametrize("call, exc, name", [
+    (lambda: Diffuse(-0.1), ValueError, "reflectance"), (lambda: Diffuse(NAN), ValueError, "reflectance"),
+    (lambda: Diffuse("grey"), TypeError, "reflectance"), (lambda: Diffuse([0.1, 0.2]), ValueError, "reflectance"),
+    (lambda: RoughConductor(0.0), ValueError, "alpha"), (lambda: RoughConductor(1e9), ValueError, "alpha"),
+    (lambda: RoughConductor("x"), TypeError, "alpha"), (lambda: RoughConductor(0.1, "phong"), ValueError, "distribution"),
+    (lambda: RoughConductor(0.1, None), TypeError, "distribution"),
+    (lambda: RoughConductor(0.1, specular_reflectance=INF), ValueError, "specular_reflectance"),
+    (lambda: Phong(exponent=-1), ValueError, "exponent"), (lambda: Phong(exponent="30"), TypeError, "exponent"),
+    (lambda: Phong(exponent=1e9), ValueError, "exponent"), (lambda: Phong(kd=NAN), ValueError, "kd"),
+    (lambda: Phong(ks=-1), ValueError, "ks"), (lambda: Phong(kd=None), TypeError, "kd"),
+    (lambda: Beckmann(0), ValueError, "alpha")])
+def test_bsdf_models_bad_inputs(raises_naming, call, exc, name):
+    with raises_naming(exc, name):
+        call()
+
+
+# ----------------------------------------------------------------------------- geometry, pixel samplers
+def test_scene_geometry_bad_inputs(raises_naming):
+    sc = tiny()
+    with raises_naming(TypeError, "scene"):
+        SceneGeometry("scene")
+    with raises_naming(ValueError, "only"):
+        SceneGeometry(sc, [0, 9])
+    with raises_naming(ValueError, "only"):
+        SceneGeometry(sc, [1, 1])
+    with raises_naming(TypeError, "only"):
+        SceneGeometry(sc, [0.5])
+    g = SceneGeometry(sc)
+    o, d = np.zeros((2, 3)), np.array([[0, 0, 1.0], [0, 1.0, 0]])
+    for kw, exc, name in ((dict(t_min=NAN), ValueError, "t_min"), (dict(t_min=-1.0), ValueError, "t_min"),
+                          (dict(t_min="0"), TypeError, "t_min"), (dict(chunk=0), ValueError, "chunk"),
+                          (dict(chunk=2.5), TypeError, "chunk")):
+        with raises_naming(exc, name):
+            g.intersect(o, d, **kw)
+        with raises_naming(exc, name):
+            g.distance(o, d, **kw)
+    with raises_naming(ValueError, "origin"):
+        g.intersect(np.zeros((2, 2)), d)
+    with raises_naming(ValueError, "direction"):
+        g.intersect(o, np.zeros((3, 3)))
+
+
+def test_pixel_sampler_bad_inputs(raises_naming):
+    gen = np.random.default_rng(0)
+    with raises_naming(ValueError, "pixel_sampler"):
+        PixelSampler("sobel", 4, 8, gen, [(0, 1)])
+    with raises_naming(ValueError, "spp"):
+        PixelSampler("independent", 0, 8, gen, [(0, 1)])
+    with raises_naming(ValueError, "d"):
+        PixelSampler("independent", 4, 0, gen, [])
+    with raises_naming(TypeError, "gen"):
+        PixelSampler("independent", 4, 8, 0, [(0, 1)])
+    with raises_naming(ValueError, "groups"):
+        PixelSampler("stratified", 4, 8, gen, [(0, 9)])
+    with raises_naming(ValueError, "groups"):
+        PixelSampler("stratified", 4, 8, gen, [(0, 1), (1, 2)])
+    with raises_naming(ValueError, "npix"):
+        PixelSampler("independent", 4, 8, gen, [(0, 1)]).draw(-1)
