@@ -125,7 +125,7 @@ def uniforms_array(value: Any, name: str = "points", *, d: int | None = None) ->
     out = (a < 0) | (a >= 1)
     if out.any():
         where = tuple(int(i) for i in np.argwhere(out)[0])
-        raise ValueError(f"{name}: uniforms must lie in [0, 1), but entry {where} is {a[where]!r}")
+        raise ValueError(f"{name}: uniforms must lie in [0, 1), but entry {where} is {float(a[where])}")
     return a
 
 
