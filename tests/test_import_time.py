@@ -35,3 +35,10 @@ def test_lazy_packages_resolve_every_public_name():
         with pytest.raises(AttributeError, match="no attribute"):
             pkg.not_a_name
     assert vrlab.Integrand is vrlab.integrands.Integrand
+
+
+def test_screened_poisson_is_public_and_lazy():
+    code = ("import sys, vrlab.render as r; before = 'scipy.fft' in sys.modules; f = r.screened_poisson; "
+            "print(before, 'screened_poisson' in dir(r), f.__module__)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "True", "vrlab.render.poisson"], out

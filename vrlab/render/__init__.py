@@ -1,4 +1,5 @@
-"""Scene layer of vrlab's direct-lighting renderer: a Mitsuba 3 XML subset and transforms.
+"""vrlab's direct-lighting renderer: Mitsuba 3 XML scenes, ``render``, images, and the
+screened Poisson reconstruction of gradient-domain rendering (``screened_poisson``).
 
 ``load_scene(path_or_xml)`` returns plain dataclasses (:class:`Scene`, :class:`Sensor`,
 :class:`Shape`, ...) with NumPy 4x4 ``to_world`` matrices; see :mod:`vrlab.render.scene`
@@ -10,6 +11,14 @@ from .builtin import builtin_scene_path, describe_builtin_scene, export_builtin_
 from .loader import load_scene, read_obj
 from .scene import BSDF, AreaEmitter, Integrator, Scene, SceneError, Sensor, Shape
 from .film import render
+from .._alloc import keep_freed_memory
+from .._lazy import lazy_attributes
 
-__all__ = ["BSDFModel", "Diffuse", "Phong", "RoughConductor", "AreaEmitter", "BSDF", "Integrator", "Scene", "SceneError", "Sensor", "Shape",
-           "builtin_scene_path", "describe_builtin_scene", "export_builtin_scene", "list_builtin_scenes", "load_scene", "read_obj", "render", "transforms"]
+__all__ = ["BSDFModel", "Diffuse", "Phong", "RoughConductor", "AreaEmitter", "BSDF", "Integrator", "Scene",
+           "SceneError", "Sensor", "Shape", "builtin_scene_path", "describe_builtin_scene", "export_builtin_scene",
+           "keep_freed_memory", "list_builtin_scenes", "load_scene", "read_obj", "render", "screened_poisson",
+           "transforms"]
+
+# imported on first use: the reconstruction needs scipy.fft and scipy.sparse, which a
+# render does not (``vrlab render``'s start-up time is benchmarked)
+__getattr__, __dir__ = lazy_attributes(__name__, {"screened_poisson": "poisson"}, __all__)
