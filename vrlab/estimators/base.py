@@ -162,6 +162,13 @@ class Estimator:
                                      **extra)
 
 
+def ratio(num: Any, den: Any) -> np.ndarray:
+    """``num / den`` broadcast, 0 where ``den <= 0``: the importance weight f / p at points
+    where the density vanishes is 0 (samples never land there; this guards rounding)."""
+    num, den = np.asarray(num, dtype=float), np.asarray(den, dtype=float)
+    return np.divide(num, den, out=np.zeros(np.broadcast_shapes(num.shape, den.shape)), where=den > 0)
+
+
 def check_chunk(chunk: Any) -> int:
     """``chunk`` (sample units per block of uniforms): an integer >= 1."""
     return checks.integer(chunk, "chunk", low=1)

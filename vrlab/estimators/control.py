@@ -44,8 +44,8 @@ from .. import checks
 from .._rng import RNGLike, as_generator
 from ..estimate import Estimate
 from ..integrands.base import checked_values
-from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, resolve_distribution, support_probe,
-                   uniform_blocks)
+from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, ratio, resolve_distribution,
+                   support_probe, uniform_blocks)
 from .importance import MonteCarlo
 
 
@@ -180,12 +180,6 @@ class _Regression(Estimator):
                          "plain_variance": _scalar(r["plain_variance"])})
 
 
-def _ratio(v, p):
-    v = np.asarray(v, float)
-    p = np.asarray(p, float)
-    return np.divide(v, p, out=np.zeros(np.broadcast_shapes(v.shape, p.shape)), where=p > 0)
-
-
 class ControlVariate(_Regression):
     """Control variates: mean(f/p - alpha^T (h/p - theta)) with known theta = int h.
 
@@ -272,7 +266,7 @@ class ControlVariate(_Regression):
         dist = resolve_distribution(self.distribution, integrand)
         x = dist.sample(u)
         p = np.asarray(dist.pdf(x), dtype=float)
-        cols = [_ratio(integrand(x), p)] + [_ratio(checked_values(h(x), x, f"control[{j}]"), p)
+        cols = [ratio(integrand(x), p)] + [ratio(checked_values(h(x), x, f"control[{j}]"), p)
                                             for j, h in enumerate(self._controls)]
         return np.stack(np.broadcast_arrays(*cols), -1)
 
@@ -351,10 +345,10 @@ class DefensiveMixture(_Regression):
         x = mix.sample(u)
         pk = mix.component_pdfs(x)                       # (..., m, K)
         q = pk @ mix.probabilities
-        y = _ratio(integrand(x), q)
+        y = ratio(integrand(x), q)
         if not self.controls:
             return y[..., None]
-        h = _ratio(pk[..., :-1], q[..., None])           # drop the redundant last control
+        h = ratio(pk[..., :-1], q[..., None])           # drop the redundant last control
         shape = np.broadcast_shapes(y.shape, h.shape[:-1])
         return np.concatenate([np.broadcast_to(y, shape)[..., None],
                                np.broadcast_to(h, shape + h.shape[-1:])], -1)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import checks
-from .base import Estimator, resolve_distribution, support_probe
+from .base import Estimator, ratio, resolve_distribution, support_probe
 
 
 class MonteCarlo(Estimator):
@@ -39,5 +39,4 @@ class MonteCarlo(Estimator):
         x = dist.sample(u)
         p = np.asarray(dist.pdf(x), dtype=float)
         f = integrand(x)
-        # f/p with f == 0 where p == 0 (samples never land there, but guard rounding)
-        return np.divide(f, p, out=np.zeros(np.broadcast_shapes(f.shape, p.shape)), where=p > 0)
+        return ratio(f, p)

@@ -47,7 +47,8 @@ from .._rng import RNGLike, as_generator, spawn
 from ..distributions.interval import as_bounds
 from ..estimate import Estimate, Moments
 from ..points.base import check_int
-from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, support_probe, uniform_blocks
+from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, ratio, support_probe,
+                   uniform_blocks)
 
 BOUNDARIES = ("wrap", "reject")
 _TINY = 1e-300
@@ -313,12 +314,12 @@ class MetropolisHastings(Estimator):
         t0 = time.perf_counter()
         g_rng, b_rng = spawn(rng, 2)
 
-        def ratio(x):
+        def f_over_pi(x):
             f = integrand(x)
             p = self._pi(x)
-            return np.divide(f, p, out=np.zeros(np.broadcast_shapes(f.shape, p.shape)), where=p > 0)
+            return ratio(f, p)
 
-        e = self.expectation(ratio, steps, C, g_rng)
+        e = self.expectation(f_over_pi, steps, C, g_rng)
         if self.normalization is None:
             b_est = self.normalizer(n, rng=b_rng, points=points)
             b, b_se, b_evals = b_est.value, b_est.stderr, b_est.n_evals

@@ -43,7 +43,7 @@ from .. import checks
 from .._rng import RNGLike, as_generator
 from ..distributions.base import as_float
 from ..estimate import Estimate, Moments
-from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, point_engine, support_probe
+from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, point_engine, ratio, support_probe
 
 HEURISTICS = ("balance", "power", "maximum", "cutoff", "optimal")
 
@@ -176,11 +176,6 @@ def _stack_pdfs(dists: list, x: np.ndarray) -> np.ndarray:
     """p_k(x) for every technique, broadcast and stacked on a last axis (..., K)."""
     ps = np.broadcast_arrays(*[np.asarray(d.pdf(x), dtype=float) for d in dists])
     return np.stack(ps, -1)
-
-
-def _safe_div(a, b):
-    a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
-    return np.divide(a, b, out=np.zeros(a.shape), where=b > 0)
 
 
 # ----------------------------------------------------------------------------------------
@@ -368,12 +363,12 @@ class MIS(Estimator):
                 for k, d in enumerate(self.distributions):
                     if counts[k]:
                         q = q + counts[k] * np.asarray(d.pdf(x), dtype=float)
-                moments[i].add(_safe_div(counts[i] * integrand(x), q))
+                moments[i].add(ratio(counts[i] * integrand(x), q))
                 continue
             P = _stack_pdfs(self.distributions, x)
             w = mis_weights(P * counts, self.heuristic, beta=self.beta, alpha=self.alpha)
             f = integrand(x)
-            moments[i].add(_safe_div(w[..., i], P[..., i]) * f)
+            moments[i].add(ratio(w[..., i], P[..., i]) * f)
         return self._combine(moments, counts)
 
     @staticmethod
@@ -404,10 +399,10 @@ class MIS(Estimator):
             P = _stack_pdfs(dists, x)                           # (..., m, Ka)
             q = P @ c_main                                      # mixture density of the main pass
             f = integrand(x)
-            z = _safe_div(P, q[..., None])                      # p_k / q
-            y = _safe_div(f, q)                                 # f / q
+            z = ratio(P, q[..., None])                      # p_k / q
+            y = ratio(f, q)                                 # f / q
             if s < n_pilot_segments:                            # pilot: importance weights q / q_pilot
-                r = _safe_div(q, P @ c_pilot)
+                r = ratio(q, P @ c_pilot)
                 G = G + np.swapaxes(z * r[..., None], -1, -2) @ z
                 h = h + np.sum((y * r)[..., None] * z, -2)
                 n_fit += u.shape[-2]

@@ -12,9 +12,9 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .. import checks
-from .base import Estimator, support_probe
+from .base import Estimator, ratio, support_probe
 from .mis import (HEURISTICS, _check_beta_alpha, _check_dims, _check_distributions, _check_fractions,
-                  _check_heuristic, _safe_div, _stack_pdfs, mis_weights)
+                  _check_heuristic, _stack_pdfs, mis_weights)
 
 
 class OneSampleMIS(Estimator):
@@ -64,7 +64,7 @@ class OneSampleMIS(Estimator):
         c = mix.probabilities
         f = integrand(x)
         if self.heuristic == "balance":  # f / (sum_k c_k p_k), exactly as MonteCarlo(Mixture)
-            return _safe_div(f, P @ c)
+            return ratio(f, P @ c)
         k, _ = mix.choose(np.asarray(u, float)[..., 0])
         shape = np.broadcast_shapes(P.shape[:-1], k.shape)
         P = np.broadcast_to(P, shape + P.shape[-1:])
@@ -72,4 +72,4 @@ class OneSampleMIS(Estimator):
         w = mis_weights(P * c, self.heuristic, beta=self.beta, alpha=self.alpha)
         w_k = np.take_along_axis(np.broadcast_to(w, P.shape), k, -1)[..., 0]
         cp_k = np.take_along_axis(P * c, k, -1)[..., 0]
-        return _safe_div(w_k, cp_k) * f
+        return ratio(w_k, cp_k) * f

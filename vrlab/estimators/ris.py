@@ -34,7 +34,7 @@ import numpy as np
 from .. import checks
 from .._rng import RNGLike
 from ..estimate import Estimate
-from .base import DEFAULT_CHUNK, Estimator, check_chunk, support_probe
+from .base import DEFAULT_CHUNK, Estimator, check_chunk, ratio, support_probe
 
 
 class Reservoir:
@@ -64,9 +64,7 @@ class Reservoir:
     @property
     def W(self) -> np.ndarray:
         """Unbiased contribution weight w_sum / (M p̂(y)) (0 for an empty reservoir)."""
-        den = self.M * self.target
-        return np.divide(self.w_sum, den, out=np.zeros(np.broadcast_shapes(self.w_sum.shape, den.shape)),
-                         where=den > 0)
+        return ratio(self.w_sum, self.M * self.target)
 
     def _stream(self, x, weights, u, target, count) -> "Reservoir":
         """Process candidates (*s, m, k) with weights/uniforms/targets (*s, m) in order."""
@@ -170,7 +168,7 @@ class RIS(Estimator):
         t = np.asarray(self.target(x), dtype=float)
         if np.any(t < 0) or np.any(np.isnan(t)):
             raise ValueError("target: the unnormalised target density must be >= 0 and not NaN")
-        w = np.divide(t, p, out=np.zeros(np.broadcast_shapes(t.shape, p.shape)), where=p > 0)
+        w = ratio(t, p)
 
         def split(a, tail=()):  # (..., n m, *tail) -> (..., n, m, *tail)
             return a.reshape(a.shape[: a.ndim - 1 - len(tail)] + (n, m) + tail)
