@@ -24,3 +24,54 @@ def raises_naming():
     """Context manager: ``with raises_naming(ValueError, "alpha"): ...`` fails unless the
     block raises ``ValueError`` whose message names ``alpha``."""
     return _raises_naming
+
+
+# -- calibration of an estimator from R independent replicates ---------------------------
+CAL_N, CAL_R = 4000, 200          # evaluations per estimate, replicates
+
+
+def replicate(est, integrand, n=CAL_N, r=CAL_R, seed=0):
+    """R independent estimates in one batched call: ``points`` = uniforms (R, m, d)."""
+    import numpy as np
+
+    m = n // est.evals_per_unit
+    u = np.random.default_rng(seed).random((r, m, est.dim_u(integrand)))
+    return est.estimate(integrand, n, points=u)
+
+
+def check_calibrated(est, integrand, unit_var=None, *, exact=None, n=CAL_N, r=CAL_R, seed=0):
+    """Unbiased (pooled, 4 standard errors), z-scores with a standard deviation in the
+    chi-square band, and, given ``unit_var`` (the variance of one sample unit in closed
+    form), the replicates' variance in the band around unit_var / units.  A unit_var below
+    1e-20 means a zero-variance estimator: every replicate must equal ``exact``.
+    ``exact`` defaults to ``integrand.exact``."""
+    import numpy as np
+
+    e = replicate(est, integrand, n, r, seed)
+    vals, se = np.asarray(e.value), np.asarray(e.stderr)
+    exact = integrand.exact if exact is None else exact
+    if unit_var is not None and unit_var < 1e-20:
+        assert np.allclose(vals, exact, rtol=1e-10, atol=1e-12)
+        return e
+    assert_calibrated(vals, se, exact, None if unit_var is None else unit_var / e.n)
+    return e
+
+
+def assert_calibrated(vals, se, exact, expected_var=None):
+    """Replicate estimates ``vals`` with standard errors ``se``: the mean within 4 pooled
+    standard errors of ``exact``, the z-scores' standard deviation in the chi-square band
+    (so the standard errors are honest), and, given ``expected_var`` (the variance of one
+    estimate in closed form), the replicates' variance in that band around it."""
+    import numpy as np
+
+    from vrlab.testing.stats import std_band
+
+    r = len(vals)
+    pooled = vals.std(ddof=1) / np.sqrt(r)
+    assert abs(vals.mean() - exact) < 4 * pooled, (vals.mean(), exact, pooled)
+    z = (vals - exact) / se
+    lo, hi = std_band(r)
+    assert lo < z.std(ddof=1) < hi * 1.05, z.std(ddof=1)
+    if expected_var is not None:
+        ratio = vals.var(ddof=1) / expected_var
+        assert lo**2 < ratio < hi**2, ratio

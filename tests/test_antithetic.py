@@ -14,8 +14,10 @@ from vrlab.estimators.antithetic import Antithetic, reflect
 from vrlab.integrands import Integrand
 from vrlab.testing.stats import std_band, u_nodes
 
-R = 200                      # replicates for calibration
-N = 4000                     # evaluations per estimate (2000 pairs)
+from conftest import CAL_N as N  # evaluations per estimate
+from conftest import CAL_R as R  # replicates for calibration
+from conftest import check_calibrated, replicate
+
 ALPHA = 1e-3                 # per-check false-alarm rate (several checks per integrand)
 
 
@@ -37,33 +39,6 @@ def antithetic_theory(integrand) -> tuple[float, float]:
     var = w @ (g - mean) ** 2
     cov = w @ ((g - mean) * (g_ref - mean))
     return float(var), float(0.5 * (var + cov))
-
-
-def replicate(est, integrand, n=N, r=R, seed=0):
-    """R independent estimates in one batched call: points = uniforms (R, m, d)."""
-    m = n // est.evals_per_unit
-    u = np.random.default_rng(seed).random((r, m, est.dim_u(integrand)))
-    return est.estimate(integrand, n, points=u)
-
-
-def check_calibrated(est, integrand, theory_unit_var=None, n=N, r=R, seed=0):
-    """Unbiased (pooled, 4 se), z-scores with std in the chi-square band, and the
-    variance of the replicate values in the band around the theory."""
-    e = replicate(est, integrand, n, r, seed)
-    vals, se = np.asarray(e.value), np.asarray(e.stderr)
-    exact = integrand.exact
-    if theory_unit_var is not None and theory_unit_var < 1e-20:
-        assert np.allclose(vals, exact, rtol=1e-10, atol=1e-12)
-        return e
-    pooled_se = vals.std(ddof=1) / np.sqrt(r)
-    assert abs(vals.mean() - exact) < 4 * pooled_se, (vals.mean(), exact, pooled_se)
-    z = (vals - exact) / se
-    lo, hi = std_band(r)
-    assert lo < z.std(ddof=1) < hi * 1.05, z.std(ddof=1)
-    if theory_unit_var is not None:
-        ratio = vals.var(ddof=1) / (theory_unit_var / e.n)
-        assert lo**2 < ratio < hi**2, ratio
-    return e
 
 
 @pytest.mark.parametrize("name", I.names())

@@ -18,8 +18,10 @@ from vrlab.estimators.control import CoMoments, ControlVariate, DefensiveMixture
 from vrlab.integrands import Integrand
 from vrlab.testing.stats import std_band, u_nodes
 
-R = 200
-N = 4000
+from conftest import CAL_N as N  # evaluations per estimate
+from conftest import CAL_R as R  # replicates for calibration
+from conftest import check_calibrated, replicate
+
 ALPHA = 1e-3
 
 
@@ -42,27 +44,6 @@ def cv_theory(integrand, h):
     my, mh = w @ y, w @ hh
     vy, vh, c = w @ (y - my) ** 2, w @ (hh - mh) ** 2, w @ ((y - my) * (hh - mh))
     return float(vy), float(vy + vh - 2 * c), float(vy - c * c / vh), float(c / vh)
-
-
-def replicate(est, integrand, n=N, r=R, seed=0):
-    m = n // est.evals_per_unit
-    u = np.random.default_rng(seed).random((r, m, est.dim_u(integrand)))
-    return est.estimate(integrand, n, points=u)
-
-
-def check_calibrated(est, integrand, unit_var=None, n=N, r=R, seed=0, exact=None):
-    e = replicate(est, integrand, n, r, seed)
-    vals, se = np.asarray(e.value), np.asarray(e.stderr)
-    exact = integrand.exact if exact is None else exact
-    pooled = vals.std(ddof=1) / np.sqrt(r)
-    assert abs(vals.mean() - exact) < 4 * pooled, (vals.mean(), exact, pooled)
-    z = (vals - exact) / se
-    lo, hi = std_band(r)
-    assert lo < z.std(ddof=1) < hi * 1.05, z.std(ddof=1)
-    if unit_var is not None:
-        ratio = vals.var(ddof=1) / (unit_var / n)
-        assert lo**2 < ratio < hi**2, ratio
-    return e
 
 
 # -- golden numbers -------------------------------------------------------------------------

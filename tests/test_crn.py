@@ -13,10 +13,11 @@ from vrlab.estimators.antithetic import Antithetic
 from vrlab.estimators.control import ControlVariate
 from vrlab.estimators.crn import CRNDifference, crn_difference
 from vrlab.integrands import Integrand
-from vrlab.testing.stats import std_band, u_nodes
+from vrlab.testing.stats import u_nodes
 
-R = 200
-N = 4000
+from conftest import CAL_N as N  # evaluations per estimate
+from conftest import check_calibrated, replicate
+
 ALPHA = 1e-3
 E = np.e
 
@@ -38,26 +39,6 @@ def crn_theory(a, b):
     ya, yb = mc.unit_values(a, u), mc.unit_values(b, u)
     ma, mb = w @ ya, w @ yb
     return float(w @ (ya - ma) ** 2), float(w @ (yb - mb) ** 2), float(w @ ((ya - ma) * (yb - mb)))
-
-
-def replicate(est, pair, n=N, r=R, seed=0):
-    m = n // est.evals_per_unit
-    u = np.random.default_rng(seed).random((r, m, est.dim_u(pair)))
-    return est.estimate(pair, n, points=u)
-
-
-def check_calibrated(est, pair, exact, unit_var=None, n=N, r=R, seed=0):
-    e = replicate(est, pair, n, r, seed)
-    vals, se = np.asarray(e.value), np.asarray(e.stderr)
-    pooled = vals.std(ddof=1) / np.sqrt(r)
-    assert abs(vals.mean() - exact) < 4 * pooled, (vals.mean(), exact, pooled)
-    z = (vals - exact) / se
-    lo, hi = std_band(r)
-    assert lo < z.std(ddof=1) < hi * 1.05, z.std(ddof=1)
-    if unit_var is not None:
-        ratio = vals.var(ddof=1) / (unit_var / e.n)
-        assert lo**2 < ratio < hi**2, ratio
-    return e
 
 
 def test_closed_form_exp_pair():
@@ -84,8 +65,8 @@ def test_closed_form_exp_pair():
     assert abs(ind.extra["corr"]) < 0.01
     assert ind.stderr > 8 * e.stderr                 # sqrt(0.4172 / 0.00542) = 8.8
     # replicated: both unbiased and calibrated, with the predicted variances
-    check_calibrated(CRNDifference(), (a, b), a.exact - b.exact, var_crn, seed=2)
-    check_calibrated(CRNDifference(common=False), (a, b), a.exact - b.exact, var_a + var_b, seed=3)
+    check_calibrated(CRNDifference(), (a, b), var_crn, exact=a.exact - b.exact, seed=2)
+    check_calibrated(CRNDifference(common=False), (a, b), var_a + var_b, exact=a.exact - b.exact, seed=3)
 
 
 @pytest.mark.parametrize("name", I.names())
@@ -95,8 +76,8 @@ def test_catalogue_common_and_independent(name):
     va, vb, cov = crn_theory(a, b)
     exact = a.exact - b.exact
     n = 8000 if name == "glossy-light" else N
-    crn = check_calibrated(CRNDifference(), (a, b), exact, va + vb - 2 * cov, n=n, seed=4)
-    ind = check_calibrated(CRNDifference(common=False), (a, b), exact, va + vb, n=n, seed=5)
+    crn = check_calibrated(CRNDifference(), (a, b), va + vb - 2 * cov, exact=exact, n=n, seed=4)
+    ind = check_calibrated(CRNDifference(common=False), (a, b), va + vb, exact=exact, n=n, seed=5)
     assert cov > 0 and np.var(crn.value) < np.var(ind.value)
     single = crn_difference(a, b, 20_000, rng=6)
     assert abs(single.value - exact) < 4 * single.stderr
@@ -108,7 +89,7 @@ def test_antithetic_base_and_cost():
     assert est.evals_per_unit == 4
     e = est.estimate((a, b), 4003, rng=0)
     assert e.n == 1000 and e.n_evals == 4000
-    check_calibrated(est, (a, b), a.exact - b.exact, seed=7)
+    check_calibrated(est, (a, b), exact=a.exact - b.exact, seed=7)
     assert "Antithetic" in est.label and "common" in est.label
 
 
@@ -164,15 +145,15 @@ def test_checks_can_fail():
     a, b = I.get("exp"), partner(I.get("exp"))
     exact = a.exact - b.exact
     with pytest.raises(AssertionError):
-        check_calibrated(IgnoresCovariance(), (a, b), exact, seed=9)
+        check_calibrated(IgnoresCovariance(), (a, b), exact=exact, seed=9)
     # a wrong predicted variance (the independent one) is rejected for the common estimator
     va, vb, cov = crn_theory(a, b)
     with pytest.raises(AssertionError):
-        check_calibrated(CRNDifference(), (a, b), exact, va + vb, seed=10)
+        check_calibrated(CRNDifference(), (a, b), va + vb, exact=exact, seed=10)
     # b's integrand with the wrong exact value gives a detected bias
     wrong = Integrand(b.f, b.domain, b.exact * 1.01)
     with pytest.raises(AssertionError):
-        check_calibrated(CRNDifference(), (a, wrong), a.exact - wrong.exact, seed=11)
+        check_calibrated(CRNDifference(), (a, wrong), exact=a.exact - wrong.exact, seed=11)
 
 
 def test_bad_inputs():

@@ -13,7 +13,8 @@ import vrlab.points as P
 from vrlab.estimators import MonteCarlo
 from vrlab.estimators.stratified import Stratified, allocate, default_grid
 from vrlab.integrands import Integrand
-from vrlab.testing.stats import std_band
+
+from conftest import assert_calibrated
 
 R = 200
 ALPHA = 1e-3
@@ -51,15 +52,7 @@ def replicate(est, integrand, n, r=R, seed=0):
 
 def check_calibrated(est, integrand, n, est_var=None, r=R, seed=0, exact=None):
     vals, se, first = replicate(est, integrand, n, r, seed)
-    exact = integrand.exact if exact is None else exact
-    pooled = vals.std(ddof=1) / np.sqrt(r)
-    assert abs(vals.mean() - exact) < 4 * pooled, (vals.mean(), exact, pooled)
-    z = (vals - exact) / se
-    lo, hi = std_band(r)
-    assert lo < z.std(ddof=1) < hi * 1.05, z.std(ddof=1)
-    if est_var is not None:
-        ratio = vals.var(ddof=1) / est_var
-        assert lo**2 < ratio < hi**2, ratio
+    assert_calibrated(vals, se, integrand.exact if exact is None else exact, est_var)
     return vals, se, first
 
 
