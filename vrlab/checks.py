@@ -10,11 +10,14 @@ name.  Hot loops (a warp's ``sample(u)`` inside an estimator) do not call them.
 * :func:`choice` - one of a fixed set of strings;
 * :func:`finite_array` - a float array of finite values with an optional shape check;
 * :func:`uniforms_array` - an array of uniforms: finite, in [0, 1), last axis ``d``;
-* :func:`flag` - a bool; :func:`distribution` - an object with dim_u, sample, pdf.
+* :func:`flag` - a bool; :func:`distribution` - an object with dim_u, sample, pdf;
+* :func:`file_path` - a path with an allowed suffix (and, to write, an existing folder).
 """
 from __future__ import annotations
 
 import numbers
+import os
+from pathlib import Path
 from typing import Any, Iterable
 
 import numpy as np
@@ -145,3 +148,24 @@ def distribution(value: Any, name: str = "distribution"):
             raise TypeError(f"{name}: {value!r} is not a distribution: it has no {attr!r} "
                             "(a distribution needs dim_u, sample(u) and pdf(x))")
     return value
+
+
+def file_path(value: Any, name: str, suffixes: Iterable[str], *, write: bool = True) -> Path:
+    """``value`` as a ``Path`` whose suffix (case-insensitive) is one of ``suffixes``
+    (``".png"``...).  ``TypeError`` unless it is a str or ``os.PathLike``; ``ValueError``
+    for an empty name or another suffix, and, with ``write``, for a path that is a folder
+    or whose folder does not exist (checked before any work, so nothing is lost)."""
+    if not isinstance(value, (str, os.PathLike)) or isinstance(value, bytes):
+        raise TypeError(f"{name} must be a file path (str or os.PathLike), got {describe(value)}")
+    path = Path(value)
+    if str(value) == "" or path.name == "":
+        raise ValueError(f"{name}: give a file name, got {str(value)!r}")
+    suffixes = tuple(s.lower() for s in suffixes)
+    if path.suffix.lower() not in suffixes:
+        raise ValueError(f"{name}: the suffix of {str(path)!r} must be one of {', '.join(suffixes)}")
+    if write:
+        if path.is_dir():
+            raise ValueError(f"{name}: {str(path)!r} is a folder, not a file name")
+        if not path.parent.is_dir():
+            raise ValueError(f"{name}: the folder {str(path.parent)!r} does not exist (create it first)")
+    return path

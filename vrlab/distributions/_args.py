@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import checks
 from ..checks import describe as _describe
 from .base import ArgumentTypeError, as_float
 
@@ -57,10 +58,7 @@ def _outside(u: np.ndarray) -> None:
     raise ValueError(f"u: uniforms must lie in [0, 1), but entry {where} is {u[where]!r}")
 
 
-def _flag(value: Any, name: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be True or False, got {_describe(value)}")
-    return bool(value)
+_flag = checks.flag
 
 
 # ----------------------------------------------------------------------------- surfaces

@@ -163,10 +163,13 @@ class Estimator:
 
 
 def ratio(num: Any, den: Any) -> np.ndarray:
-    """``num / den`` broadcast, 0 where ``den <= 0``: the importance weight f / p at points
-    where the density vanishes is 0 (samples never land there; this guards rounding)."""
-    num, den = np.asarray(num, dtype=float), np.asarray(den, dtype=float)
-    return np.divide(num, den, out=np.zeros(np.broadcast_shapes(num.shape, den.shape)), where=den > 0)
+    """``num / den`` broadcast, 0 where ``den <= 0`` or ``den`` is NaN: the importance weight
+    f / p at points where the density vanishes is 0 (samples never land there; this guards
+    rounding).  float32 operands (the renderer's) stay float32, anything else is float64."""
+    dtype = np.result_type(num, den)          # Python numbers are weak: float32 stays float32
+    dtype = dtype if dtype in (np.float32, np.float64) else np.dtype(np.float64)
+    num, den = np.asarray(num, dtype=dtype), np.asarray(den, dtype=dtype)
+    return np.divide(num, den, out=np.zeros(np.broadcast_shapes(num.shape, den.shape), dtype), where=den > 0)
 
 
 def check_chunk(chunk: Any) -> int:

@@ -4,7 +4,6 @@ Errors name the argument (``df``, ``path``...) and say what is allowed.
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -52,25 +51,12 @@ def column_check(df: pd.DataFrame, column: str, ok: np.ndarray, what: str, name:
 
 
 def out_path(path: Any, name: str = "path") -> Path:
-    """``path`` as a ``Path`` to write a figure to: a suffix matplotlib can write (``.png``,
-    ``.pdf``, ``.svg``...), in a folder that exists, not a folder itself."""
-    if not isinstance(path, (str, os.PathLike)) or isinstance(path, bytes):
-        raise TypeError(f"{name} must be a file path (str or pathlib.Path), got {checks.describe(path)}")
-    p = Path(path)
-    if str(path) == "" or p.name == "":
-        raise ValueError(f"{name}: give a file name, got {str(path)!r}")
+    """``path`` to write a figure to: a suffix matplotlib can write (``.png``, ``.pdf``,
+    ``.svg``...), in a folder that exists (:func:`vrlab.checks.file_path`)."""
     from matplotlib.backend_bases import FigureCanvasBase
 
-    kinds = sorted(FigureCanvasBase.get_supported_filetypes())
-    suffix = p.suffix.lower().lstrip(".")
-    if suffix not in kinds:
-        raise ValueError(f"{name}: the suffix of {str(p)!r} must be one of {', '.join('.' + k for k in kinds)}")
-    if p.is_dir():
-        raise ValueError(f"{name}: {str(p)!r} is a folder, not a file name")
-    parent = p.parent if str(p.parent) else Path(".")
-    if not parent.is_dir():
-        raise ValueError(f"{name}: the folder {str(parent)!r} does not exist (create it first)")
-    return p
+    kinds = sorted("." + k for k in FigureCanvasBase.get_supported_filetypes())
+    return checks.file_path(path, name, kinds)
 
 
 def lab_integrand(integrand, name: str = "integrand"):

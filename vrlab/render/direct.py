@@ -60,6 +60,7 @@ from .. import checks
 from .._vec import dot, scale, side
 from ..distributions import CosineHemisphere, Frame, UniformHemisphere, to_local
 from ..distributions.base import uniforms32
+from ..estimators.base import ratio
 from ..estimators.mis import mis_weights
 from ..estimators.ris import Reservoir
 from ..points.base import check_int
@@ -102,12 +103,6 @@ def lambertian_albedo(bsdf: BSDFModel) -> np.ndarray:
     if isinstance(bsdf, Phong):
         return bsdf.kd
     return np.zeros(3)
-
-
-def _safe_ratio(num: np.ndarray, pdf: np.ndarray) -> np.ndarray:
-    """num / pdf[..., None], 0 where the pdf is 0 or not finite."""
-    ok = (pdf > 0) & np.isfinite(pdf)
-    return scale(num, np.where(ok, 1.0 / np.where(ok, pdf, 1.0), 0.0))
 
 
 class UniformLayout:
@@ -310,7 +305,7 @@ class DirectLighting:
             warp = {"uniform": _UNIFORM, "cosine": _COSINE}.get(s)
             u2 = _stack(u, [lay.bsdf(i) for i in range(n_b)])
             f, le, pdf, _, _ = self._bsdf_sample(bsdf, _tile(p, n_b), fr.tile(n_b), _tile(wo_l, n_b), u2, warp)
-            return _mean_of(_safe_ratio(f * le, pdf), n_b)
+            return _mean_of(scale(f * le, ratio(1.0, pdf)), n_b)
         if self.lights is None:
             return np.zeros((len(p), 3), F32)
         if s == "mixture":
@@ -321,7 +316,7 @@ class DirectLighting:
         if n_l:
             f_l, le_l, q_l, wi_l, j = self._light_sample(bsdf, *tl, _stack(u, [lay.light(i) for i in range(n_l)]))
         if s == "light":
-            return _mean_of(_safe_ratio(f_l * le_l, q_l), n_l)
+            return _mean_of(scale(f_l * le_l, ratio(1.0, q_l)), n_l)
         if s == "cv":
             return self._control_variate(bsdf, p, n, wi_l, j, f_l, le_l, q_l)
         heuristic = "balance" if s == "mis-balance" else "power"
@@ -329,14 +324,14 @@ class DirectLighting:
         if n_l:
             q_b_at_l = bsdf.pdf(tl[2], wi_l) if n_b else np.zeros_like(q_l)
             w_l = mis_weights(np.stack([n_l * q_l, n_b * q_b_at_l]).T, heuristic)[:, 0]    # (N, 2) views
-            out += _mean_of(scale(_safe_ratio(f_l * le_l, q_l), w_l), n_l)
+            out += _mean_of(scale(scale(f_l * le_l, ratio(1.0, q_l)), w_l), n_l)
         if n_b:
             pb = _tile(p, n_b)
             u2 = _stack(u, [lay.bsdf(i) for i in range(n_b)])
             f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, pb, fr.tile(n_b), _tile(wo_l, n_b), u2)
             q_l_at_b = self.light_pdf(pb, wi_b, hits_b).astype(F32)
             w_b = mis_weights(np.stack([n_l * q_l_at_b, n_b * q_b]).T, heuristic)[:, 1]
-            out += _mean_of(scale(_safe_ratio(f_b * le_b, q_b), w_b), n_b)
+            out += _mean_of(scale(scale(f_b * le_b, ratio(1.0, q_b)), w_b), n_b)
         return out
 
     def _mixture(self, bsdf, p, fr, wo_l, u):
@@ -349,11 +344,11 @@ class DirectLighting:
         b = np.flatnonzero(u[:, lay.choice] < c)
         if len(b):
             f_b, le_b, q_b, wi_b, hits_b = self._bsdf_sample(bsdf, p[b], fr.take(b), wo_l[b], u[b, lay.bsdf(0)])
-            out[b] = _safe_ratio(f_b * le_b, c * q_b + (1 - c) * self.light_pdf(p[b], wi_b, hits_b))
+            out[b] = scale(f_b * le_b, ratio(1.0, c * q_b + (1 - c) * self.light_pdf(p[b], wi_b, hits_b)))
         li = np.flatnonzero(u[:, lay.choice] >= c)
         if len(li):
             f_l, le_l, q_l, wi_l, _ = self._light_sample(bsdf, p[li], fr.take(li), wo_l[li], u[li, lay.light(0)])
-            out[li] = _safe_ratio(f_l * le_l, (1 - c) * q_l + c * bsdf.pdf(wo_l[li], wi_l))
+            out[li] = scale(f_l * le_l, ratio(1.0, (1 - c) * q_l + c * bsdf.pdf(wo_l[li], wi_l)))
         return out
 
     def _ris(self, bsdf, p, n, wo_l, u):
@@ -383,12 +378,12 @@ class DirectLighting:
         kd = lambertian_albedo(bsdf)
         n_l = self.n_l
         if not np.any(kd > 0):
-            return _mean_of(_safe_ratio(f_l * le_l, q_l), n_l)
+            return _mean_of(scale(f_l * le_l, ratio(1.0, q_l)), n_l)
         integral, valid = self.lights.cos_integrals(p, n)                       # (m, L)
         big_g = (kd / np.pi) * ((integral * valid) @ self.lights.radiance)     # (m, 3)
         ok = _tile(valid, n_l)[np.arange(len(j)), j]
         g = np.where(ok[:, None], (kd / np.pi) * np.clip(wi_l[:, 2:3], 0.0, None) * self.lights.radiance[j], 0.0)
-        return big_g + _mean_of(_safe_ratio(f_l * le_l - g, q_l), n_l)
+        return big_g + _mean_of(scale(f_l * le_l - g, ratio(1.0, q_l)), n_l)
 
     def _bsdf_sample(self, bsdf, p, fr, wo_l, u2, warp=None):
         u2 = uniforms32(u2)

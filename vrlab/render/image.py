@@ -15,7 +15,6 @@ Checked: the path's type, suffix and folder (``save_image``) or existence
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
@@ -40,15 +39,6 @@ def _image(value: Any, name: str, finite: bool) -> np.ndarray:
     if a.ndim != 3 or a.shape[-1] != 3 or a.size == 0:
         raise ValueError(f"{name}: expected an image of shape (H, W, 3) with H, W >= 1, got {a.shape}")
     return a
-
-
-def _path(path: Any, name: str = "path") -> Path:
-    if not isinstance(path, (str, os.PathLike)) or isinstance(path, bytes):
-        raise TypeError(f"{name} must be a file path (str or os.PathLike), got {type(path).__name__}")
-    p = Path(path)
-    if p.suffix.lower() not in SUFFIXES:
-        raise ValueError(f"{name}: unknown image format {p.suffix!r} in {str(p)!r}; use .npy, .png or .exr")
-    return p
 
 
 def srgb_encode(linear: np.ndarray) -> np.ndarray:
@@ -76,14 +66,9 @@ def save_image(path: str | Path, img: np.ndarray, exposure: float = 1.0) -> Path
 
     ``ValueError`` for another suffix, a folder that does not exist, a wrong shape, NaN or
     infinite pixels in a PNG, or ``exposure`` not finite and > 0."""
-    path = _path(path)
+    path = checks.file_path(path, "path", SUFFIXES)
     img = _image(img, "img", False).astype(np.float32)
     exposure = checks.real(exposure, "exposure", low=0, low_open=True)
-    folder = path.parent
-    if not folder.is_dir():
-        raise ValueError(f"path: the folder {str(folder)!r} does not exist")
-    if path.is_dir():
-        raise ValueError(f"path: {str(path)!r} is a folder")
     suffix = path.suffix.lower()
     if suffix == ".npy":
         np.save(path, img)
@@ -113,7 +98,7 @@ def load_image(path: str | Path, name: str = "path") -> np.ndarray:
     """A linear (H, W, 3) float image from ``.npy`` (or ``.exr`` with ``OpenEXR``), e.g. a
     reference for :func:`rel_mse`.  ``ValueError`` naming ``name`` if the file is missing,
     unreadable, not (H, W, 3) or not finite."""
-    p = _path(path, name)
+    p = checks.file_path(path, name, SUFFIXES, write=False)
     if p.suffix.lower() == ".png":
         raise ValueError(f"{name}: a .png is tone mapped; load a linear .npy or .exr image")
     if not p.is_file():
