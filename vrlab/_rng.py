@@ -50,6 +50,8 @@ def spawn(rng: RNGLike, k: int) -> list[np.random.Generator]:
     if isinstance(rng, np.random.SeedSequence):
         seq = rng
     elif rng is None or isinstance(rng, (int, np.integer)):
+        if rng is not None and rng < 0:
+            raise ValueError(f"rng: a seed must be non-negative, got {rng}")
         seq = np.random.SeedSequence(rng)
     elif isinstance(rng, np.random.BitGenerator):
         return np.random.Generator(rng).spawn(k)

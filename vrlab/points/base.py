@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import copy
 import functools
-import numbers
 from typing import Any
 
 import numpy as np
@@ -118,19 +117,9 @@ def resolve_rng(rng: RNGLike = None, seed: Any = _NO_SEED, *, spawn_child: bool 
         raise type(exc)(msg if msg.startswith(name) else f"{name}: {msg}") from None
 
 
-def spawn_checked(rng: RNGLike, R: int) -> list[np.random.Generator]:
-    """``vrlab._rng.spawn(rng, R)`` with ``rng`` checked first (errors name ``rng``)."""
-    if isinstance(rng, (bool, np.bool_)):
-        raise TypeError(f"rng: expected None, an int seed, a SeedSequence, BitGenerator or Generator, "
-                        f"got {_describe(rng)}")
-    if isinstance(rng, (numbers.Integral, np.integer)) and rng < 0:
-        raise ValueError(f"rng: a seed must be non-negative, got {rng}")
-    return spawn(rng, R)
-
-
 def child_seeds(rng: RNGLike, R: int) -> list[np.random.SeedSequence]:
     """``R`` independent child seeds of ``rng`` (the seeds of ``vrlab._rng.spawn(rng, R)``)."""
-    return [g.bit_generator.seed_seq for g in spawn_checked(rng, R)]
+    return [g.bit_generator.seed_seq for g in spawn(rng, R)]
 
 
 def check_optimization(optimization: Any, d: int) -> str | None:

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from .._rng import RNGLike, spawn
-from .base import _NO_SEED, MAX_REPLICATES, PointSet, check_dim, check_int, child_seeds, spawn_checked
+from .base import _NO_SEED, MAX_REPLICATES, PointSet, check_dim, check_int, child_seeds
 
 
 class CranleyPatterson(PointSet):
@@ -93,7 +93,7 @@ class CranleyPatterson(PointSet):
         fresh copy of it (``copy.deepcopy`` + ``reset``)."""
         R = check_int("R", R, 0, MAX_REPLICATES)
         out = []
-        for child in spawn_checked(rng, R):
+        for child in spawn(rng, R):
             c_base, c_shift = child_seeds(child, 2)
             if getattr(self.base, "randomized", False) and hasattr(self.base, "replicate"):
                 base = self.base.replicate(1, rng=c_base)[0]

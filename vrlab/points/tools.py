@@ -8,8 +8,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .. import checks
-from .._rng import RNGLike
-from .base import MAX_REPLICATES, PointSet, check_dim, check_int, check_workers, spawn_checked
+from .._rng import RNGLike, spawn
+from .base import MAX_REPLICATES, PointSet, check_dim, check_int, check_workers
 from .halton import Halton, Hammersley
 from .iid import Independent
 from .lhs import LatinHypercube
@@ -105,7 +105,7 @@ def replicates(points: Any, R: int, *, rng: RNGLike = None, d: int | None = None
         factory = points
     else:
         raise TypeError(f"points must be a point set, a name, a class or a factory, got {type(points).__name__}")
-    reps = [factory(child) for child in spawn_checked(rng, R)]
+    reps = [factory(child) for child in spawn(rng, R)]
     _check_not_identical(reps)
     return reps
 

@@ -158,8 +158,6 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, strategy: s
     workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1, high=limit)
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a callable progress(done, total) or None, got {type(progress).__name__}")
-    if isinstance(rng, (bool, np.bool_)):
-        raise TypeError("rng: expected None, an int seed, a numpy SeedSequence, BitGenerator or Generator, got bool")
     if width is not None or height is not None:
         sensor = dataclasses.replace(scene.sensor, width=scene.sensor.width if width is None else width,
                                      height=scene.sensor.height if height is None else height)
