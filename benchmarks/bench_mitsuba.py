@@ -84,8 +84,8 @@ def vrlab_subprocess(name, w, h, spp, strategy, selection, m, workers, tmp):
             "from vrlab.render import builtin_scene_path, load_scene, render; "
             f"sc = load_scene(builtin_scene_path({name!r})); "
             f"sc.sensor = dataclasses.replace(sc.sensor, width={w}, height={h}); t = time.perf_counter(); "
-            f"img, _ = render(sc, {spp}, {strategy!r}, rng=1, light_selection={selection!r}, "
-            f"ris_candidates={m}, workers={workers}); dt = time.perf_counter() - t; "
+            f"img = render(sc, {spp}, {strategy!r}, rng=1, light_selection={selection!r}, "
+            f"ris_candidates={m}, workers={workers}).value; dt = time.perf_counter() - t; "
             f"np.save({str(out)!r}, img); print(json.dumps([dt, time.perf_counter() - t0]))")
     t = time.perf_counter()
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=str(ROOT))

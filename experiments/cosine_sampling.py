@@ -9,7 +9,8 @@ Questions answered (tables in ``cosine_sampling_*.csv``, figures ``*.png``):
 * on the integrand cos(theta) over the hemisphere (integral pi) cosine sampling has zero
   variance while uniform hemisphere sampling has pi^2/3 (closed form);
 * a diffuse scene (the built-in Cornell box, small) rendered with uniform hemisphere,
-  cosine, light and MIS (power) sampling at equal spp: per-pixel sample variance.
+  cosine, light and MIS (power) sampling at equal spp (the renderer's presets, per-sample
+  values from ``vrlab.render.PixelIntegrand``): per-pixel sample variance.
 
 Run ``python experiments/cosine_sampling.py [--full] [--out DIR]``.
 """
@@ -38,14 +39,15 @@ from vrlab.distributions import CosineHemisphere, UniformHemisphere  # noqa: E40
 from vrlab.estimate import Moments  # noqa: E402
 from vrlab.estimators import MonteCarlo  # noqa: E402
 from vrlab.integrands import catalogue  # noqa: E402
-from vrlab.render import builtin_scene_path, load_scene  # noqa: E402
-from vrlab.render.direct import DIMS, DirectLighting  # noqa: E402
+from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene  # noqa: E402
 from vrlab.testing import HemisphereChart, chi2_gof, sidak_threshold  # noqa: E402
 from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "cosine_sampling"
 METHODS = ("inversion", "disk", "sphere-shift")
 ALPHA = 0.01   # family-wise level of the three chi-square tests
+RENDER_STRATEGIES = ("uniform", "cosine", "light", "mis-power")   # renderer presets
+BLOCK_PIXELS = 4096   # pixels per block of render_samples (memory bound)
 
 
 def gof_table(n: int, seed: int = 0) -> pd.DataFrame:
@@ -104,16 +106,16 @@ def cos_variance(n: int, reps: int, seed: int = 2) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def render_samples(scene, strategy: str, spp: int, seed: int) -> np.ndarray:
-    """Per-pixel, per-sample radiance ``(H, W, spp, 3)`` (same uniforms for every strategy)."""
-    integ = DirectLighting(scene, strategy)  # "uniform", "cosine", "mis-power", ...
-    h, w = scene.sensor.height, scene.sensor.width
-    rows, cols = np.divmod(np.arange(h * w), w)
-    pix = np.stack([rows, cols], -1)
-    u = np.random.default_rng(seed).random((h * w, spp, DIMS))
-    o, d = integ.camera.pixel_rays(pix[:, None, :], u[..., :2])
-    values = integ.radiance_of(o.reshape(-1, 3), d.reshape(-1, 3), u.reshape(-1, DIMS))
-    return values.reshape(h, w, spp, 3)
+def render_samples(scene, estimator, spp: int, rng) -> np.ndarray:
+    """Per-pixel, per-sample radiance ``(H, W, spp, 3)`` of ``estimator`` (a preset name such
+    as ``"uniform"``, ``"cosine"``, ``"mis-power"``, or an estimator object):
+    ``PixelIntegrand(scene, estimator).values`` on i.i.d. uniforms ``(pixels, spp, integ.dim)``
+    from ``rng``, block after block of pixels.  Each estimator needs its own number of
+    uniforms per sample (``integ.dim``): with the same ``rng``, strategies of the same dim
+    (``"uniform"`` and ``"cosine"``, 4) get the very same uniforms, as all strategies did
+    with the old fixed layout, so their variance ratio has common random numbers; the
+    others (``"light"`` 5, ``"mis-power"`` 7) now get uniforms of their own."""
+    return PixelIntegrand(scene, estimator).image_values(spp, rng, block_pixels=BLOCK_PIXELS)
 
 
 def render_study(size: tuple[int, int], spps: list[int], seed: int = 3):
@@ -121,9 +123,9 @@ def render_study(size: tuple[int, int], spps: list[int], seed: int = 3):
     scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=size[0], height=size[1]))
     rows, images = [], {}
     for spp in spps:
-        for strategy in ("uniform", "cosine", "light", "mis-power"):
+        for strategy in RENDER_STRATEGIES:
             t0 = time.perf_counter()
-            s = render_samples(scene, strategy, spp, seed)
+            s = render_samples(scene, strategy, spp, [seed, spp])    # same uniforms where dims agree
             secs = time.perf_counter() - t0
             lum = s.mean(-1)                                  # (H, W, spp) grey value
             mom = Moments().add(lum)
@@ -139,7 +141,7 @@ def render_study(size: tuple[int, int], spps: list[int], seed: int = 3):
 
 
 def plot_renders(images: dict, spps: list[int], path: Path) -> Path:
-    strategies = ("uniform", "cosine", "light", "mis-power")
+    strategies = RENDER_STRATEGIES
     fig, axes = plt.subplots(len(spps), 4, figsize=(12, 2.6 * len(spps)), squeeze=False)
     for i, spp in enumerate(spps):
         for j, s in enumerate(strategies):

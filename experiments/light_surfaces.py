@@ -17,7 +17,8 @@ Questions answered (tables in ``light_surfaces_*.csv``, figures ``*.png``):
   with the one-hit pdf (biased) and cosine sampling, against quadrature over the light's
   surface (the area form of the same integral);
 * a small render of ``box_ellipsoid``: cosine vs light vs mixture vs MIS (power) at equal
-  spp, relative MSE against a higher-spp reference.
+  spp (``vrlab.render.render`` with those presets; it returns an ``Estimate``), relative
+  MSE against a higher-spp reference.
 
 Run ``python experiments/light_surfaces.py [--full] [--out DIR]``.
 """
@@ -350,12 +351,13 @@ def render_study(size: tuple[int, int], spp: int, ref_spp: int, seed: int = 7):
     scene = load_scene(builtin_scene_path("box_ellipsoid"))
     scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=size[0], height=size[1]))
     t0 = time.perf_counter()
-    reference, _ = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([seed, 1]))
+    reference = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([seed, 1])).value
     ref_secs = time.perf_counter() - t0
     images, rows = {}, []
     for s in RENDER_STRATEGIES:
         t0 = time.perf_counter()
-        img, err = render(scene, spp, s, rng=np.random.SeedSequence([seed, 0]))
+        est = render(scene, spp, s, rng=np.random.SeedSequence([seed, 0]))
+        img, err = est.value, est.stderr
         secs = time.perf_counter() - t0
         images[s] = img
         rows.append({"strategy": s, "spp": spp, "rel_mse": rel_mse(img, reference),

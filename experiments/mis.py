@@ -10,7 +10,8 @@ Questions answered (tables in ``mis_*.csv``, figures ``*.png``):
 * Veach's bound: the balance heuristic is never worse than any other weighting by more
   than (1/min n_i - 1/sum n_i) I^2;
 * the Veach MIS figure (four glossy plates x four spherical lights) rendered with BSDF,
-  light and MIS (power) sampling, with the per-pixel variance in each (plate, light) region.
+  light and MIS (power) sampling, with the per-pixel variance in each (plate, light) region
+  (per-sample pixel values from ``vrlab.render.PixelIntegrand(scene, preset).values``).
 
 Run ``python experiments/mis.py [--full] [--out DIR]``.
 """
@@ -38,12 +39,13 @@ from vrlab.distributions import Mixture  # noqa: E402
 from vrlab.estimate import Moments  # noqa: E402
 from vrlab.estimators import HEURISTICS, MIS, MonteCarlo, OneSampleMIS  # noqa: E402
 from vrlab.integrands import Integrand, catalogue, mc_variance  # noqa: E402
-from vrlab.render import builtin_scene_path, load_scene  # noqa: E402
-from vrlab.render.direct import DIMS, DirectLighting  # noqa: E402
+from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene  # noqa: E402
+from vrlab.render.direct import DirectLighting  # noqa: E402
 from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "mis"
-STRATEGIES = ("bsdf", "light", "mis-power")
+STRATEGIES = ("bsdf", "light", "mis-power")      # renderer presets (vrlab.render.PRESETS)
+BLOCK_PIXELS = 4096                                # pixels per block of render_samples (memory bound)
 
 
 def balance_prediction(integrand, techniques) -> float:
@@ -117,7 +119,7 @@ def regions(scene) -> tuple[np.ndarray, np.ndarray, list, list]:
     """Per pixel: plate index (0-3, -1 elsewhere) and the light (0-3) closest in angle to the
     mirror reflection of the central camera ray.  Approximate highlight regions: every plate
     pixel is assigned to the light its mirror direction points nearest to."""
-    integ = DirectLighting(scene, "light")
+    integ = DirectLighting(scene)
     h, w = scene.sensor.height, scene.sensor.width
     rows, cols = np.divmod(np.arange(h * w), w)
     pix = np.stack([rows, cols], -1)
@@ -140,24 +142,23 @@ def regions(scene) -> tuple[np.ndarray, np.ndarray, list, list]:
     return plate.reshape(h, w), light.reshape(h, w), alphas, radii
 
 
-def render_samples(scene, strategy: str, spp: int, seed: int) -> np.ndarray:
-    """Per-pixel, per-sample radiance ``(H, W, spp, 3)``, the same uniforms for every strategy."""
-    integ = DirectLighting(scene, strategy)
-    h, w = scene.sensor.height, scene.sensor.width
-    rows, cols = np.divmod(np.arange(h * w), w)
-    pix = np.stack([rows, cols], -1)
-    u = np.random.default_rng(seed).random((h * w, spp, DIMS))
-    o, d = integ.camera.pixel_rays(pix[:, None, :], u[..., :2])
-    values = integ.radiance_of(o.reshape(-1, 3), d.reshape(-1, 3), u.reshape(-1, DIMS))
-    return values.reshape(h, w, spp, 3)
+def render_samples(scene, estimator, spp: int, rng) -> np.ndarray:
+    """Per-pixel, per-sample radiance ``(H, W, spp, 3)`` of ``estimator`` (a preset name or
+    an estimator object): ``PixelIntegrand(scene, estimator).values`` on i.i.d. uniforms
+    ``(pixels, spp, integ.dim)`` drawn from ``rng``, block after block of pixels.
+
+    Each estimator needs its own number of uniforms per sample (``integ.dim``), so the
+    strategies no longer share their uniforms bit for bit; nothing below relies on common
+    random numbers (each strategy's per-pixel variance is measured on its own samples)."""
+    return PixelIntegrand(scene, estimator).image_values(spp, rng, block_pixels=BLOCK_PIXELS)
 
 
 def veach_study(size, spp: int, seed: int = 5):
     scene = _scene(size)
     plate, light, alphas, radii = regions(scene)
     images, var, mean = {}, {}, {}
-    for s in STRATEGIES:
-        samples = render_samples(scene, s, spp, seed)
+    for k, s in enumerate(STRATEGIES):
+        samples = render_samples(scene, s, spp, np.random.SeedSequence([seed, k]))
         images[s] = samples.mean(-2)
         mom = Moments().add(samples.mean(-1))
         var[s] = mom.variance          # per-pixel sample variance of the grey value
@@ -175,8 +176,11 @@ def veach_study(size, spp: int, seed: int = 5):
                 # a heavy-tailed technique that never hit the light shows a small sample
                 # variance *and* a too-dark mean: keep the region means as a diagnostic
                 row[f"mean_{s}"] = float(mean[s][m].mean())
-            row["best_single"] = "bsdf" if row["var_bsdf"] < row["var_light"] else "light"
-            row["mis_over_best"] = row["var_mis-power"] / min(row["var_bsdf"], row["var_light"])
+            # a variance of exactly 0 means the technique never reached the light in the region
+            # (e.g. BSDF sampling of the smallest light at low spp): unmeasured, not the best
+            single = {s: row[f"var_{s}"] for s in ("bsdf", "light") if row[f"var_{s}"] > 0}
+            row["best_single"] = min(single, key=single.get) if single else ""
+            row["mis_over_best"] = row["var_mis-power"] / single[row["best_single"]] if single else np.nan
             rows.append(row)
     return pd.DataFrame(rows), images, (plate, light)
 

@@ -19,7 +19,9 @@ Questions answered (tables ``ris_*.csv``, figures ``ris_*.png``):
   F_COST = 10 candidates (as a shadow ray does): an optimum M in between;
 * the ``many_lights`` scene (128 sphere lights, powers over three decades): one light sample
   with the light chosen uniformly or by power, against RIS with M = 1, 4, 16, 32 uniformly drawn
-  light candidates and M = 16 power-drawn ones (one shadow ray each): relMSE against a 16x-spp
+  light candidates and M = 16 power-drawn ones (one shadow ray each; the renderer's presets
+  ``"light"`` and ``"ris"``, i.e. ``MonteCarlo("light")`` and ``RIS("light",
+  target="unshadowed", m=M)``, with ``light_selection=``): relMSE against a 16x-spp
   reference (over the pixels that see no light) and render time.
 
 Run ``python experiments/ris.py [--full] [--out DIR]``.
@@ -221,7 +223,7 @@ def light_free_mask(scene, sub: int = 6) -> np.ndarray:
     A pixel that sees part of a light gets a camera-sampling error (radiance up to 1000 or the
     floor's ~1) that no light-selection strategy touches and that dominates a relMSE at a few
     spp; the comparison uses the other pixels."""
-    integ = DirectLighting(scene, "light")
+    integ = DirectLighting(scene)                  # geometry and camera only
     h, w = scene.sensor.height, scene.sensor.width
     rows, cols = np.divmod(np.arange(h * w), w)
     pix = np.broadcast_to(np.stack([rows, cols], -1)[:, None, :], (h * w, sub * sub, 2))
@@ -256,13 +258,14 @@ def many_lights(size, spp: int, ref_spp: int, ms, seed: int = 7, power_candidate
     scene = small_scene(size)
     mask = light_free_mask(scene)
     t0 = time.perf_counter()
-    ref, ref_err = render(scene, ref_spp, "ris", rng=[seed, 0], light_selection="power", ris_candidates=16)
+    ref_est = render(scene, ref_spp, "ris", rng=[seed, 0], light_selection="power", ris_candidates=16)
     ref_sec = time.perf_counter() - t0
-    ref, ref_err = ref.astype(float), ref_err.astype(float)
+    ref, ref_err = ref_est.value.astype(float), ref_est.stderr.astype(float)
     rows, images = [], {}
     for k, (label, strategy, sel, m) in enumerate(methods(ms, power_candidates), start=1):
         t0 = time.perf_counter()
-        img, err = render(scene, spp, strategy, rng=[seed, k], light_selection=sel, ris_candidates=m)
+        est = render(scene, spp, strategy, rng=[seed, k], light_selection=sel, ris_candidates=m)
+        img, err = est.value, est.stderr
         sec = time.perf_counter() - t0
         images[label] = img
         rel = relmse(img, ref, ref_err, mask)

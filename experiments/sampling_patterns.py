@@ -14,8 +14,11 @@ Questions answered (tables in ``sampling_patterns_*.csv``, figures ``*.png``):
   positions at 5 and 1000 samples per pixel -- first on a pixel-footprint integrand with
   an edge (exact answer known), then in a small Cornell-box render (the script draws the
   strata itself, so both variants use the very same uniforms, and feeds them to
-  ``vrlab.render.direct.DirectLighting``; the renderer's ``pixel_sampler="stratified"``
-  does the same with shuffled strata);
+  ``vrlab.render.PixelIntegrand(scene, "light").values``);
+* the renderer's pixel point sets, ``render(..., points=...)`` with None (i.i.d.),
+  ``"stratified"`` (padded jittered strata over all of a pixel sample's uniforms),
+  ``"sobol"`` and ``"halton"`` (a shared scrambled set, Cranley-Patterson shifted per
+  pixel): per-pixel variance over independent renders, on edge pixels and the rest;
 * the report's importance-sampling experiments at 10 and 1000 spp (fast mode: 10 and
   100): cos-weighted against uniform hemisphere sampling on the diffuse Cornell box, and
   Phong-BRDF sampling against uniform on the Phong floor of ``box_ellipsoid``; the
@@ -47,9 +50,8 @@ from vrlab import lab  # noqa: E402
 from vrlab import points as P  # noqa: E402
 from vrlab._rng import spawn  # noqa: E402
 from vrlab.estimators import MonteCarlo  # noqa: E402
-from vrlab.render import builtin_scene_path, load_scene, render  # noqa: E402
+from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene, render  # noqa: E402
 from vrlab.render.image import rel_mse  # noqa: E402
-from vrlab.render.direct import DIMS, DirectLighting  # noqa: E402
 from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "sampling_patterns"
@@ -182,29 +184,40 @@ def edge_table(spps: list[int], reps: int, seed: int = 4) -> pd.DataFrame:
     return t
 
 
+def small_box(size):
+    """The built-in Cornell box at ``size`` = (width, height) pixels."""
+    scene = load_scene(builtin_scene_path("cornell_box"))
+    return dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=size[0], height=size[1]))
+
+
+def edge_pixels(integ: PixelIntegrand) -> np.ndarray:
+    """Flat (H*W,) mask: rays near the four corners of the pixel hit more than one shape."""
+    cam, h, w = integ.lighting.camera, integ.lighting.camera.height, integ.lighting.camera.width
+    pix = np.stack(np.divmod(np.arange(h * w), w), -1)
+    corners = np.array([[0.02, 0.02], [0.98, 0.02], [0.02, 0.98], [0.98, 0.98]])
+    o, d = cam.pixel_rays(pix[:, None, :], np.broadcast_to(corners, (h * w, 4, 2)))
+    ids = integ.lighting.geometry.intersect(o.reshape(-1, 3), d.reshape(-1, 3)).shape.reshape(h * w, 4)
+    return (ids != ids[:, :1]).any(-1)
+
+
 def render_strata(size, spps: list[int], reps: int, strategy: str = "light", seed: int = 5):
     """Per-pixel variance across ``reps`` independent renders, random vs 4 sub-pixel strata,
-    split into edge pixels (the pixel footprint sees more than one surface) and the rest."""
-    scene = load_scene(builtin_scene_path("cornell_box"))
-    scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=size[0], height=size[1]))
-    integ = DirectLighting(scene, strategy)
+    split into edge pixels (the pixel footprint sees more than one surface) and the rest.
+    Both variants evaluate ``PixelIntegrand(scene, strategy).values`` on the same uniforms
+    ``(pixels, spp, integ.dim)``; only the map of the first two (the position in the pixel)
+    differs, so the comparison uses common random numbers."""
+    scene = small_box(size)
+    integ = PixelIntegrand(scene, strategy)
     h, w = size[1], size[0]
-    rows_, cols_ = np.divmod(np.arange(h * w), w)
-    pix = np.stack([rows_, cols_], -1)
-    corners = np.array([[0.02, 0.02], [0.98, 0.02], [0.02, 0.98], [0.98, 0.98]])
-    o, d = integ.camera.pixel_rays(pix[:, None, :], np.broadcast_to(corners, (h * w, 4, 2)))
-    ids = integ.geometry.intersect(o.reshape(-1, 3), d.reshape(-1, 3)).shape.reshape(h * w, 4)
-    is_edge = (ids != ids[:, :1]).any(-1)
+    pix = np.stack(np.divmod(np.arange(h * w), w), -1)
+    is_edge = edge_pixels(integ)
     rows, images, pixvar = [], {}, {}
     for spp in spps:
         ests = {False: [], True: []}
         for r, g in enumerate(spawn(np.random.SeedSequence([seed, spp]), reps)):
-            u0 = g.random((h * w, spp, DIMS))
+            u0 = g.random((h * w, spp, integ.dim))
             for stratified in (False, True):   # same uniforms, only the sub-pixel map differs
-                u = subpixel_uniforms(u0, stratified)
-                o, d = integ.camera.pixel_rays(pix[:, None, :], u[..., :2])
-                v = integ.radiance_of(o.reshape(-1, 3), d.reshape(-1, 3), u.reshape(-1, DIMS))
-                lum = v.reshape(h * w, spp, 3).mean(-1)
+                lum = integ.values(pix, subpixel_uniforms(u0, stratified)).mean(-1)    # (pixels, spp)
                 ests[stratified].append(pixel_estimate(lum, stratified))
         for stratified, e in ests.items():
             e = np.array(e)                   # (reps, pixels)
@@ -224,6 +237,34 @@ def render_strata(size, spps: list[int], reps: int, strategy: str = "light", see
         t[col] = [float(np.median(pixvar[(r.spp, r["sub-pixel"] == "4 strata")][m]
                                   / np.maximum(pixvar[(r.spp, False)][m], 1e-30))) for _, r in t.iterrows()]
     return t, images, is_edge.reshape(h, w)
+
+
+POINTS = {"independent": None, "stratified": "stratified", "sobol": "sobol", "halton": "halton"}
+
+
+def render_points(size, spp: int, reps: int, strategy: str = "light", seed: int = 8) -> pd.DataFrame:
+    """The renderer's pixel point sets: ``render(scene, spp, strategy, points=p)`` for p in
+    ``POINTS``, ``reps`` independent renders each (their own seeds; for Sobol and Halton a
+    new scramble and new shifts each time, i.e. randomised QMC).  The per-pixel variance of
+    the grey value across the renders, split into edge pixels and the rest, and the median
+    over pixels of its ratio to the i.i.d. variance.  Unlike the 4 sub-pixel strata above,
+    these sets spread all ``integ.dim`` uniforms of a pixel's samples, the light sample's too.
+    (``render``'s own ``stderr`` assumes i.i.d. samples, so it is not used for them.)"""
+    scene = small_box(size)
+    is_edge = edge_pixels(PixelIntegrand(scene, strategy))
+    pixvar = {}
+    for k, (name, points) in enumerate(POINTS.items()):
+        imgs = np.array([render(scene, spp, strategy, points=points, rng=np.random.SeedSequence([seed, k, r]),
+                                workers=1).value.mean(-1).ravel() for r in range(reps)])
+        pixvar[name] = imgs.var(0, ddof=1)
+    rows = []
+    for name, var in pixvar.items():
+        ratio = var / np.maximum(pixvar["independent"], 1e-30)
+        rows.append({"points": name, "spp": spp, "reps": reps, "strategy": strategy,
+                     "var_edge_pixels": float(var[is_edge].mean()), "var_other_pixels": float(var[~is_edge].mean()),
+                     "median_ratio_edge": float(np.median(ratio[is_edge])),
+                     "median_ratio_other": float(np.median(ratio[~is_edge]))})
+    return pd.DataFrame(rows)
 
 
 def plot_strata(images: dict, spps: list[int], is_edge: np.ndarray, path: Path) -> Path:
@@ -254,10 +295,12 @@ def report_importance(size, spps: list[int], ref_spp: int, seed: int = 6):
     for name, strategies in REPORT_IS.items():
         scene = load_scene(builtin_scene_path(name))
         scene.sensor = dataclasses.replace(scene.sensor, width=size[0], height=size[1])
-        ref, ref_se = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([seed, 0]), workers=1)
+        ref = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([seed, 0]), workers=1)
+        ref, ref_se = ref.value, ref.stderr
         for spp in spps:
             for k, strategy in enumerate(strategies):
-                img, se = render(scene, spp, strategy, rng=np.random.SeedSequence([seed, 1 + k, spp]), workers=1)
+                est = render(scene, spp, strategy, rng=np.random.SeedSequence([seed, 1 + k, spp]), workers=1)
+                img, se = est.value, est.stderr
                 g, gs, rg, rs = (np.asarray(a[..., 1], float) for a in (img, se, ref, ref_se))
                 z = (g.mean() - rg.mean()) / (np.sqrt(np.sum(gs ** 2) + np.sum(rs ** 2)) / g.size)
                 images[(name, strategy, spp)] = img
@@ -299,6 +342,8 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     render_t, images, is_edge = render_strata((32, 24) if full else (24, 18), spps, 16)
     render_t.to_csv(out / "sampling_patterns_pixel_render.csv", index=False)
     plot_strata(images, spps, is_edge, out / "sampling_patterns_pixel_render.png")
+    points_t = render_points((32, 24) if full else (24, 18), 64 if full else 16, 16)
+    points_t.to_csv(out / "sampling_patterns_pixel_points.csv", index=False)
     report_t, report_images = report_importance((48, 36) if full else (24, 18), [10, 1000] if full else [10, 100],
                                                 4000 if full else 400)
     report_t.to_csv(out / "sampling_patterns_report_is.csv", index=False)
@@ -306,7 +351,7 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     s = slopes.set_index(["estimator", "integrand"])
     return {
         "discrepancy": disc, "summary": summary, "slopes": slopes, "edge": edge_t, "render": render_t,
-        "report_is": report_t,
+        "points": points_t, "report_is": report_t,
         "slope_mc_1d": float(s.loc[("MC", "exp"), "slope"]),
         "slope_jittered_1d": float(s.loc[("jittered", "exp"), "slope"]),
         "slope_jittered_2d": float(s.loc[("jittered", "smooth-2d"), "slope"]),

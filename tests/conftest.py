@@ -75,3 +75,11 @@ def assert_calibrated(vals, se, exact, expected_var=None):
     if expected_var is not None:
         ratio = vals.var(ddof=1) / expected_var
         assert lo**2 < ratio < hi**2, ratio
+
+
+def render_pair(*args, **kwargs):
+    """``vrlab.render.render(...)`` as ``(image, stderr)``, for tests that compare both."""
+    from vrlab.render import render
+
+    est = render(*args, **kwargs)
+    return est.value, est.stderr

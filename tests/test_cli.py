@@ -77,6 +77,34 @@ def test_render_cli_counts_workers_and_progress(tmp_path, capsys):
     assert exc.value.code == 2 and "--emitter-samples" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("name, points", [(None, None), ("independent", None), ("stratified", "stratified"),
+                                          ("sobol", "sobol"), ("halton", "halton")])
+def test_render_cli_pixel_sampler_is_render_points(name, points, tmp_path, capsys, monkeypatch):
+    """--pixel-sampler NAME reaches render() as points= (independent: None, i.i.d.), the
+    strategy as the estimator preset; the image is the Estimate's value."""
+    import numpy as np
+
+    import vrlab.render
+    from vrlab.render import render as real_render
+
+    calls = []
+
+    def spy(*args, **kwargs):
+        calls.append((args, kwargs))
+        return real_render(*args, **kwargs)
+    monkeypatch.setattr(vrlab.render, "render", spy)
+    out = tmp_path / "img.npy"
+    argv = ["render", "furnace", "--spp", "2", "--width", "6", "--height", "4", "--seed", "7", "--workers", "1",
+            "--strategy", "cosine", "--no-progress", "-o", str(out)]
+    assert main(argv + ([] if name is None else ["--pixel-sampler", name])) == 0
+    capsys.readouterr()
+    (args, kwargs), = calls
+    assert args[2] == "cosine" and kwargs["points"] == points and "pixel_sampler" not in kwargs
+    monkeypatch.undo()
+    expected = real_render(args[0], 2, "cosine", rng=kwargs["rng"], points=points, workers=1)
+    np.testing.assert_array_equal(np.load(out), expected.value)
+
+
 def test_rel_mse_and_srgb():
     import numpy as np
 

@@ -97,19 +97,20 @@ def test_help_prints_and_exits_0(argv, capsys):
 
 
 def test_render_help_explains_the_strategies_and_keeps_flag_names_whole(capsys):
-    from vrlab.render.direct import PIXEL_SAMPLERS, STRATEGIES
+    from vrlab.cli_render import PIXEL_SAMPLERS
+    from vrlab.render.presets import PRESETS
 
     with pytest.raises(SystemExit):
         main(["render", "--help"])
     out = capsys.readouterr().out
-    for name in (*STRATEGIES, *PIXEL_SAMPLERS, "power", "--export", "--to"):
+    for name in (*PRESETS, *PIXEL_SAMPLERS, "power", "--export", "--to"):
         assert f"{name}:" in out or f"{name} " in out, name
     assert "--light-\n" not in out and "mis-\n" not in out      # not broken at a hyphen
 
 
 def test_every_strategy_and_pixel_sampler_has_a_description():
-    from vrlab.cli_render import PIXEL_SAMPLER_HELP, STRATEGY_HELP
-    from vrlab.render.direct import PIXEL_SAMPLERS, STRATEGIES
+    from vrlab.cli_render import PIXEL_SAMPLER_HELP, PIXEL_SAMPLERS, STRATEGY_HELP
+    from vrlab.render.presets import PRESETS
 
-    assert set(STRATEGY_HELP) == set(STRATEGIES)
+    assert set(STRATEGY_HELP) == set(PRESETS)
     assert set(PIXEL_SAMPLER_HELP) == set(PIXEL_SAMPLERS)

@@ -159,7 +159,8 @@ DISTS = [UniformInterval(0, np.pi / 2), LinearInterval(0, np.pi / 2, 0.0, 1.0)]
     (lambda: MIS(DISTS, heuristic="optimal", optimal_pilot="x"), TypeError, "optimal_pilot"),
     (lambda: MIS(DISTS, heuristic="optimal", optimal_pilot=1.0), ValueError, "optimal_pilot"),
     (lambda: MIS([]), ValueError, "distributions"),
-    (lambda: MIS([DISTS[0], "light"]), TypeError, "distributions[1]"),
+    (lambda: MIS([DISTS[0], 42]), TypeError, "distributions[1]"),
+    (lambda: MIS([DISTS[0], ""]), ValueError, "distributions[1]"),
     (lambda: MIS(DISTS, probe="no"), TypeError, "probe"),
     (lambda: OneSampleMIS(DISTS, beta="abc"), TypeError, "beta"),
     (lambda: OneSampleMIS(DISTS, heuristic="optimal"), ValueError, "heuristic"),
@@ -167,7 +168,10 @@ DISTS = [UniformInterval(0, np.pi / 2), LinearInterval(0, np.pi / 2, 0.0, 1.0)]
     (lambda: MonteCarlo(np.sin), TypeError, "distribution"),
     (lambda: MonteCarlo(probe="yes"), TypeError, "probe"),
     (lambda: Antithetic(42), TypeError, "distribution"),
-    (lambda: ControlVariate("h", 1.0), TypeError, "control"),
+    (lambda: ControlVariate(42, 1.0), TypeError, "control"),
+    (lambda: ControlVariate("h", 1.0), ValueError, "control_integral"),
+    (lambda: ControlVariate(np.sin), TypeError, "control_integral"),
+    (lambda: ControlVariate([np.sin, "h"], [1.0, 1.0]), TypeError, "control"),
     (lambda: ControlVariate(np.sin, "abc"), TypeError, "control_integral"),
     (lambda: ControlVariate(np.sin, np.nan), ValueError, "control_integral"),
     (lambda: ControlVariate(np.sin, 1.0, alpha="best"), ValueError, "alpha"),
@@ -187,8 +191,8 @@ DISTS = [UniformInterval(0, np.pi / 2), LinearInterval(0, np.pi / 2, 0.0, 1.0)]
     (lambda: RQMC(base="mc"), TypeError, "base"),
     (lambda: RIS(DISTS[0], np.sin, "abc"), TypeError, "m"),
     (lambda: RIS(DISTS[0], np.sin, 0), ValueError, "m"),
-    (lambda: RIS("uniform", np.sin, 4), TypeError, "source"),
-    (lambda: RIS(DISTS[0], "sin", 4), TypeError, "target"),
+    (lambda: RIS(42, np.sin, 4), TypeError, "source"),
+    (lambda: RIS(DISTS[0], 42, 4), TypeError, "target"),
     (lambda: CRNDifference(common="yes"), TypeError, "common"),
     (lambda: CRNDifference("mc"), TypeError, "estimator"),
     (lambda: MetropolisHastings(np.sin, step="abc"), TypeError, "step"),
@@ -282,3 +286,22 @@ def test_demo_out_must_be_a_folder(raises_naming, tmp_path):
     (tmp_path / "file").write_text("x")
     with raises_naming(ValueError, "out"):
         run_demo(tmp_path / "file")
+
+
+@pytest.mark.parametrize("make, arg", [
+    (lambda: MIS([DISTS[0], "light"]), "distributions[1]"),
+    (lambda: OneSampleMIS(["uniform", "light"]), "distributions[1]"),
+    (lambda: MonteCarlo("light"), "distribution"),
+    (lambda: Antithetic("light"), "distribution"),
+    (lambda: ControlVariate("lambertian"), "control[0]"),
+    (lambda: ControlVariate(np.sin, 1.0, distribution="light"), "distribution"),
+    (lambda: DefensiveMixture(["light"]), "distributions[0]"),
+    (lambda: RIS("light", np.sin, 4), "source"),
+    (lambda: RIS(DISTS[0], "unshadowed", 4), "target"),
+])
+def test_unknown_technique_names_are_named_at_estimate(make, arg, raises_naming):
+    """Technique, control and target names resolve per integrand: an integrand without that
+    name gives a ValueError naming the argument (and listing the names it has)."""
+    integrand = vrlab.Integrand(lambda x: np.sin(x[..., 0]), [(0, np.pi / 2)], 1.0, techniques={"uniform": DISTS[0]})
+    with raises_naming(ValueError, arg):
+        make().estimate(integrand, 64, rng=0)

@@ -22,7 +22,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from vrlab.render import builtin_scene_path, load_scene, render
+from conftest import render_pair
+from vrlab.render import builtin_scene_path, load_scene
 
 DATA = Path(__file__).parent / "data" / "mitsuba"
 ALPHA = 1e-3                       # family-wise error rate of each check
@@ -105,7 +106,7 @@ def test_agrees_with_mitsuba(name, spp, block, mean_tol):
     h, w, _ = ref.shape
     scene = load_scene(builtin_scene_path(name))
     scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=w, height=h))
-    img, err = render(scene, spp, "mis-power", rng=20240611)
+    img, err = render_pair(scene, spp, "mis-power", rng=20240611)
     r = compare(img, err, spp, ref, ref_err, block=block)
     msg = f"{name}: {r}"
     print(msg)
@@ -133,9 +134,33 @@ def test_other_strategies_agree_with_mitsuba(name, strategy, options):
     h, w, _ = ref.shape
     scene = load_scene(builtin_scene_path(name))
     scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=w, height=h))
-    img, err = render(scene, spp, strategy, rng=7, **options)
+    img, err = render_pair(scene, spp, strategy, rng=7, **options)
     r = compare(img, err, spp, ref, ref_err, block=block)
     msg = f"{name}/{strategy}: {r}"
+    assert len(r["zero_stderr_mismatches"]) == 0, msg
+    assert r["max_abs_z"] < r["threshold"], msg
+    assert abs(r["mean_diff_z"]) < mean_tol, msg
+
+
+def _user_estimators():
+    from user_estimators import LightBSDFMIS, balance
+    from vrlab.estimators import MIS
+
+    return {"user-heuristic": MIS(["light", "bsdf"], heuristic=balance), "user-estimator": LightBSDFMIS()}
+
+
+@pytest.mark.parametrize("name", ["cornell_box", "veach_mis"])
+@pytest.mark.parametrize("which", ["user-heuristic", "user-estimator"])
+def test_user_heuristic_and_estimator_agree_with_mitsuba(name, which):
+    """A hand-written balance heuristic plugged into ``MIS``, and a user's ``Estimator``
+    subclass (tests/user_estimators.py), render the stored Mitsuba references."""
+    spp, block, mean_tol, _ = CASES[name]
+    ref = np.load(DATA / f"{name}_mean.npy")
+    ref_err = np.load(DATA / f"{name}_stderr.npy")
+    h, w, _ = ref.shape
+    img, err = render_pair(name, spp, _user_estimators()[which], rng=11, width=w, height=h)
+    r = compare(img, err, spp, ref, ref_err, block=block)
+    msg = f"{name}/{which}: {r}"
     assert len(r["zero_stderr_mismatches"]) == 0, msg
     assert r["max_abs_z"] < r["threshold"], msg
     assert abs(r["mean_diff_z"]) < mean_tol, msg

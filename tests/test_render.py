@@ -7,8 +7,8 @@ from scipy import stats
 
 from vrlab.render import Scene, load_scene
 from vrlab.render.camera import Camera
-from vrlab.render.direct import STRATEGIES
-from vrlab.render.film import render
+from conftest import render_pair
+from vrlab.render.presets import PRESETS as STRATEGIES
 from vrlab.render.geometry import SceneGeometry
 
 RHO = (0.2, 0.5, 0.8)           # floor reflectance (per channel)
@@ -98,7 +98,7 @@ def renders():
     for kind, light in LIGHTS.items():
         sc = scene(FLOOR + light)
         out[kind] = (sc, exact_image(kind, sc),
-                     {s: render(sc, 1024, s, rng=7) for s in STRATEGIES})
+                     {s: render_pair(sc, 1024, s, rng=7) for s in STRATEGIES})
     return out
 
 
@@ -157,7 +157,7 @@ def test_glossy_strategies_agree(kind):
     assert phong != FLOOR
     sc = scene(phong + RECT_LIGHT, origin="-0.6, 0.5, 0", target="0.3, 0, 0.05", up="0, 1, 0",
                fov=20, width=6, height=4)
-    images = {s: render(sc, 512, s, rng=3) for s in ("bsdf", "light", "mis-balance", "mis-power", "mixture",
+    images = {s: render_pair(sc, 512, s, rng=3) for s in ("bsdf", "light", "mis-balance", "mis-power", "mixture",
                                                      "ris", "cv")}
     ref, ref_se = images["mis-power"]
     assert ref.mean() > 0.05
@@ -179,10 +179,10 @@ def test_emitter_seen_directly_is_exact_and_one_sided(strategy):
     look = {"origin": "0, 0, 0", "target": "0, 0, 1", "up": "0, 1, 0", "fov": 30}
     back = scene(WALL.format(flip=""), **look)
     front = scene(WALL.format(flip='<boolean name="flip_normals" value="true"/>'), **look)
-    img, se = render(front, 4, strategy, rng=0)
+    img, se = render_pair(front, 4, strategy, rng=0)
     np.testing.assert_array_equal(img, np.broadcast_to(np.float32([1, 2, 3]), img.shape))
     np.testing.assert_array_equal(se, 0)
-    img, se = render(back, 4, strategy, rng=0)
+    img, se = render_pair(back, 4, strategy, rng=0)
     np.testing.assert_array_equal(img, 0)
     np.testing.assert_array_equal(se, 0)
 
@@ -197,11 +197,11 @@ def test_camera_convention_local_x_is_image_left():
     look = {"origin": "0, 0, 0", "target": "0, 0, 1", "up": "0, 1, 0", "fov": 40, "width": 16, "height": 12}
     sc = scene(blob.format(x=0.6, y=0.4), **look)
     assert np.allclose(sc.sensor.to_world[:3, 0], [1, 0, 0])    # left = local +x = world +x here
-    img, _ = render(sc, 4, "cosine", rng=0)
+    img, _ = render_pair(sc, 4, "cosine", rng=0)
     rows, cols = np.nonzero(img[..., 0] > 0)
     assert len(rows) > 0
     assert np.all(cols < 8) and np.all(rows < 6)
-    img, _ = render(scene(blob.format(x=-0.6, y=-0.4), **look), 4, "cosine", rng=0)
+    img, _ = render_pair(scene(blob.format(x=-0.6, y=-0.4), **look), 4, "cosine", rng=0)
     rows, cols = np.nonzero(img[..., 0] > 0)
     assert len(rows) > 0 and np.all(cols >= 8) and np.all(rows >= 6)
 
@@ -242,10 +242,10 @@ def test_geometry_closest_hits_all_shape_types():
 # ----------------------------------------------------------------------------- chunks and seeds
 def test_chunking_and_determinism():
     sc = scene(FLOOR + RECT_LIGHT + SPHERE_LIGHT, fov=60, width=10, height=7)
-    a = render(sc, 8, "mis-power", rng=11, chunk_pixels=3)
-    b = render(sc, 8, "mis-power", rng=11, chunk_pixels=1000)
-    c = render(sc, 8, "mis-power", rng=11, chunk_pixels=3)
-    d = render(sc, 8, "mis-power", rng=12, chunk_pixels=3)
+    a = render_pair(sc, 8, "mis-power", rng=11, chunk_pixels=3)
+    b = render_pair(sc, 8, "mis-power", rng=11, chunk_pixels=1000)
+    c = render_pair(sc, 8, "mis-power", rng=11, chunk_pixels=3)
+    d = render_pair(sc, 8, "mis-power", rng=12, chunk_pixels=3)
     np.testing.assert_allclose(a[0], b[0], rtol=1e-6, atol=0)
     np.testing.assert_allclose(a[1], b[1], rtol=1e-5, atol=1e-7)
     np.testing.assert_array_equal(a[0], c[0])
@@ -256,54 +256,33 @@ def test_chunking_and_determinism():
 def test_power_light_selection_and_errors():
     sc = scene(FLOOR + RECT_LIGHT + SPHERE_LIGHT.replace('value="0.3"', 'value="0.05"'),
                fov=30, width=6, height=4)
-    u, su = render(sc, 256, "light", rng=1, light_selection="uniform")
-    p, sp = render(sc, 256, "light", rng=1, light_selection="power")
+    u, su = render_pair(sc, 256, "light", rng=1, light_selection="uniform")
+    p, sp = render_pair(sc, 256, "light", rng=1, light_selection="power")
     z = (u - p) / np.sqrt(su.astype(float) ** 2 + sp.astype(float) ** 2)
     assert np.max(np.abs(z)) < bonferroni_z(z.size)
-    with pytest.raises(ValueError, match="strategy"):
-        render(sc, 4, "nope")
-    with pytest.raises(ValueError, match="pixel_sampler"):
-        render(sc, 4, "light", pixel_sampler="blue-noise")
+    with pytest.raises(ValueError, match="estimator"):
+        render_pair(sc, 4, "nope")
+    with pytest.raises(ValueError, match="points"):
+        render_pair(sc, 4, "light", points="blue-noise")
     with pytest.raises(ValueError, match="light_selection"):
-        render(sc, 4, "light", light_selection="x")
+        render_pair(sc, 4, "light", light_selection="x")
     with pytest.raises(ValueError, match="spp"):
-        render(sc, 0, "light")
+        render_pair(sc, 0, "light")
 
 
 def test_render_exported():
     import vrlab.render as r
+    from vrlab.render.film import render
     assert r.render is render and "render" in r.__all__
 
 
-# -- pixel samplers -------------------------------------------------------------------------------
-from vrlab.render.pixel_samplers import PIXEL_SAMPLERS, PixelSampler  # noqa: E402
-
-
-def test_stratified_pixel_sampler_puts_one_sample_per_stratum():
-    gen = np.random.default_rng(0)
-    u = PixelSampler("stratified", 4, 8, gen, groups=[(0, 1), (2, 3), (5, 6)]).draw(50)
-    assert u.shape == (50, 4, 8) and np.all((u >= 0) & (u < 1))
-    quad = (u[..., 0] * 2).astype(int) * 2 + (u[..., 1] * 2).astype(int)   # the report's 4 sub-pixel strata
-    assert np.all(np.sort(quad, axis=1) == np.arange(4))
-    for k in (4, 7):                                                        # single dimensions: 1D strata
-        assert np.all(np.sort((u[..., k] * 4).astype(int), axis=1) == np.arange(4))
-    # the groups are shuffled independently: sub-pixel stratum and light stratum are not locked together
-    light_stratum = (u[..., 4] * 4).astype(int)
-    assert len({tuple(r) for r in np.stack([quad, light_stratum], -1).reshape(-1, 8)}) > 10
-
-
-def test_qmc_pixel_sampler_is_a_shifted_shared_set():
-    u = PixelSampler("sobol", 8, 8, np.random.default_rng(1), groups=[(0, 1)]).draw(3)
-    d = np.mod(u[1] - u[0], 1.0)                    # the same toroidal shift for every sample
-    np.testing.assert_allclose(d, np.broadcast_to(d[0], d.shape), atol=1e-12)
-
-
-@pytest.mark.parametrize("sampler", [s for s in PIXEL_SAMPLERS if s != "independent"])
+# -- pixel samplers (the point sets themselves: tests/test_pixel_sets.py) -------------------------
+@pytest.mark.parametrize("sampler", ["stratified", "sobol", "halton"])
 def test_pixel_samplers_are_unbiased_and_reduce_variance(sampler):
     sc = scene(FLOOR + RECT_LIGHT)
     exact = exact_image("rectangle", sc)
-    reps = np.array([render(sc, 16, "light", rng=[3, r], pixel_sampler=sampler)[0] for r in range(24)])
-    indep = np.array([render(sc, 16, "light", rng=[3, r])[0] for r in range(24)])
+    reps = np.array([render_pair(sc, 16, "light", rng=[3, r], points=sampler)[0] for r in range(24)])
+    indep = np.array([render_pair(sc, 16, "light", rng=[3, r])[0] for r in range(24)])
     mean, se = reps.mean(0), reps.std(0, ddof=1) / np.sqrt(len(reps))
     z = (mean - exact) / se                                 # replicates give a valid error bar
     assert np.max(np.abs(z)) < bonferroni_z(z.size) + 1     # t with 23 dof: a little wider than normal
@@ -313,6 +292,6 @@ def test_pixel_samplers_are_unbiased_and_reduce_variance(sampler):
 
 def test_stratified_pixel_sampler_does_not_depend_on_chunks():
     sc = scene(FLOOR + RECT_LIGHT)
-    a = render(sc, 9, "mis-power", rng=5, pixel_sampler="stratified", chunk_pixels=5)[0]
-    b = render(sc, 9, "mis-power", rng=5, pixel_sampler="stratified", chunk_pixels=1000)[0]
+    a = render_pair(sc, 9, "mis-power", rng=5, points="stratified", chunk_pixels=5)[0]
+    b = render_pair(sc, 9, "mis-power", rng=5, points="stratified", chunk_pixels=1000)[0]
     np.testing.assert_allclose(a, b, rtol=1e-6)

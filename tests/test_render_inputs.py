@@ -11,6 +11,7 @@ import pytest
 
 from vrlab.render import (BSDF, AreaEmitter, Integrator, Scene, SceneError, Sensor, Shape,
                           builtin_scene_path, load_scene, read_obj, render)
+from vrlab.points import Sobol
 from vrlab.render import transforms as tf
 from vrlab.render.bsdfs import Beckmann, Diffuse, Phong, RoughConductor
 from vrlab.render.camera import Camera
@@ -19,7 +20,6 @@ from vrlab.render.direct import DirectLighting, make_bsdf
 from vrlab.render.geometry import SceneGeometry
 from vrlab.render.image import load_image, rel_mse, save_image, srgb_encode
 from vrlab.render.lights import LightSet
-from vrlab.render.pixel_samplers import PixelSampler
 
 NAN, INF = float("nan"), float("inf")
 
@@ -66,8 +66,9 @@ def tiny() -> Scene:
 
 
 def test_the_tiny_scene_renders():
-    img, err = render(tiny(), 1, rng=0)
-    assert img.shape == (3, 4, 3) and np.all(np.isfinite(img))
+    est = render(tiny(), 1, rng=0)
+    assert est.value.shape == est.stderr.shape == (3, 4, 3) and np.all(np.isfinite(est.value))
+    assert est.n == 1
 
 
 # (changes, words the message must contain)
@@ -390,9 +391,9 @@ def test_changes_in_place_are_checked_by_render(raises_naming):
 BAD_RENDER = [
     ("spp", 0, ValueError), ("spp", -1, ValueError), ("spp", 1.5, TypeError), ("spp", "4", TypeError),
     ("spp", True, TypeError), ("spp", 10**12, ValueError),
-    ("strategy", "best", ValueError), ("strategy", 3, TypeError), ("strategy", None, TypeError),
+    ("estimator", "best", ValueError), ("estimator", 42, TypeError), ("estimator", None, TypeError),
     ("rng", "seed", TypeError), ("rng", -1, ValueError), ("rng", 1.5, TypeError), ("rng", True, TypeError),
-    ("pixel_sampler", "sobel", ValueError), ("pixel_sampler", 0, TypeError),
+    ("points", "nope", ValueError), ("points", "sobel", ValueError), ("points", 42, TypeError),
     ("light_selection", "max", ValueError), ("light_selection", None, TypeError),
     ("emitter_samples", -1, ValueError), ("emitter_samples", 1.5, TypeError), ("emitter_samples", 10**9, ValueError),
     ("bsdf_samples", -1, ValueError), ("bsdf_samples", "1", TypeError),
@@ -412,26 +413,39 @@ def test_render_bad_argument(raises_naming, name, value, exc):
 
 
 @pytest.mark.parametrize("kw, name", [
-    (dict(strategy="ris", ris_candidates=0), "ris_candidates"),
-    (dict(strategy="bsdf", bsdf_samples=0), "bsdf_samples"),
-    (dict(strategy="light", emitter_samples=0), "emitter_samples"),
+    (dict(estimator="ris", ris_candidates=0), "ris_candidates"),
+    (dict(estimator="bsdf", bsdf_samples=0), "bsdf_samples"),
+    (dict(estimator="light", emitter_samples=0), "emitter_samples"),
     (dict(emitter_samples=0, bsdf_samples=0), "bsdf_samples"),
-    (dict(pixel_sampler="sobol", emitter_samples=400), "pixel_sampler"),
+    (dict(points=Sobol(2)), "points"),                   # an engine of another dimension than the pixel's
     (dict(chunk_pixels=1000, spp=100000), "chunk_pixels")])
 def test_render_bad_combination(raises_naming, kw, name):
     with raises_naming(ValueError, name):
         render(tiny(), **{"spp": 1, **kw})
 
 
+def test_render_bad_estimator_object(raises_naming):
+    """Estimator objects are checked against the shading integrand: techniques it does not
+    have name ``distribution``; an estimator without per-sample unit values names ``estimator``."""
+    from vrlab.estimators import MonteCarlo, Stratified
+
+    with raises_naming(ValueError, "distribution"):
+        render(tiny(), 1, MonteCarlo("nope"))
+    with raises_naming(TypeError, "estimator"):
+        render(tiny(), 1, Stratified())
+    with raises_naming(TypeError, "estimator"):
+        render(tiny(), 1, estimator=MonteCarlo)          # the class, not an instance
+
+
 def test_render_accepts_paths_xml_and_builtin_names(tmp_path, raises_naming):
     path = tmp_path / "scene.xml"
     path.write_text(xml())
-    a, _ = render(path, 1, rng=3)
-    b, _ = render(str(path), 1, rng=3)
-    c, _ = render(xml(), 1, rng=3)
+    a = render(path, 1, rng=3).value
+    b = render(str(path), 1, rng=3).value
+    c = render(xml(), 1, rng=3).value
     np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(a, c)
-    img, _ = render("furnace", 1, rng=0, width=4, height=3)
+    img = render("furnace", 1, rng=0, width=4, height=3).value
     assert img.shape == (3, 4, 3) and np.all(np.isfinite(img))
     with raises_naming(ValueError, "scene"):
         render("no_such_scene", 1)
@@ -448,9 +462,9 @@ def test_power_selection_with_black_emitters_renders_black(strategy):
     """Every emitter black: power selection has nothing to weigh, falls back to uniform,
     and the image is black (as with uniform selection)."""
     sc = load_scene(xml(radiance="0"))
-    img, _ = render(sc, 1, strategy, light_selection="power", rng=0)
+    img = render(sc, 1, strategy, light_selection="power", rng=0).value
     np.testing.assert_array_equal(img, 0.0)
-    ref, _ = render(sc, 1, strategy, light_selection="uniform", rng=0)
+    ref = render(sc, 1, strategy, light_selection="uniform", rng=0).value
     np.testing.assert_array_equal(ref, 0.0)
 
 
@@ -458,7 +472,7 @@ def test_power_selection_with_one_black_emitter():
     text = xml().replace('<shape type="rectangle">', '<shape type="rectangle"><transform name="to_world">'
                          '<translate z="-9"/></transform><emitter type="area"><rgb name="radiance" '
                          'value="0"/></emitter></shape><shape type="rectangle">', 1)
-    img, _ = render(load_scene(text), 4, "mis-power", light_selection="power", rng=0)
+    img = render(load_scene(text), 4, "mis-power", light_selection="power", rng=0).value
     assert np.all(np.isfinite(img)) and img.max() > 0
 
 
@@ -468,10 +482,10 @@ def test_direct_lighting_and_light_set_arguments(raises_naming):
         Camera(sc)
     with raises_naming(TypeError, "scene"):
         DirectLighting("scene.xml")
-    with raises_naming(TypeError, "strategy"):
-        DirectLighting(sc, ["bsdf"])
     with raises_naming(ValueError, "light_selection"):
-        DirectLighting(sc, "light", "max")
+        DirectLighting(sc, "max")
+    with raises_naming(TypeError, "light_selection"):
+        DirectLighting(sc, ["uniform"])
     with raises_naming(ValueError, "light_selection"):
         LightSet(sc.shapes, "max")
     with raises_naming(TypeError, "shapes"):
@@ -605,7 +619,7 @@ def test_bsdf_models_bad_inputs(raises_naming, call, exc, name):
         call()
 
 
-# ----------------------------------------------------------------------------- geometry, pixel samplers
+# ----------------------------------------------------------------------------- geometry
 def test_scene_geometry_bad_inputs(raises_naming):
     sc = tiny()
     with raises_naming(TypeError, "scene"):
@@ -630,20 +644,3 @@ def test_scene_geometry_bad_inputs(raises_naming):
     with raises_naming(ValueError, "direction"):
         g.intersect(o, np.zeros((3, 3)))
 
-
-def test_pixel_sampler_bad_inputs(raises_naming):
-    gen = np.random.default_rng(0)
-    with raises_naming(ValueError, "pixel_sampler"):
-        PixelSampler("sobel", 4, 8, gen, [(0, 1)])
-    with raises_naming(ValueError, "spp"):
-        PixelSampler("independent", 0, 8, gen, [(0, 1)])
-    with raises_naming(ValueError, "d"):
-        PixelSampler("independent", 4, 0, gen, [])
-    with raises_naming(TypeError, "gen"):
-        PixelSampler("independent", 4, 8, 0, [(0, 1)])
-    with raises_naming(ValueError, "groups"):
-        PixelSampler("stratified", 4, 8, gen, [(0, 9)])
-    with raises_naming(ValueError, "groups"):
-        PixelSampler("stratified", 4, 8, gen, [(0, 1), (1, 2)])
-    with raises_naming(ValueError, "npix"):
-        PixelSampler("independent", 4, 8, gen, [(0, 1)]).draw(-1)

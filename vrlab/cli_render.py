@@ -27,6 +27,8 @@ SIDE_MAX = 16384
 SAMPLES_MAX = 1024
 RIS_MAX = 4096
 IMAGE_SUFFIXES = (".npy", ".png", ".exr")
+#: the --pixel-sampler names; each maps to render's ``points=`` (``independent`` -> None, i.i.d.)
+PIXEL_SAMPLERS = ("independent", "stratified", "sobol", "halton")
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 DEFAULTS = {"strategy": "mis-power", "pixel_sampler": "independent", "light_selection": "uniform",
             "ris_candidates": "8"}
@@ -45,7 +47,7 @@ STRATEGY_HELP = {
     "mixture": "one sample from 1/2 BSDF + 1/2 light", "ris": "resampled light candidates, see --ris-candidates",
     "cv": "light sampling with a closed-form Lambertian control variate"}
 PIXEL_SAMPLER_HELP = {
-    "independent": "i.i.d. uniforms", "stratified": "jittered strata per pair of dimensions",
+    "independent": "i.i.d. uniforms", "stratified": "padded jittered strata per pair of dimensions",
     "sobol": "one scrambled Sobol' set for all pixels, shifted per pixel",
     "halton": "the same with a scrambled Halton set"}
 
@@ -56,8 +58,13 @@ def _menu(table: dict, names) -> str:
     return "; ".join(f"{name}: {table[name]}" if name in table else name for name in names)
 
 
+def _points(name: str) -> str | None:
+    """render's ``points=`` for a --pixel-sampler name: None (i.i.d.) for ``independent``."""
+    return None if name == "independent" else name
+
+
 def add_parser(sub, **kw) -> argparse.ArgumentParser:
-    from .render.direct import PIXEL_SAMPLERS, STRATEGIES
+    from .render.presets import PRESETS
 
     rend = sub.add_parser("render", help="render a Mitsuba 3 XML scene (or a built-in one) with direct lighting",
                           description="Direct lighting with a choice of sampling strategy; writes .npy (linear),\n"
@@ -72,8 +79,8 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
     rend.add_argument("--to", metavar="FOLDER", help="with --export: the folder to write into, created if missing; "
                                                      "existing files are not replaced (default: the current folder)")
     rend.add_argument("--spp", help=f"samples per pixel, 1 .. {SPP_MAX} (default: the scene's)")
-    rend.add_argument("--strategy", choices=list(STRATEGIES), metavar="NAME",
-                      help=f"how each shading point samples its direct light. {_menu(STRATEGY_HELP, STRATEGIES)} "
+    rend.add_argument("--strategy", choices=list(PRESETS), metavar="NAME",
+                      help=f"how each shading point samples its direct light. {_menu(STRATEGY_HELP, PRESETS)} "
                            "(default: mis-power)")
     rend.add_argument("--pixel-sampler", choices=list(PIXEL_SAMPLERS), metavar="NAME",
                       help=f"how each pixel's uniforms are drawn. {_menu(PIXEL_SAMPLER_HELP, PIXEL_SAMPLERS)}. "
@@ -143,7 +150,7 @@ def _load(path: Path):
 def _samples_for(strategy: str, n_l: int, n_b: int, given: dict, flag: str = "--strategy") -> None:
     """The renderer's rules for light/BSDF sample counts (``check_sample_counts``), checked
     up front; the message names the flags, or the scene's settings where no flag was given."""
-    from .render.direct import check_sample_counts
+    from .render.presets import check_sample_counts
 
     try:
         check_sample_counts(strategy, n_l, n_b)
@@ -182,7 +189,7 @@ def check_render(args: argparse.Namespace) -> dict:
     :class:`~vrlab.cli_args.Failure`."""
     import dataclasses
 
-    from .render.direct import STRATEGIES
+    from .render.presets import PRESETS
 
     compare = args.compare is not None
     if compare:
@@ -195,7 +202,7 @@ def check_render(args: argparse.Namespace) -> dict:
     for key, value in DEFAULTS.items():
         if getattr(args, key) is None:
             setattr(args, key, value)
-    p = dict(compare=A.names(args.compare, "--compare", STRATEGIES) if compare else None,
+    p = dict(compare=A.names(args.compare, "--compare", PRESETS) if compare else None,
              spp=A.integer(args.spp, "--spp", low=1, high=SPP_MAX),
              width=A.integer(args.width, "--width", low=1, high=SIDE_MAX),
              height=A.integer(args.height, "--height", low=1, high=SIDE_MAX),
@@ -326,10 +333,11 @@ def run_render(args: argparse.Namespace) -> int:
     def progress(done, total):
         bar.update(done - bar.done)
 
-    img, err = render(scene, p["spp"], args.strategy, rng=p["seed"], pixel_sampler=args.pixel_sampler,
-                      light_selection=args.light_selection, emitter_samples=p["emitter_samples"],
-                      bsdf_samples=p["bsdf_samples"], ris_candidates=p["ris_candidates"],
-                      workers=p["workers"], progress=progress if bar else None)
+    est = render(scene, p["spp"], args.strategy, rng=p["seed"], points=_points(args.pixel_sampler),
+                 light_selection=args.light_selection, emitter_samples=p["emitter_samples"],
+                 bsdf_samples=p["bsdf_samples"], ris_candidates=p["ris_candidates"],
+                 workers=p["workers"], progress=progress if bar else None)
+    img, err = est.value, est.stderr
     seconds = time.perf_counter() - t0
     bad = int(np.count_nonzero(~np.isfinite(img)))
     if bad:

@@ -32,7 +32,7 @@ import numpy as np
 
 from .. import checks
 from ..points.base import ONE_MINUS_EPS
-from .base import Estimator, resolve_distribution
+from .base import Estimator, check_technique, resolve_distribution, technique_label
 from .importance import MonteCarlo
 
 
@@ -53,12 +53,12 @@ class Antithetic(Estimator):
     evals_per_unit = 2
 
     def __init__(self, distribution=None, *, probe: bool = True):
-        self.distribution = None if distribution is None else checks.distribution(distribution)
+        self.distribution = None if distribution is None else check_technique(distribution)
         self.probe = checks.flag(probe, "probe")
 
     @property
     def label(self) -> str:
-        return "Antithetic" if self.distribution is None else f"Antithetic[{type(self.distribution).__name__}]"
+        return "Antithetic" if self.distribution is None else f"Antithetic[{technique_label(self.distribution)}]"
 
     def _mc(self) -> MonteCarlo:
         return MonteCarlo(self.distribution, probe=self.probe)

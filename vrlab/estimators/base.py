@@ -105,10 +105,26 @@ def independent_points(points: Any) -> bool:
 
 
 class Estimator:
-    """Base class.  Subclasses set ``evals_per_unit`` and implement ``dim_u`` and
-    ``unit_values``; estimators that are not averages of i.i.d. units override ``estimate``."""
+    """Base class, and the extension hook for a user's own estimator.
+
+    A subclass sets ``evals_per_unit`` (integrand evaluations per sample unit) and
+    implements ``dim_u(integrand)`` (uniforms per unit) and ``unit_values(integrand, u)``:
+    uniforms ``u (*batch, m, dim_u)`` to ``m`` independent unbiased unit values
+    ``(*batch, m)``.  That is all ``estimate`` and the renderer need (the renderer calls
+    it once per shading point, batched).  Estimators whose estimate is not a mean of unit
+    values (regression control variates) also override ``unit_outputs`` (columns per
+    unit) and ``fold`` (the estimate from a set of columns); estimators that are neither
+    (stratified, RQMC, Metropolis chains) override ``estimate`` only.
+
+    Distributions may be given by name (``"light"``): the integrand's technique of that
+    name (:meth:`vrlab.Integrand.technique`), resolved at every call.
+    """
 
     evals_per_unit: int = 1
+    #: True when ``estimate`` is the fold of independent sample units, so the estimator can
+    #: run one unit at a time (the renderer does, at each shading point); False for
+    #: estimators that need the whole sample set (strata, replicates, chains, pairs of integrands)
+    per_unit: bool = True
 
     # -- scikit-learn style settings ----------------------------------------------------
     def get_params(self) -> dict:
@@ -133,6 +149,24 @@ class Estimator:
 
     def check(self, integrand) -> None:
         """Hook: validate settings against the integrand (warn about bias, shapes...)."""
+
+    def unit_dim(self, integrand) -> int:
+        """Uniforms of one sample unit, as ``unit_values`` takes them (``dim_u`` unless a
+        unit holds several samples of different techniques, as in MIS)."""
+        return int(self.dim_u(integrand))
+
+    def unit_outputs(self, integrand, u: np.ndarray) -> np.ndarray:
+        """What :meth:`fold` combines, per unit: ``(*batch, m, c)``, column 0 the unit's
+        value (terms common to every technique, like a pixel's emitted light, are added
+        there).  Default: the unit values as one column."""
+        return self.unit_values(integrand, u)[..., None]
+
+    def fold(self, outputs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(estimate, standard error)`` from the unit outputs ``(*batch, m, c)`` of m
+        units: for averaging estimators the mean of column 0 and sqrt(s^2 / m)."""
+        mom = Moments().add(np.asarray(outputs)[..., 0])
+        with np.errstate(invalid="ignore"):
+            return np.asarray(mom.mean), np.sqrt(mom.variance / mom.count)
 
     def units_for(self, n: int) -> int:
         n = check_n(n)
@@ -185,9 +219,30 @@ def check_n(n: Any) -> int:
     return int(n)
 
 
-def resolve_distribution(distribution, integrand):
-    """``distribution`` or, for None, the uniform distribution on the integrand's domain."""
-    dist = integrand.uniform() if distribution is None else distribution
+def check_technique(value: Any, name: str = "distribution"):
+    """A distribution (``dim_u``, ``sample``, ``pdf``) or the name of an integrand's
+    technique (a non-empty str, resolved per integrand by :func:`resolve_distribution`)."""
+    if isinstance(value, str):
+        if not value:
+            raise ValueError(f"{name}: a technique name must not be empty")
+        return value
+    return checks.distribution(value, name)
+
+
+def technique_label(value: Any) -> str:
+    """A short name of a distribution or technique name, for estimator labels."""
+    return value if isinstance(value, str) else type(value).__name__
+
+
+def resolve_distribution(distribution, integrand, name: str = "distribution"):
+    """``distribution``; a name: the integrand's technique of that name; None: the uniform
+    distribution on the integrand's domain."""
+    if distribution is None:
+        dist = integrand.uniform()
+    elif isinstance(distribution, str):
+        dist = integrand.technique(distribution, name)
+    else:
+        dist = distribution
     for attr in ("dim_u", "sample", "pdf"):
         if not hasattr(dist, attr):
             raise TypeError(f"distribution: {dist!r} has no {attr!r} (needs dim_u, sample, pdf)")

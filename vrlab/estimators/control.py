@@ -44,8 +44,8 @@ from .. import checks
 from .._rng import RNGLike, as_generator
 from ..estimate import Estimate
 from ..integrands.base import checked_values
-from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, ratio, resolve_distribution,
-                   support_probe, uniform_blocks)
+from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_technique, ratio,
+                   resolve_distribution, support_probe, uniform_blocks)
 from .importance import MonteCarlo
 
 
@@ -137,15 +137,13 @@ def regression_estimate(mom: CoMoments, theta: np.ndarray, alpha: Any = "optimal
 
 
 class _Regression(Estimator):
-    """Shared driver: accumulate co-moments of (Y, H) over chunks, then regress."""
+    """Shared driver: accumulate co-moments of the columns (Y, H_1 - theta_1, ...) over
+    chunks (``unit_outputs``), then regress (``fold``)."""
 
     evals_per_unit = 1
 
     def _columns(self, integrand, u) -> np.ndarray:  # pragma: no cover - interface
-        raise NotImplementedError  # abstract: (*batch, m, 1 + K)
-
-    def _theta(self) -> np.ndarray:  # pragma: no cover - interface
-        raise NotImplementedError  # abstract
+        raise NotImplementedError  # abstract: (*batch, m, 1 + K), controls centred (mean 0)
 
     def _alpha(self):
         return "optimal"
@@ -155,6 +153,41 @@ class _Regression(Estimator):
 
     def _min_units(self) -> int:
         return self._n_controls() + 2 if isinstance(self._alpha(), str) else 2
+
+    @property
+    def min_units(self) -> int:
+        """Sample units a fold needs: K + 2 to fit K coefficients with a residual variance
+        (1 with a fixed alpha: the fold is then a mean of unit values)."""
+        return self._min_units() if isinstance(self._alpha(), str) and self._n_controls() else 1
+
+    def unit_outputs(self, integrand, u: np.ndarray) -> np.ndarray:
+        """Columns ``(*batch, m, 1 + K)``: Y = f/p and the centred controls h_j/p - theta_j."""
+        return self._columns(integrand, u)
+
+    def fold(self, outputs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The regression estimate and its standard error from columns of m units (with a
+        fixed alpha: the mean of the unit values Y - alpha^T (H - theta))."""
+        outputs = np.asarray(outputs)
+        a = self._alpha()
+        if not isinstance(a, str) or outputs.shape[-1] == 1:
+            if outputs.shape[-1] > 1:
+                outputs = (outputs[..., 0] - np.sum(np.atleast_1d(np.asarray(a, float))[..., None, :]
+                                                    * outputs[..., 1:], -1))[..., None]
+            return super().fold(outputs)
+        r = regression_estimate(CoMoments().add(outputs), 0.0, a)
+        return r["value"], r["stderr"]
+
+    def unit_values(self, integrand, u: np.ndarray) -> np.ndarray:
+        """Y - alpha^T (H - theta) per unit: only for a fixed ``alpha`` (a fitted one is a
+        function of all the samples, see :meth:`fold`)."""
+        a = self._alpha()
+        if isinstance(a, str) and self._n_controls():
+            raise ValueError(f"alpha: {self.label} fits alpha over all samples, so it has no per-unit values; "
+                             "give a fixed alpha for them (its fold fits alpha per set of units)")
+        cols = self._columns(integrand, u)
+        if cols.shape[-1] == 1:
+            return cols[..., 0]
+        return cols[..., 0] - np.sum(np.atleast_1d(np.asarray(a, float))[..., None, :] * cols[..., 1:], -1)
 
     def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
                  chunk: int = DEFAULT_CHUNK) -> Estimate:
@@ -170,7 +203,7 @@ class _Regression(Estimator):
         mom = CoMoments()
         for u in uniform_blocks(points, self.dim_u(integrand), m, gen, chunk):
             mom.add(self._columns(integrand, u))
-        r = regression_estimate(mom, self._theta(), self._alpha())
+        r = regression_estimate(mom, 0.0, self._alpha())
         alpha = r["alpha"]
         if getattr(self, "_single", False):
             alpha = alpha[..., 0]
@@ -185,10 +218,13 @@ class ControlVariate(_Regression):
 
     Parameters
     ----------
-    control : a callable ``h(x)`` (same point/batch conventions as the integrand) or a
-        list of callables (several controls at once).
+    control : a callable ``h(x)`` (same point/batch conventions as the integrand), the
+        name of one of the integrand's controls (:meth:`vrlab.Integrand.control`, which
+        gives h and theta, e.g. the renderer's closed-form ``"lambertian"``), or a list
+        of these (several controls at once).
     control_integral : the known integral(s) theta of the control(s): a number (one
-        control) or one value per control (each scalar or batch-shaped).
+        control) or one value per control (each scalar or batch-shaped); ``None`` for
+        named controls.
     alpha : ``"optimal"`` (default; least squares on the same samples, O(1/n) bias),
         or fixed coefficients: a number (used for every control) or one per control
         (last axis K, may carry batch axes); ``alpha=1`` is the plain difference estimator.
@@ -197,14 +233,24 @@ class ControlVariate(_Regression):
     ``n`` counts evaluations of f (each also evaluates the controls, assumed cheap).
     """
 
-    def __init__(self, control: Callable | Sequence[Callable], control_integral: Any, alpha: Any = "optimal",
-                 distribution=None, *, probe: bool = True):
-        self._single = callable(control)
+    def __init__(self, control: Callable | str | Sequence[Callable | str], control_integral: Any = None,
+                 alpha: Any = "optimal", distribution=None, *, probe: bool = True):
+        self._single = callable(control) or isinstance(control, str)
         controls = [control] if self._single else list(control) if isinstance(control, (list, tuple)) else None
-        if not controls or not all(callable(h) for h in controls):
-            raise TypeError(f"control: expected a callable h(x) or a non-empty list of callables, got {control!r}")
+        if not controls or not all(callable(h) or (isinstance(h, str) and h) for h in controls):
+            raise TypeError("control: expected a callable h(x), a control's name or a non-empty list of these, "
+                            f"got {control!r}")
         K = len(controls)
-        if self._single:
+        named = [isinstance(h, str) for h in controls]
+        if any(named) and not all(named):
+            raise TypeError("control: give either callables or names of the integrand's controls, not both")
+        if all(named):
+            if control_integral is not None:
+                raise ValueError("control_integral: named controls bring their integral; leave it None")
+            ints = [0.0] * K
+        elif control_integral is None:
+            raise TypeError("control_integral: required for callable controls (the known integral of h)")
+        elif self._single:
             ints = [control_integral]
         elif isinstance(control_integral, (list, tuple, np.ndarray)) and len(control_integral) == K:
             ints = list(control_integral)
@@ -234,9 +280,10 @@ class ControlVariate(_Regression):
         self.control = control
         self.control_integral = control_integral
         self.alpha = alpha
-        self.distribution = None if distribution is None else checks.distribution(distribution)
+        self.distribution = None if distribution is None else check_technique(distribution)
         self.probe = checks.flag(probe, "probe")
         self._controls = controls
+        self._named = all(named)
         self._theta_list = theta
 
     @property
@@ -253,8 +300,11 @@ class ControlVariate(_Regression):
         # one control given as a bare callable: a batch-shaped alpha gets its K = 1 axis here
         return a[..., None] if (self._single and a.ndim >= 1 and a.shape[-1] != 1) else a
 
-    def _theta(self) -> np.ndarray:
-        return np.stack(np.broadcast_arrays(*self._theta_list), -1)
+    def controls_for(self, integrand) -> list[tuple[Callable, Any]]:
+        """``[(h_j, theta_j)]``: the callables with their integrals, or the integrand's named controls."""
+        if self._named:
+            return [integrand.control(h, f"control[{j}]") for j, h in enumerate(self._controls)]
+        return list(zip(self._controls, self._theta_list))
 
     def check(self, integrand) -> None:
         MonteCarlo(self.distribution, probe=self.probe).check(integrand)  # same sampling, same checks
@@ -266,8 +316,8 @@ class ControlVariate(_Regression):
         dist = resolve_distribution(self.distribution, integrand)
         x = dist.sample(u)
         p = np.asarray(dist.pdf(x), dtype=float)
-        cols = [ratio(integrand(x), p)] + [ratio(checked_values(h(x), x, f"control[{j}]"), p)
-                                            for j, h in enumerate(self._controls)]
+        cols = [ratio(integrand(x), p)] + [ratio(checked_values(h(x), x, f"control[{j}]"), p) - np.asarray(t)[..., None]
+                                            for j, (h, t) in enumerate(self.controls_for(integrand))]
         return np.stack(np.broadcast_arrays(*cols), -1)
 
 
@@ -295,9 +345,10 @@ class DefensiveMixture(_Regression):
         dists = list(distributions) if isinstance(distributions, (list, tuple)) else None
         if not dists:
             raise TypeError(f"distributions: expected a non-empty list of distributions, got {distributions!r}")
-        for dist in dists + ([nominal] if nominal is not None else []):
-            if not all(hasattr(dist, a) for a in ("dim_u", "sample", "pdf")):
-                raise TypeError(f"distributions: {dist!r} lacks dim_u/sample/pdf")
+        for j, dist in enumerate(dists):
+            check_technique(dist, f"distributions[{j}]")
+        if nominal is not None:
+            check_technique(nominal, "nominal")
         if probabilities is not None:
             pr = checks.finite_array(probabilities, "probabilities")
             if pr.shape != (len(dists),) or np.any(pr <= 0):
@@ -317,21 +368,18 @@ class DefensiveMixture(_Regression):
         """The sampling mixture q (a :class:`vrlab.distributions.Mixture`) for ``integrand``."""
         from ..distributions import Mixture
 
-        comps = list(self.distributions)
+        comps = [resolve_distribution(c, integrand, f"distributions[{j}]") for j, c in enumerate(self.distributions)]
         pr = (np.full(len(comps), 1.0 / len(comps)) if self.probabilities is None
               else np.asarray(self.probabilities, float) / np.sum(self.probabilities))
         d = float(self.defensive)
         if d > 0:
-            comps = [self.nominal if self.nominal is not None else integrand.uniform()] + comps
+            comps = [resolve_distribution(self.nominal, integrand, "nominal")] + comps
             pr = np.concatenate([[d], (1 - d) * pr])
         return Mixture(comps, pr)
 
     def _n_controls(self) -> int:
         k = len(self.distributions) + (float(self.defensive) > 0)
         return k - 1 if self.controls else 0
-
-    def _theta(self) -> np.ndarray:
-        return np.ones(self._n_controls())
 
     def check(self, integrand) -> None:
         if integrand.dim <= 3:
@@ -348,7 +396,7 @@ class DefensiveMixture(_Regression):
         y = ratio(integrand(x), q)
         if not self.controls:
             return y[..., None]
-        h = ratio(pk[..., :-1], q[..., None])           # drop the redundant last control
+        h = ratio(pk[..., :-1], q[..., None]) - 1.0     # centred; drop the redundant last control
         shape = np.broadcast_shapes(y.shape, h.shape[:-1])
         return np.concatenate([np.broadcast_to(y, shape)[..., None],
                                np.broadcast_to(h, shape + h.shape[-1:])], -1)

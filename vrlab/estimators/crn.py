@@ -55,6 +55,8 @@ class CRNDifference(Estimator):
     ``estimate((integrand_a, integrand_b), n, ...)``: ``n`` counts evaluations of both.
     """
 
+    per_unit = False
+
     def __init__(self, estimator: Estimator | None = None, common: bool = True):
         if estimator is not None:
             if not isinstance(estimator, Estimator):

@@ -5,26 +5,27 @@ p* = |f| / int |f| when f has one sign (which needs the answer, I, to normalise)
 """
 from __future__ import annotations
 
-import numpy as np
 
 from .. import checks
-from .base import Estimator, ratio, resolve_distribution, support_probe
+from ..distributions.base import as_float
+from .base import Estimator, check_technique, ratio, resolve_distribution, support_probe, technique_label
 
 
 class MonteCarlo(Estimator):
-    """Importance sampling with any distribution (``None``: uniform on the domain).
+    """Importance sampling with any distribution (``None``: uniform on the domain; a name:
+    the integrand's technique of that name, e.g. the renderer's ``"light"``).
 
     Works batched: a distribution may broadcast over leading axes (per-pixel frames)
     and the integrand may return ``(*batch, n)``.
     """
 
     def __init__(self, distribution=None, *, probe: bool = True):
-        self.distribution = None if distribution is None else checks.distribution(distribution)
+        self.distribution = None if distribution is None else check_technique(distribution)
         self.probe = checks.flag(probe, "probe")
 
     @property
     def label(self) -> str:
-        return "MonteCarlo" if self.distribution is None else f"MonteCarlo[{type(self.distribution).__name__}]"
+        return "MonteCarlo" if self.distribution is None else f"MonteCarlo[{technique_label(self.distribution)}]"
 
     def check(self, integrand) -> None:
         dist = resolve_distribution(self.distribution, integrand)
@@ -37,6 +38,6 @@ class MonteCarlo(Estimator):
     def unit_values(self, integrand, u):
         dist = resolve_distribution(self.distribution, integrand)
         x = dist.sample(u)
-        p = np.asarray(dist.pdf(x), dtype=float)
+        p = as_float(dist.pdf(x))      # float32 densities (the renderer's) stay float32
         f = integrand(x)
         return ratio(f, p)

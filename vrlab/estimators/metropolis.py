@@ -97,6 +97,8 @@ class MetropolisHastings(Estimator):
         :meth:`estimate`.
     """
 
+    per_unit = False
+
     def __init__(self, target: Callable[[np.ndarray], np.ndarray], *, step: float = 0.05,
                  large_step_prob: float = 0.1, domain: Sequence = ((0.0, 1.0), (0.0, 1.0)),
                  boundary: str = "wrap", n_chains: int = 64, burn_in: int = 256, batches: int = 1,

@@ -43,7 +43,8 @@ from .. import checks
 from .._rng import RNGLike, as_generator
 from ..distributions.base import as_float
 from ..estimate import Estimate, Moments
-from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, point_engine, ratio, support_probe
+from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, check_technique, point_engine, ratio,
+                   resolve_distribution, support_probe)
 
 HEURISTICS = ("balance", "power", "maximum", "cutoff", "optimal")
 
@@ -159,8 +160,34 @@ def _check_fractions(fractions: Any, k: int, name: str) -> np.ndarray:
 def _check_distributions(distributions: Any) -> list:
     dists = list(distributions) if isinstance(distributions, (list, tuple)) else None
     if not dists:
-        raise ValueError("distributions: expected a non-empty list of distributions")
-    return [checks.distribution(d, f"distributions[{i}]") for i, d in enumerate(dists)]
+        raise ValueError("distributions: expected a non-empty list of distributions or technique names")
+    return [check_technique(d, f"distributions[{i}]") for i, d in enumerate(dists)]
+
+
+def resolve_all(distributions: list, integrand) -> list:
+    """The distributions, with technique names replaced by the integrand's techniques."""
+    if not any(isinstance(d, str) for d in distributions):
+        return distributions
+    if integrand is None:
+        raise ValueError("distributions: technique names are resolved per integrand; pass the integrand")
+    return [resolve_distribution(d, integrand, f"distributions[{i}]") for i, d in enumerate(distributions)]
+
+
+def unit_counts(fractions: Any, normalised: np.ndarray) -> np.ndarray | None:
+    """Samples per technique in one sample unit: the given ``fractions`` when they are whole
+    numbers (``[2, 1]``: two of the first, one of the second), else the smallest whole
+    multiple of the normalised fractions up to 64 (``[0.5, 0.5]`` -> ``[1, 1]``); None
+    if there is none (irrational-looking fractions)."""
+    if fractions is None:
+        return np.ones(len(normalised), np.int64)
+    raw = np.asarray(fractions, float)
+    if np.all(raw == np.round(raw)) and raw.max() <= 1 << 16:
+        return raw.astype(np.int64)
+    for k in range(1, 65):
+        r = normalised * k
+        if np.allclose(r, np.round(r), rtol=0.0, atol=1e-9):
+            return np.round(r).astype(np.int64)
+    return None
 
 
 def _check_dims(dists: list, integrand) -> None:
@@ -174,7 +201,7 @@ def _check_dims(dists: list, integrand) -> None:
 
 def _stack_pdfs(dists: list, x: np.ndarray) -> np.ndarray:
     """p_k(x) for every technique, broadcast and stacked on a last axis (..., K)."""
-    ps = np.broadcast_arrays(*[np.asarray(d.pdf(x), dtype=float) for d in dists])
+    ps = np.broadcast_arrays(*[as_float(d.pdf(x)) for d in dists])
     return np.stack(ps, -1)
 
 
@@ -281,6 +308,7 @@ class MIS(Estimator):
                  optimal_pilot: float = 0.0, probe: bool = True):
         self.distributions = _check_distributions(distributions)
         self.fractions = _check_fractions(fractions, len(self.distributions), "fractions")
+        self._unit = unit_counts(fractions, self.fractions)
         _check_heuristic(heuristic, HEURISTICS)
         self.heuristic = heuristic
         self.beta, self.alpha = _check_beta_alpha(beta, alpha)
@@ -300,19 +328,76 @@ class MIS(Estimator):
         return split_counts(check_n(n), self.fractions)
 
     def check(self, integrand) -> None:
-        _check_dims(self.distributions, integrand)
-        active = [d for d, c in zip(self.distributions, self.fractions) if c > 0]
+        dists = resolve_all(self.distributions, integrand)
+        _check_dims(dists, integrand)
+        active = [d for d, c in zip(dists, self.fractions) if c > 0]
         if self.probe and integrand.dim <= 3:
             support_probe(integrand, active, label=f"{self.label} (techniques with samples)")
 
     def dim_u(self, integrand=None) -> int:
-        """Uniforms per row of an array ``points``: the largest technique's ``dim_u``."""
-        return max(int(d.dim_u) for d in self.distributions)
+        """Uniforms per row of an array ``points``: the largest technique's ``dim_u``
+        (``unit_dim`` for the uniforms of one sample unit)."""
+        return max(int(d.dim_u) for d in resolve_all(self.distributions, integrand))
 
-    def weights(self, x: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    def weights(self, x: np.ndarray, counts: np.ndarray, integrand=None) -> np.ndarray:
         """w_k(x) (..., K) of the non-optimal heuristics for sample counts ``counts``."""
-        return mis_weights(_stack_pdfs(self.distributions, x) * counts, self.heuristic,
+        return mis_weights(_stack_pdfs(resolve_all(self.distributions, integrand), x) * counts, self.heuristic,
                            beta=self.beta, alpha=self.alpha)
+
+    # -- one sample unit: unit_counts()[i] samples of technique i (the renderer's view) --
+    def unit_counts(self) -> np.ndarray:
+        """Samples per technique in one sample unit (see :func:`unit_counts`)."""
+        if self._unit is None:
+            raise ValueError(f"fractions: {self.fractions.tolist()} is not a ratio of whole numbers up to 64; "
+                             "per-unit MIS (the renderer) needs whole sample counts, e.g. fractions=[1, 1]")
+        return self._unit
+
+    @property
+    def evals_per_unit(self) -> int:  # type: ignore[override]
+        return 1 if self._unit is None else int(self._unit.sum())
+
+    def unit_dim(self, integrand=None) -> int:
+        """Uniforms of one sample unit: sum_i unit_counts_i dim_u_i (technique after technique)."""
+        dists = resolve_all(self.distributions, integrand)
+        return int(sum(c * int(d.dim_u) for c, d in zip(self.unit_counts(), dists)))
+
+    def unit_values(self, integrand, u: np.ndarray) -> np.ndarray:
+        """Unit values sum_i (1/c_i) sum_j w_i(X_ij) f(X_ij) / p_i(X_ij) for the unit counts c
+        (eq. 9.3 with n_i = c_i), from uniforms ``u (*batch, m, unit_dim)``: columns of
+        technique 0's c_0 samples first, then technique 1's, ...  Not for ``optimal``."""
+        if self.heuristic == "optimal":
+            raise ValueError("heuristic: 'optimal' fits its weights over all samples and has no per-unit values; "
+                             "use another heuristic per unit")
+        dists = resolve_all(self.distributions, integrand)
+        counts = self.unit_counts()
+        u = np.asarray(u, dtype=float)
+        if u.ndim < 2 or u.shape[-1] != self.unit_dim(integrand):
+            raise ValueError(f"u: expected uniforms (..., m, {self.unit_dim(integrand)}), got shape {u.shape}")
+        m, col, total = u.shape[-2], 0, 0.0
+        for i, dist in enumerate(dists):
+            c, d = int(counts[i]), int(dist.dim_u)
+            if c == 0:
+                continue
+            ui = u[..., col:col + c * d].reshape(u.shape[:-2] + (m * c, d))   # unit after unit
+            col += c * d
+            x = dist.sample(ui)
+            f = integrand(x)
+            if self.heuristic == "balance":  # (1/c_i) w_i f / p_i = f / sum_k c_k p_k
+                q = 0.0
+                for k, other in enumerate(dists):
+                    if counts[k]:
+                        q = q + counts[k] * as_float(other.pdf(x))
+                v = ratio(f, q)
+            else:
+                P = _stack_pdfs(dists, x)
+                w = mis_weights(P * counts, self.heuristic, beta=self.beta, alpha=self.alpha)
+                v = ratio(w[..., i], c * P[..., i]) * f
+            v = v if c == 1 else v.reshape(v.shape[:-1] + (m, c)).sum(-1)
+            if isinstance(total, np.ndarray) and total.shape == v.shape:
+                total += v
+            else:
+                total = total + v
+        return total
 
     def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
                  chunk: int = DEFAULT_CHUNK) -> Estimate:
@@ -328,8 +413,9 @@ class MIS(Estimator):
         n = check_n(n)
         gen = as_generator(rng)
         t0 = time.perf_counter()
-        K = len(self.distributions)
-        dims = [int(d.dim_u) for d in self.distributions]
+        dists = resolve_all(self.distributions, integrand)
+        K = len(dists)
+        dims = [int(d.dim_u) for d in dists]
         n_pilot = 0
         if self.heuristic == "optimal" and self.optimal_pilot > 0:  # >= 2 per technique
             n_pilot = max(int(round(self.optimal_pilot * n)), 2 * int(np.sum(self.fractions > 0)))
@@ -340,9 +426,9 @@ class MIS(Estimator):
         plan += [(i, int(c)) for i, c in enumerate(counts) if c > 0]
         blocks = _segments(points, dims, plan, gen, chunk)
         if self.heuristic == "optimal":
-            value, contrib, extra = self._optimal(integrand, blocks, n_pilot_segments, pilot_counts, counts)
+            value, contrib, extra = self._optimal(integrand, dists, blocks, n_pilot_segments, pilot_counts, counts)
         else:
-            value, contrib, extra = self._weighted(integrand, blocks, counts)
+            value, contrib, extra = self._weighted(integrand, dists, blocks, counts)
         N = int(counts.sum())
         var_f = contrib.sum(-1)
         scalar = (lambda a: float(a) if np.ndim(a) == 0 else np.asarray(a))
@@ -352,20 +438,20 @@ class MIS(Estimator):
                          "variance_contributions": contrib, **extra})
 
     # -- the heuristics with explicit weights ------------------------------------------
-    def _weighted(self, integrand, blocks, counts):
-        K = len(self.distributions)
+    def _weighted(self, integrand, dists, blocks, counts):
+        K = len(dists)
         moments = [Moments() for _ in range(K)]
         for _, i, u in blocks:
-            dist = self.distributions[i]
+            dist = dists[i]
             x = dist.sample(u)
             if self.heuristic == "balance":  # w_i f / p_i = n_i f / sum_k n_k p_k: no stacked weights
                 q = 0.0
-                for k, d in enumerate(self.distributions):
+                for k, d in enumerate(dists):
                     if counts[k]:
                         q = q + counts[k] * np.asarray(d.pdf(x), dtype=float)
                 moments[i].add(ratio(counts[i] * integrand(x), q))
                 continue
-            P = _stack_pdfs(self.distributions, x)
+            P = _stack_pdfs(dists, x)
             w = mis_weights(P * counts, self.heuristic, beta=self.beta, alpha=self.alpha)
             f = integrand(x)
             moments[i].add(ratio(w[..., i], P[..., i]) * f)
@@ -386,16 +472,16 @@ class MIS(Estimator):
         return value, np.stack([np.broadcast_to(v, shape) for v in contrib], -1), {}
 
     # -- optimal MIS (Kondapaneni et al. 2019) ------------------------------------------
-    def _optimal(self, integrand, blocks, n_pilot_segments, pilot_counts, counts):
+    def _optimal(self, integrand, all_dists, blocks, n_pilot_segments, pilot_counts, counts):
         active = np.flatnonzero(counts > 0)
-        dists = [self.distributions[i] for i in active]
+        dists = [all_dists[i] for i in active]
         c_main = counts[active] / counts.sum()
         c_pilot = pilot_counts[active] / max(pilot_counts.sum(), 1)
         Ka = len(active)
         comoments = {int(i): _CoMoments() for i in active}
         G, h, n_fit, pilot = 0.0, 0.0, 0, n_pilot_segments > 0
         for s, i, u in blocks:
-            x = self.distributions[i].sample(u)
+            x = all_dists[i].sample(u)
             P = _stack_pdfs(dists, x)                           # (..., m, Ka)
             q = P @ c_main                                      # mixture density of the main pass
             f = integrand(x)

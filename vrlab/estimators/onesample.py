@@ -14,7 +14,7 @@ import numpy as np
 from .. import checks
 from .base import Estimator, ratio, support_probe
 from .mis import (HEURISTICS, _check_beta_alpha, _check_dims, _check_distributions, _check_fractions,
-                  _check_heuristic, _stack_pdfs, mis_weights)
+                  _check_heuristic, _stack_pdfs, mis_weights, resolve_all)
 
 
 class OneSampleMIS(Estimator):
@@ -24,7 +24,8 @@ class OneSampleMIS(Estimator):
     ``vrlab.distributions.Mixture`` (``dim_u`` = the largest technique's).  With the
     balance heuristic F = f / sum_k c_k p_k: importance sampling from the mixture,
     value for value.  Heuristics: balance, power (``beta``), maximum, cutoff
-    (``alpha``) or a callable ``q -> w`` with q_k = c_k p_k.
+    (``alpha``) or a callable ``q -> w`` with q_k = c_k p_k.  Distributions may be
+    technique names of the integrand (``["bsdf", "light"]``).
     """
 
     def __init__(self, distributions: Sequence, probabilities: Sequence[float] | None = None,
@@ -41,7 +42,16 @@ class OneSampleMIS(Estimator):
         self.heuristic = heuristic
         self.beta, self.alpha = _check_beta_alpha(beta, alpha)
         self.probe = checks.flag(probe, "probe")
-        self._mixture = Mixture(self.distributions, self.probabilities)
+        named = any(isinstance(d, str) for d in self.distributions)
+        self._mixture = None if named else Mixture(self.distributions, self.probabilities)
+
+    def mixture(self, integrand=None):
+        """The sampling mixture sum_k c_k p_k (techniques resolved for ``integrand``)."""
+        if self._mixture is not None:
+            return self._mixture
+        from ..distributions import Mixture
+
+        return Mixture(resolve_all(self.distributions, integrand), self.probabilities)
 
     @property
     def label(self) -> str:
@@ -49,18 +59,19 @@ class OneSampleMIS(Estimator):
         return f"OneSampleMIS[{name}]"
 
     def check(self, integrand) -> None:
-        _check_dims(self.distributions, integrand)
-        active = [d for d, c in zip(self.distributions, self.probabilities) if c > 0]
+        dists = resolve_all(self.distributions, integrand)
+        _check_dims(dists, integrand)
+        active = [d for d, c in zip(dists, self.probabilities) if c > 0]
         if self.probe and integrand.dim <= 3:
             support_probe(integrand, active, label=f"{self.label} (techniques with probability > 0)")
 
     def dim_u(self, integrand=None) -> int:
-        return int(self._mixture.dim_u)
+        return int(self.mixture(integrand).dim_u)
 
     def unit_values(self, integrand, u):
-        mix = self._mixture
+        mix = self.mixture(integrand)
         x = mix.sample(u)
-        P = _stack_pdfs(self.distributions, x)
+        P = _stack_pdfs(mix.components, x)
         c = mix.probabilities
         f = integrand(x)
         if self.heuristic == "balance":  # f / (sum_k c_k p_k), exactly as MonteCarlo(Mixture)

@@ -34,7 +34,7 @@ import numpy as np
 from .. import checks
 from .._rng import RNGLike
 from ..estimate import Estimate
-from .base import DEFAULT_CHUNK, Estimator, check_chunk, ratio, support_probe
+from .base import DEFAULT_CHUNK, Estimator, check_chunk, check_technique, ratio, resolve_distribution, support_probe
 
 
 class Reservoir:
@@ -116,6 +116,8 @@ class Reservoir:
 class RIS(Estimator):
     """Resampled importance sampling with ``m`` candidates from ``source`` per output sample,
     resampled towards the unnormalised ``target`` p̂ (callable, points (..., k) -> (...)).
+    ``source`` may name one of the integrand's techniques and ``target`` one of its
+    targets (:meth:`vrlab.Integrand.target`; the renderer's ``"unshadowed"``).
 
     Uniforms per output sample: ``dim_u = m (source.dim_u + 1)``: columns
     ``[j d, (j + 1) d)`` make candidate j (d = source.dim_u), the last m columns are the
@@ -127,12 +129,15 @@ class RIS(Estimator):
 
     evals_per_unit = 1
 
-    def __init__(self, source, target: Callable[[np.ndarray], np.ndarray], m: int, *, probe: bool = True):
-        for attr in ("dim_u", "sample", "pdf"):
-            if not hasattr(source, attr):
-                raise TypeError(f"source: {source!r} has no {attr!r} (needs dim_u, sample, pdf)")
-        if not callable(target):
-            raise TypeError(f"target must be callable (points -> unnormalised density), got {type(target).__name__}")
+    def __init__(self, source, target: Callable[[np.ndarray], np.ndarray] | str, m: int, *, probe: bool = True):
+        if not isinstance(source, str):
+            for attr in ("dim_u", "sample", "pdf"):
+                if not hasattr(source, attr):
+                    raise TypeError(f"source: {source!r} has no {attr!r} (needs dim_u, sample, pdf)")
+        check_technique(source, "source")
+        if not (callable(target) or (isinstance(target, str) and target)):
+            raise TypeError("target must be callable (points -> unnormalised density) or a target's name, "
+                            f"got {type(target).__name__}")
         self.source = source
         self.target = target
         self.m = checks.integer(m, "m (candidates per sample)", low=1)
@@ -142,30 +147,48 @@ class RIS(Estimator):
     def label(self) -> str:
         return f"RIS[m={self.m}]"
 
+    def source_for(self, integrand=None):
+        """The source distribution (a technique name resolved for ``integrand``)."""
+        if isinstance(self.source, str):
+            if integrand is None:
+                raise ValueError("source: a technique name is resolved per integrand; pass the integrand")
+            return resolve_distribution(self.source, integrand, "source")
+        return self.source
+
+    def target_for(self, integrand=None):
+        """The target p̂ (a target name resolved for ``integrand``)."""
+        if isinstance(self.target, str):
+            if integrand is None:
+                raise ValueError("target: a target name is resolved per integrand; pass the integrand")
+            return integrand.target(self.target, "target")
+        return self.target
+
     def check(self, integrand) -> None:
-        dx = getattr(self.source, "dim_x", None)
+        source = self.source_for(integrand)
+        dx = getattr(source, "dim_x", None)
         if dx is not None and dx != integrand.dim:
             raise ValueError(f"source: points of dimension {dx}, but the integrand's domain has dimension "
                              f"{integrand.dim}")
         if self.probe and integrand.dim <= 3:
-            support_probe(integrand, [_Support(self.source, self.target)],
+            support_probe(integrand, [_Support(source, self.target_for(integrand))],
                           label=f"{self.label} (source pdf x target)")
 
     def dim_u(self, integrand=None) -> int:
-        return self.m * (int(self.source.dim_u) + 1)
+        return self.m * (int(self.source_for(integrand).dim_u) + 1)
 
-    def reservoirs(self, u: np.ndarray) -> Reservoir:
+    def reservoirs(self, u: np.ndarray, integrand=None) -> Reservoir:
         """The reservoirs (*batch, n) after streaming the m candidates of each output sample
-        from uniforms ``u`` (*batch, n, dim_u)."""
+        from uniforms ``u`` (*batch, n, dim_u); ``integrand`` resolves named sources/targets."""
         u = np.asarray(u, dtype=float)
-        m, d = self.m, int(self.source.dim_u)
+        source, target = self.source_for(integrand), self.target_for(integrand)
+        m, d = self.m, int(source.dim_u)
         if u.ndim < 2 or u.shape[-1] != m * (d + 1):
             raise ValueError(f"u: expected shape (..., n, {m * (d + 1)}), got {u.shape}")
         lead, n = u.shape[:-2], u.shape[-2]
         cand = u[..., : m * d].reshape(lead + (n * m, d))      # candidates on the sample axis
-        x = np.asarray(self.source.sample(cand), dtype=float)
-        p = np.asarray(self.source.pdf(x), dtype=float)
-        t = np.asarray(self.target(x), dtype=float)
+        x = np.asarray(source.sample(cand))
+        p = np.asarray(source.pdf(x), dtype=float)
+        t = np.asarray(target(x), dtype=float)
         if np.any(t < 0) or np.any(np.isnan(t)):
             raise ValueError("target: the unnormalised target density must be >= 0 and not NaN")
         w = ratio(t, p)
@@ -177,7 +200,7 @@ class RIS(Estimator):
         return empty.update(split(x, (x.shape[-1],)), split(w), u[..., m * d:], split(t))
 
     def unit_values(self, integrand, u):
-        res = self.reservoirs(u)
+        res = self.reservoirs(u, integrand)
         f = integrand(res.y)
         W = res.W
         return np.where(W > 0, f * W, 0.0)

@@ -70,6 +70,8 @@ class RQMC(Estimator):
     sets get a Cranley--Patterson rotation.  ``Estimate.n`` is R (the independent units).
     """
 
+    per_unit = False
+
     def __init__(self, base: Estimator | None = None, replicates: int = 16):
         if base is not None and not isinstance(base, Estimator):
             raise TypeError(f"base: expected a vrlab Estimator, got {type(base).__name__}")

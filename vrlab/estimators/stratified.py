@@ -104,6 +104,8 @@ class Stratified(Estimator):
     in-stratum offsets must be independent for the variance formula).
     """
 
+    per_unit = False
+
     def __init__(self, strata: int | Sequence[int] | None = None, allocation: str = "proportional",
                  pilot: int = 4, distribution=None, *, defensive: float = 0.1, probe: bool = True):
         if strata is not None:

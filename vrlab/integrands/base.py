@@ -36,14 +36,16 @@ class Integrand:
 
     Parameters: ``f`` (callable, (..., k) -> (...)), ``domain`` (box or named),
     ``exact`` (the integral, scalar or batch-shaped), ``name``, ``f2`` (integral of
-    f^2), ``theory`` (extra closed forms, e.g. golden variances, by key) and
-    ``techniques`` (named distributions suited to this integrand, used by MIS
-    examples and the lab).
+    f^2), ``theory`` (extra closed forms, e.g. golden variances, by key),
+    ``techniques`` (named distributions suited to this integrand: estimators accept
+    these names wherever they take a distribution), ``controls`` (named control
+    variates: name -> ``(h, integral of h)``, for ``ControlVariate("name")``) and
+    ``targets`` (named unnormalised densities, for ``RIS(target="name")``).
     """
 
     def __init__(self, f: Callable[[np.ndarray], np.ndarray], domain: Any, exact: Any = None,
                  name: str | None = None, *, f2: float | None = None, theory: dict | None = None,
-                 techniques: dict | None = None):
+                 techniques: dict | None = None, controls: dict | None = None, targets: dict | None = None):
         if not callable(f):
             raise TypeError(f"f must be callable, got {type(f).__name__}")
         self.f = f
@@ -68,7 +70,8 @@ class Integrand:
             raise TypeError(f"name must be a string, got {type(name).__name__}")
         self.name = name or getattr(f, "__name__", "f")
         self.f2 = None if f2 is None else checks.real(f2, "f2", low=0.0)
-        for arg, value in (("theory", theory), ("techniques", techniques)):
+        for arg, value in (("theory", theory), ("techniques", techniques), ("controls", controls),
+                           ("targets", targets)):
             if value is not None and not isinstance(value, dict):
                 raise TypeError(f"{arg} must be a dict, got {type(value).__name__}")
         self.theory = dict(theory or {})
@@ -76,11 +79,31 @@ class Integrand:
         for key, dist in self.techniques.items():
             if not all(hasattr(dist, a) for a in ("dim_u", "sample", "pdf")):
                 raise TypeError(f"techniques[{key!r}]: {dist!r} is not a distribution (needs dim_u, sample, pdf)")
+        self.controls = dict(controls or {})
+        for key, pair in self.controls.items():
+            if not (isinstance(pair, tuple) and len(pair) == 2 and callable(pair[0])):
+                raise TypeError(f"controls[{key!r}]: expected a pair (h, integral of h) with h callable")
+        self.targets = dict(targets or {})
+        for key, t in self.targets.items():
+            if not callable(t):
+                raise TypeError(f"targets[{key!r}]: expected a callable (points -> unnormalised density)")
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """f(x), checked: real, finite, one value per point (leading batch axes allowed)."""
         x = np.asarray(x)
         return checked_values(self.f(x), x, f"integrand {self.name!r}")
+
+    def technique(self, name: str, arg: str = "distribution"):
+        """The distribution named ``name`` in :attr:`techniques` (``ValueError`` naming ``arg``)."""
+        return _named(self.techniques, name, arg, f"integrand {self.name!r} has no technique")
+
+    def control(self, name: str, arg: str = "control") -> tuple:
+        """``(h, integral of h)`` of the control variate named ``name`` in :attr:`controls`."""
+        return _named(self.controls, name, arg, f"integrand {self.name!r} has no control")
+
+    def target(self, name: str, arg: str = "target"):
+        """The unnormalised density named ``name`` in :attr:`targets`."""
+        return _named(self.targets, name, arg, f"integrand {self.name!r} has no target")
 
     def uniform(self):
         """The uniform distribution on the domain (the default importance sampler)."""
@@ -99,6 +122,15 @@ class Integrand:
         return f"Integrand({self.name!r}, domain={self.domain!r}, exact={self.exact!r})"
 
 
+def _named(table: dict, name: Any, arg: str, missing: str):
+    if not isinstance(name, str):
+        raise TypeError(f"{arg}: expected a name (str), got {type(name).__name__}")
+    if name not in table:
+        have = ", ".join(repr(k) for k in table) or "none"
+        raise ValueError(f"{arg}: {missing} named {name!r}; it has: {have}")
+    return table[name]
+
+
 def _broadcast(a: tuple, b: tuple) -> tuple | None:
     try:
         return np.broadcast_shapes(a, b)
@@ -111,7 +143,9 @@ def checked_values(values: Any, x: np.ndarray, who: str) -> np.ndarray:
     finite, shape ``x.shape[:-1]`` (leading batch axes allowed).  ``ValueError`` names
     ``who`` and the first bad point; ``TypeError`` for values that are not real numbers."""
     try:
-        out = np.asarray(values, dtype=float)
+        out = np.asarray(values)
+        if out.dtype != np.float32:          # float32 (the renderer's) stays float32
+            out = np.asarray(out, dtype=float)
     except (TypeError, ValueError) as exc:
         raise TypeError(f"{who}: must return real numbers ({exc})") from None
     want = x.shape[:-1]
@@ -119,6 +153,10 @@ def checked_values(values: Any, x: np.ndarray, who: str) -> np.ndarray:
         what = "one scalar" if out.ndim == 0 else f"shape {out.shape}"
         raise ValueError(f"{who}: returned {what} for points of shape {x.shape}; it must return one value per "
                          f"point, shape {want} (optionally with leading batch axes)")
+    # fast path, one reduction: a finite sum means every value is finite (a NaN or inf makes
+    # the sum non-finite; so can an overflow of finite values, which the exact test clears)
+    if out.size == 0 or np.isfinite(np.add.reduce(out, axis=None)):
+        return out
     bad = ~np.isfinite(out)
     if bad.any():
         idx = tuple(int(i) for i in np.argwhere(bad)[0])

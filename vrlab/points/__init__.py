@@ -14,6 +14,9 @@ class                  points                          module
 ``Hammersley``         Hammersley 1964 (+ scrambles)   :mod:`vrlab.points.halton`
 ``Sobol``              SciPy's Sobol'                  :mod:`vrlab.points.sobol`
 ``CranleyPatterson``   random shift mod 1 (1976)       :mod:`vrlab.points.rotation`
+``PaddedStratified``   padded jittered (PBRT 7.3)      :mod:`vrlab.points.pixel_sets`
+``ShiftedCopies``      one set, a shift per copy       :mod:`vrlab.points.pixel_sets`
+``SetSampler``         batches of copies (renderer)    :mod:`vrlab.points.pixel_sets`
 =====================  ==============================  =====================================
 
 Helpers: :func:`make_points` (by name), :func:`replicates` (independent randomised
@@ -60,7 +63,8 @@ from .._lazy import lazy_attributes
 _WHERE = {
     "PointSet": "base", "Halton": "halton", "Hammersley": "halton", "first_primes": "halton",
     "radical_inverse": "halton", "Independent": "iid", "LatinHypercube": "lhs",
-    "CranleyPatterson": "rotation", "Sobol": "sobol", "Stratified": "stratified",
+    "CranleyPatterson": "rotation", "PaddedStratified": "pixel_sets", "SetSampler": "pixel_sets",
+    "ShiftedCopies": "pixel_sets", "Sobol": "sobol", "Stratified": "stratified",
     "balanced_strata": "stratified", "POINT_SETS": "tools", "discrepancy": "tools",
     "make_points": "tools", "replicates": "tools",
 }
@@ -72,7 +76,10 @@ __all__ = [
     "Hammersley",
     "Independent",
     "LatinHypercube",
+    "PaddedStratified",
     "PointSet",
+    "SetSampler",
+    "ShiftedCopies",
     "Sobol",
     "Stratified",
     "balanced_strata",

@@ -6,6 +6,9 @@ and independent shifts give independent replicates whose spread estimates the
 error.  The shift is an isometry of the torus: toroidal distances between points,
 hence lattice/net structure "modulo 1", are preserved (axis-aligned stratification
 is not: a shifted elementary interval wraps around).
+
+:func:`toroidal_shift` (the wrap) and :func:`engine_points` (a wrapped engine's checked
+block) are shared with :class:`vrlab.points.pixel_sets.ShiftedCopies`.
 """
 from __future__ import annotations
 
@@ -15,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .._rng import RNGLike, spawn
-from .base import _NO_SEED, MAX_REPLICATES, PointSet, check_dim, check_int, child_seeds
+from .base import _NO_SEED, MAX_REPLICATES, PointSet, check_dim, check_int, child_seeds, clamp_open
 
 
 class CranleyPatterson(PointSet):
@@ -64,15 +67,7 @@ class CranleyPatterson(PointSet):
         return getattr(self.base, "extensible", True)
 
     def _random(self, n: int) -> np.ndarray:
-        x = np.array(self.base.random(n), dtype=np.float64)
-        if x.shape != (n, self.d):
-            raise ValueError(f"base: the wrapped engine returned shape {x.shape} for random({n}), "
-                             f"expected {(n, self.d)}")
-        if x.size and not ((x.min() >= 0.0) & (x.max() <= 1.0)):   # NaN fails both
-            raise ValueError("base: the wrapped engine returned values outside [0, 1] (or NaN)")
-        x += self.shift
-        x -= x >= 1.0          # both terms are in [0, 1]: one wrap is enough
-        return x
+        return toroidal_shift(engine_points(self.base, n, self.d), self.shift)
 
     def _fast_forward(self, n: int) -> None:
         if callable(getattr(self.base, "fast_forward", None)):
@@ -105,6 +100,27 @@ class CranleyPatterson(PointSet):
 
     def __repr__(self) -> str:
         return f"CranleyPatterson({self.base!r})"
+
+
+def engine_points(engine: Any, n: int, d: int) -> np.ndarray:
+    """``engine.random(n)`` as a new float64 array, checked: ``ValueError`` naming ``base``
+    unless it has shape ``(n, d)`` and every value in [0, 1] (NaN refused)."""
+    x = np.array(engine.random(n), dtype=np.float64)
+    if x.shape != (n, d):
+        raise ValueError(f"base: the wrapped engine returned shape {x.shape} for random({n}), "
+                         f"expected {(n, d)}")
+    if x.size and not ((x.min() >= 0.0) & (x.max() <= 1.0)):   # NaN fails both
+        raise ValueError("base: the wrapped engine returned values outside [0, 1] (or NaN)")
+    return x
+
+
+def toroidal_shift(x: np.ndarray, shift: np.ndarray) -> np.ndarray:
+    """``(x + shift) mod 1`` (broadcast, a new array) for points ``x`` in [0, 1] and shifts in
+    [0, 1): the sum is below 2, so one subtraction of 1 wraps it (exactly, Sterbenz); the
+    result is clamped to [0, 1) (a point at 1.0 plus a shift within an ulp of 1 rounds to 2)."""
+    y = np.add(x, shift, dtype=np.float64)
+    y -= y >= 1.0
+    return clamp_open(y)
 
 
 def _build(points: Any, d: int, rng: np.random.SeedSequence, kwargs: dict) -> Any:

@@ -10,9 +10,10 @@ fit in the time the *last* strategy (MIS in the Veach order) needs for ``spp``: 
 comparison that counts, error at equal cost (Veach 1997, ch. 9).
 
 Checked before any rendering: ``strategies`` a non-empty list of distinct strategy
-names, ``spp``/``ref_spp`` integers >= 1, ``rng`` an integer >= 0, ``reference`` a
-finite image of the scene's shape, ``equal_time`` a bool; ``compare_figure`` checks the
-result dict, the path (suffix and folder) and ``exposure``.
+names (the presets, :data:`vrlab.render.PRESETS`), ``spp``/``ref_spp`` integers >= 1,
+``rng`` an integer >= 0, ``reference`` a finite image of the scene's shape,
+``equal_time`` a bool; ``compare_figure`` checks the result dict, the path (suffix and
+folder) and ``exposure``.
 """
 from __future__ import annotations
 
@@ -23,9 +24,9 @@ from typing import Sequence
 import numpy as np
 
 from .. import checks
-from .direct import STRATEGIES
 from .film import _as_scene, render
 from .image import _image, rel_mse, srgb_encode
+from .presets import PRESETS
 from .scene import Scene
 
 VEACH_STRATEGIES = ("bsdf", "light", "mis-power")
@@ -39,9 +40,9 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
     scene = _as_scene(scene)
     if isinstance(strategies, str) or not isinstance(strategies, Sequence):
         raise TypeError(f"strategies must be a list of strategy names, got {type(strategies).__name__}")
-    strategies = [checks.choice(s, f"strategies[{k}]", STRATEGIES) for k, s in enumerate(strategies)]
+    strategies = [checks.choice(s, f"strategies[{k}]", PRESETS) for k, s in enumerate(strategies)]
     if not strategies:
-        raise ValueError(f"strategies: need at least one of {', '.join(STRATEGIES)}")
+        raise ValueError(f"strategies: need at least one of {', '.join(PRESETS)}")
     if len(set(strategies)) != len(strategies):
         raise ValueError(f"strategies: each strategy at most once, got {strategies}")
     spp = checks.integer(spp, "spp", low=1)
@@ -54,7 +55,7 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
         if reference.shape != want:
             raise ValueError(f"reference: shape {reference.shape} differs from the scene's image {want}")
     if reference is None:
-        reference, _ = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([rng, 1]))
+        reference = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([rng, 1])).value
     counts = {s: spp for s in strategies}
     if equal_time:
         pilot = max(1, spp // 4)
@@ -69,7 +70,7 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
     images, seconds, errors = {}, {}, {}
     for s in strategies:
         t0 = time.perf_counter()
-        images[s], _ = render(scene, counts[s], s, rng=np.random.SeedSequence([rng, 0]))
+        images[s] = render(scene, counts[s], s, rng=np.random.SeedSequence([rng, 0])).value
         seconds[s] = time.perf_counter() - t0
         errors[s] = rel_mse(images[s], reference)
     return {"images": images, "seconds": seconds, "rel_mse": errors, "reference": reference,

@@ -1,0 +1,102 @@
+"""Whole-process render time of two vrlab revisions, side by side (issue 12's speed check).
+
+Exports each git revision (``git archive``) into a temporary folder, compiles its
+bytecode (as an installed package has), then renders veach_mis, cornell_box and
+many_lights at their own resolution and at twice the width and height, ``--spp``
+samples per pixel with ``--estimator`` and ``--workers`` processes, each render in a
+fresh ``python -c`` process (start-up, imports, scene loading and the render: what a user
+waits for).  Rounds are interleaved (old, new, old, new, ... for every configuration in
+every round) because this machine's speed drifts over minutes; the fastest run of each
+configuration is reported, with the median, and the ratio new/old of both.
+
+    python benchmarks/bench_render_versions.py --old 64b32d5 --new HEAD [--rounds 3 --spp 16]
+
+(``--new WORKTREE`` measures the files of this checkout as they are.)
+"""
+from __future__ import annotations
+
+import argparse
+import compileall
+import io
+import shutil
+import statistics
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ("veach_mis", "cornell_box", "many_lights")
+CODE = ("import sys; sys.path.insert(0, {src!r}); import vrlab.render as R; "
+        "r = R.render({scene!r}, {spp}, {est!r}, rng=1, workers={workers}, width={w}, height={h}); "
+        "img = r.value if hasattr(r, 'value') else r[0]; assert img.shape == ({h}, {w}, 3)")
+
+
+def export(rev: str, where: Path) -> Path:
+    """The tree of git revision ``rev`` (``WORKTREE``: this checkout's files) in ``where``,
+    bytecode compiled."""
+    if rev == "WORKTREE":
+        shutil.copytree(ROOT / "vrlab", where / "vrlab", ignore=shutil.ignore_patterns("__pycache__"))
+    else:
+        data = subprocess.run(["git", "archive", rev, "vrlab"], cwd=ROOT, capture_output=True, check=True).stdout
+        with tarfile.open(fileobj=io.BytesIO(data)) as tar:
+            tar.extractall(where, filter="data")
+    compileall.compile_dir(str(where / "vrlab"), quiet=1)
+    return where
+
+
+def sizes(scene: str) -> tuple[int, int]:
+    sys.path.insert(0, str(ROOT))
+    from vrlab.render import builtin_scene_path, load_scene
+
+    s = load_scene(builtin_scene_path(scene)).sensor
+    return s.width, s.height
+
+
+def run(src: Path, scene: str, w: int, h: int, spp: int, est: str, workers: int) -> float:
+    code = CODE.format(src=str(src), scene=scene, spp=spp, est=est, workers=workers, w=w, h=h)
+    t = time.perf_counter()
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tempfile.gettempdir())
+    if p.returncode:
+        raise RuntimeError(p.stderr[-2000:])
+    return time.perf_counter() - t
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--old", default="64b32d5")
+    ap.add_argument("--new", default="HEAD")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--spp", type=int, default=16)
+    ap.add_argument("--estimator", default="mis-power")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--scenes", nargs="*", default=list(SCENES))
+    ap.add_argument("--scales", nargs="*", type=int, default=[1, 2])
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        srcs = {"old": export(args.old, Path(tmp) / "old"), "new": export(args.new, Path(tmp) / "new")}
+        configs = [(sc, k) for sc in args.scenes for k in args.scales]
+        times: dict = {}
+        for r in range(args.rounds):
+            for sc, k in configs:
+                w, h = sizes(sc)
+                for which in ("old", "new") if r % 2 == 0 else ("new", "old"):
+                    times.setdefault((sc, k, which), []).append(
+                        run(srcs[which], sc, k * w, k * h, args.spp, args.estimator, args.workers))
+        print(f"vrlab {args.new} against {args.old}: {args.estimator}, {args.spp} spp, {args.workers} workers, "
+              f"{args.rounds} interleaved rounds; whole-process seconds (fastest / median)\n")
+        print("| scene | size | old | new | new/old (fastest) | new/old (median) |")
+        print("|---|---|---|---|---|---|")
+        for sc, k in configs:
+            w, h = sizes(sc)
+            o, n = times[(sc, k, "old")], times[(sc, k, "new")]
+            print(f"| {sc} | {k * w}x{k * h} | {min(o):.2f} / {statistics.median(o):.2f} | "
+                  f"{min(n):.2f} / {statistics.median(n):.2f} | {min(n) / min(o):.3f} | "
+                  f"{statistics.median(n) / statistics.median(o):.3f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

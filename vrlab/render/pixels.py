@@ -1,0 +1,159 @@
+"""The pixel integrand: a pixel's value as an integral over primary sample space.
+
+One pixel sample takes uniforms ``u = (u_x, u_y, v_1, ..., v_k)``: the position in the
+pixel, then ``k`` = ``units`` blocks of the estimator's unit uniforms (``unit_dim`` each).
+Its value is
+
+    L_e(camera hit, towards the camera) + (1/k) sum_i F_i,
+
+where F_i is the estimator's unit value (:meth:`vrlab.estimators.Estimator.unit_values`)
+on the :class:`~vrlab.render.shading.ShadingIntegrand` at the camera hit, uniforms v_i.
+The pixel's estimate folds its spp samples with the estimator's ``fold`` (the mean and
+sqrt(s^2 / spp) for averaging estimators, the regression for fitted control variates).
+So point sets act on ``u`` (the pixel level) and estimators at each shading point,
+batched over all camera hits of a block that share a BSDF.
+
+``estimator``: an estimator object (any :class:`~vrlab.estimators.Estimator` with per-unit
+values: its own ``dim_u``/``unit_values`` are enough), or a preset name
+(:mod:`vrlab.render.presets`).  Estimators that only work on whole sample sets
+(stratified, RQMC, Metropolis chains, CRN differences) are refused: stratify and
+randomise with ``points=`` instead, at the pixel level.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import checks
+from .direct import DirectLighting
+from .presets import preset
+from .scene import Scene
+from .scene_checks import MAX_SAMPLES
+from .shading import ShadingIntegrand
+
+__all__ = ["PixelIntegrand", "as_estimator"]
+
+
+def as_estimator(estimator: Any, *, emitter_samples: int = 1, bsdf_samples: int = 1,
+                 ris_candidates: int = 8) -> tuple[Any, int]:
+    """``(estimator, units per shading point)`` for an estimator object or a preset name."""
+    from ..estimators.base import Estimator
+
+    if isinstance(estimator, str):
+        return preset(estimator, emitter_samples=emitter_samples, bsdf_samples=bsdf_samples,
+                      ris_candidates=ris_candidates)
+    if not isinstance(estimator, Estimator):
+        raise TypeError("estimator: expected a preset name or a vrlab.estimators.Estimator object (subclass "
+                        f"Estimator and define dim_u and unit_values), got {type(estimator).__name__}")
+    cls = type(estimator)
+    if not estimator.per_unit or (cls.unit_values is Estimator.unit_values and
+                                  cls.unit_outputs is Estimator.unit_outputs):
+        raise TypeError(f"estimator: {cls.__name__} works on whole sample sets and has no per-sample unit values, "
+                        "which the renderer needs at each shading point; stratify or randomise the pixel's "
+                        "uniforms with points= instead")
+    return estimator, 1
+
+
+class PixelIntegrand:
+    """Pixel samples of ``scene`` under ``estimator`` (see the module docstring).
+
+    ``units``: the estimator's units per shading point (default: 1, or the preset's, from
+    ``emitter_samples`` / ``bsdf_samples``, which default to the scene's integrator
+    settings); ``light_selection``: ``"uniform"`` or ``"power"`` for the ``"light"``
+    technique.  ``dim`` is the number of uniforms per pixel sample.
+    """
+
+    def __init__(self, scene: Scene, estimator: Any = "mis-power", *, units: int | None = None,
+                 light_selection: str = "uniform", emitter_samples: int | None = None,
+                 bsdf_samples: int | None = None, ris_candidates: int = 8):
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
+        integ = scene.integrator
+        n_l = checks.integer(integ.emitter_samples if emitter_samples is None else emitter_samples,
+                             "emitter_samples", low=0, high=MAX_SAMPLES)
+        n_b = checks.integer(integ.bsdf_samples if bsdf_samples is None else bsdf_samples,
+                             "bsdf_samples", low=0, high=MAX_SAMPLES)
+        m = checks.integer(ris_candidates, "ris_candidates", low=0, high=MAX_SAMPLES)
+        self.estimator, k = as_estimator(estimator, emitter_samples=n_l, bsdf_samples=n_b, ris_candidates=m)
+        self.units = k if units is None else checks.integer(units, "units", low=1, high=MAX_SAMPLES)
+        self.lighting = DirectLighting(scene, light_selection)
+        probe = self.shading(0, *(np.zeros((0, 3), np.float32) for _ in range(3)))
+        self.estimator.check(probe)
+        self.unit_dim = int(self.estimator.unit_dim(probe))
+        self.dim = 2 + self.units * self.unit_dim
+        evals = int(getattr(self.estimator, "evals_per_unit", 1))
+        #: rays (and RIS candidates) per pixel sample: the memory of a block is about this x 4 x 12 bytes
+        self.work_per_sample = 1 + self.units * (evals + int(getattr(self.estimator, "m", 0))) + self.dim // 4
+
+    @property
+    def label(self) -> str:
+        return self.estimator.label
+
+    def shading(self, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray) -> ShadingIntegrand:
+        """The shading integrand at points ``p`` (normals ``n``, towards ``wo``) of BSDF group ``group``."""
+        if not self.lighting.bsdfs:
+            raise ValueError("scene: it has no shapes to shade")
+        return ShadingIntegrand(self.lighting, group, p, n, wo)
+
+    def outputs(self, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Unit outputs ``(3, P, S, c)`` of S samples in each of P pixels ``(P, 2)`` = (row,
+        column), uniforms ``u (P, S, dim)``; column 0 is the sample's value (see
+        :meth:`vrlab.estimators.Estimator.unit_outputs`)."""
+        pixels, u = np.asarray(pixels), np.asarray(u)
+        if u.ndim != 3 or u.shape[-1] != self.dim or pixels.shape != (u.shape[0], 2):
+            raise ValueError(f"u: expected uniforms (P, S, {self.dim}) for pixels (P, 2), got {u.shape} "
+                             f"and {pixels.shape}")
+        P, S = u.shape[:2]
+        lit = self.lighting
+        o, d = lit.camera.pixel_rays(pixels[:, None, :], u[..., :2], np.float32)
+        o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+        hits = lit.geometry.intersect(o, d)
+        le = lit.emitted(hits, d)
+        shape = np.maximum(hits.shape, 0)
+        group = np.where((hits.shape >= 0) & lit.shaded[shape], lit.group_of_shape[shape], -1)
+        counts = np.bincount(group + 1, minlength=len(lit.bsdfs) + 1)[1:]
+        ue = u[..., 2:].reshape(P * S, self.units, self.unit_dim)
+        out = None
+        for g in np.flatnonzero(counts):
+            rows = slice(None) if counts[g] == len(o) else np.flatnonzero(group == g)   # no gathers
+            sh = self.shading(g, hits.p[rows], hits.n[rows], -d[rows])
+            vals = np.asarray(self.estimator.unit_outputs(sh, ue[rows]))
+            vals = np.broadcast_to(vals, (3,) + vals.shape[-3:])
+            vals = vals[..., 0, :] if self.units == 1 else vals.mean(-2)                # (3, rows, c)
+            if out is None:
+                if isinstance(rows, slice) and vals.flags.writeable and vals.base is None:
+                    out = vals                                 # every ray in this group: no copy
+                    continue
+                out = np.zeros((3, len(o), vals.shape[-1]), np.result_type(vals, np.float32))
+            out[:, rows] = vals
+        if out is None:
+            out = np.zeros((3, len(o), 1), np.float32)
+        out[..., 0] += le.T
+        return out.reshape(3, P, S, -1)
+
+    def values(self, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The values ``(P, S, 3)`` of the pixel samples (for averaging estimators: each an
+        unbiased estimate of its pixel, RGB last)."""
+        return np.moveaxis(self.outputs(pixels, u)[..., 0], 0, -1)
+
+    def image_values(self, spp: int, rng: Any = None, *, block_pixels: int = 4096) -> np.ndarray:
+        """The values ``(H, W, spp, 3)`` of ``spp`` samples in every pixel of the sensor, from
+        i.i.d. uniforms drawn from ``numpy.random.default_rng(rng)`` block after block of
+        ``block_pixels`` pixels (for experiments that study the samples themselves; memory
+        H W spp 3 float32)."""
+        spp = checks.integer(spp, "spp", low=1)
+        block = checks.integer(block_pixels, "block_pixels", low=1)
+        gen = np.random.default_rng(rng)
+        sensor = self.lighting.camera
+        h, w = sensor.height, sensor.width
+        out = np.empty((h * w, spp, 3), np.float32)
+        for a in range(0, h * w, block):
+            idx = np.arange(a, min(a + block, h * w))
+            out[idx] = self.values(np.stack(np.divmod(idx, w), -1), gen.random((len(idx), spp, self.dim)))
+        return out.reshape(h, w, spp, 3)
+
+    def estimate(self, pixels: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(value, stderr)``, both ``(P, 3)``: the estimator's fold of each pixel's S samples."""
+        value, stderr = self.estimator.fold(self.outputs(pixels, u))
+        return np.moveaxis(np.asarray(value), 0, -1), np.moveaxis(np.asarray(stderr), 0, -1)

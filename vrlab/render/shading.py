@@ -1,0 +1,274 @@
+"""Direct lighting at shading points as an integrand, with its techniques as distributions.
+
+At a surface point p with normal n, BSDF f_r and outgoing direction wo, direct lighting is
+
+    L_d(p) = sum_j int L_e,j(w) V_j(p, w) f_r(wo, w) cos(theta_w) dw,
+
+light j contributing where it is the first thing seen along w (V_j) and faces p.  The
+points of this integrand are directions *with the light they reach*, ``x = (w_x, w_y,
+w_z, j)`` (world direction, light index as a float; j = -1 for none): the measure is
+solid angle times counting over lights, so ``f(w, j) = f_r cos L_e,j V_j``.  This is what
+lets every technique be an ordinary distribution with an exact density (Veach 1997, 9.2:
+MIS needs every technique's pdf at every sample):
+
+* ``"bsdf"``, ``"cosine"``, ``"uniform"``: w from the BSDF lobe / cos/pi / 1/(2 pi) on the
+  hemisphere of n, and j = the light first seen along w (a traced ray).  Density
+  p(w) [j is first seen along w]: at a light sample hidden behind something it is 0.
+* ``"light"``: light j with probability P_j (``light_selection``), then w towards it
+  (spheres by their cone, other shapes by area, converted to solid angle, counting every
+  hit of the ray with light j).  Density P_j p_j(w), occluded or not.
+
+Named extras for the estimators (:class:`vrlab.Integrand` ``controls`` / ``targets``):
+
+* control ``"lambertian"``: h(w, j) = (k_d/pi) L_e,j cos(theta_w) where w meets light j,
+  unoccluded, for lights with a closed form (``LightSet.cos_integrals``: rectangles above
+  the horizon, spheres); its integral is (k_d/pi) sum_j L_e,j int_{Omega_j} cos dw.  Only
+  the ``"light"`` technique covers h's support (a BSDF sample never lands on a hidden
+  light), so use it with ``distribution="light"``;
+* target ``"unshadowed"``: p̂(w, j) = Y(f_r cos) Y(L_e,j) where light j faces p
+  (Y = luminance), the RIS target of Talbot et al. (2005) without the shadow ray.
+
+Every evaluation at a point a technique has just sampled reuses that sample's ray
+(a cache keyed on the sample array, cleared per batch): one ray per sample, as a
+hand-written MIS loop would trace.  Points from elsewhere (a mixture's select, a
+reservoir's pick) are traced again; the values are the same, only slower.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .._vec import dot, scale, side
+from ..distributions import CosineHemisphere, Frame, UniformHemisphere
+from ..distributions.base import uniforms32
+from ..integrands.base import Integrand
+from .lights import luminance
+
+F32 = np.float32
+_WARPS = {"cosine": CosineHemisphere(), "uniform": UniformHemisphere()}
+
+
+class _Rows:
+    """What is known about the rows (samples) of one point array: directions, lights, rays."""
+
+    __slots__ = ("x", "w", "wl", "j", "first", "front", "le", "y", "hit_p", "pdfs")
+
+    def __init__(self, x, w, wl, j):
+        self.x, self.w, self.wl, self.j = x, w, wl, j
+        self.first = self.front = self.le = self.y = self.hit_p = None
+        self.pdfs: dict = {}
+
+
+class ShadingIntegrand(Integrand):
+    """Direct lighting at ``N`` shading points sharing one BSDF (see the module docstring).
+
+    ``lighting``: the scene's :class:`~vrlab.render.direct.DirectLighting`; ``group``: the
+    BSDF group; ``p``, ``n``, ``wo`` (N, 3): points, unit normals and outgoing directions
+    (world).  Points ``x (N, m, 4)``; values ``(3, N, m)`` (RGB first: a batch axis).
+    """
+
+    def __init__(self, lighting, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray):
+        self.lighting, self.bsdf = lighting, lighting.bsdfs[group]
+        p, n, wo = (np.asarray(a, F32) for a in (p, n, wo))
+        if lighting.twosided[group]:
+            n = scale(n, side(dot(wo, n)))
+        self.p, self.n = p, n
+        self.frame = Frame._trusted(n)          # hit normals are unit vectors (geometry normalises them)
+        self.wo_l = self.frame.to_local(wo)
+        self.kd = lighting.kd[group]
+        self.name, self.domain, self.dim, self.volume = "direct lighting", "directions x lights", 4, 4 * np.pi
+        self.bounds, self.exact, self.f2, self.theory = None, None, None, {}
+        self.techniques = {"bsdf": _Directional(self, None), "cosine": _Directional(self, "cosine"),
+                           "uniform": _Directional(self, "uniform"), "light": _LightTechnique(self)}
+        self._valid = None
+        self.controls = {"lambertian": (self._lambertian, None)}     # integral computed on first use
+        self.targets = {"unshadowed": self._unshadowed}
+        self._cache: dict[int, _Rows] = {}
+
+    def f(self, x: np.ndarray) -> np.ndarray:
+        r = self.rows(x)
+        return self._rgb(self.bsdf.eval(self.rep(self.wo_l, x), r.wl) * self.emission(r), x)
+
+    def uniform(self):
+        return self.techniques["uniform"]
+
+    def control(self, name: str, arg: str = "control") -> tuple:
+        h, integral = super().control(name, arg)
+        if integral is None:
+            self.controls[name] = (h, self._lambertian_integral())
+        return self.controls[name]
+
+    # ---------------------------------------------------------------- rows of a point array
+    @staticmethod
+    def rep(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """Per-point ``a (N, ...)`` repeated for the m samples of each point of ``x (N, m, .)``."""
+        m = x.shape[-2]
+        return a if m == 1 else np.repeat(a, m, axis=0)
+
+    def rep_frame(self, m: int) -> Frame:
+        fr = self.frame
+        return fr if m == 1 else Frame._trusted(*(np.repeat(a, m, axis=0) for a in (fr.n, fr.t, fr.b)))
+
+    @staticmethod
+    def _rgb(values: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """RGB rows ``(R, 3)`` as values ``(3, *x.shape[:-1])``."""
+        return values.T.reshape((3,) + x.shape[:-1])          # a view when each point has one sample
+
+    def new_points(self, w: np.ndarray, j: np.ndarray, shape: tuple) -> tuple[np.ndarray, _Rows]:
+        """Sample points ``x (*shape, 4)`` from rows ``w (R, 3)``, ``j (R,)``, with their cached rows."""
+        x = np.empty((len(w), 4), F32)
+        x[:, :3] = w
+        x[:, 3] = j
+        x = x.reshape(shape + (4,))
+        r = _Rows(x, w, None, j)
+        self._cache[id(x)] = r
+        return x, r
+
+    def rows(self, x: np.ndarray) -> _Rows:
+        """The cached rows of a technique's own sample array, or new rows for other points."""
+        r = self._cache.get(id(x))
+        if r is None or r.x is not x:
+            x = np.asarray(x)
+            if x.ndim != 3 or x.shape[0] != len(self.p) or x.shape[-1] != 4:
+                raise ValueError(f"x: expected points (N={len(self.p)}, m, 4) (direction, light), got {x.shape}")
+            w = np.asarray(x[..., :3], F32).reshape(-1, 3)
+            j = np.rint(np.asarray(x[..., 3], float)).astype(np.int64).reshape(-1)
+            r = _Rows(x, w, None, j)
+            self._cache[id(x)] = r
+        if r.wl is None:
+            r.wl = self.rep_frame(x.shape[-2]).to_local(r.w)
+        return r
+
+    def first_seen(self, r: _Rows) -> np.ndarray:
+        """[light j (-1: none) is the first thing seen along w] per row: one ray, cached."""
+        if r.first is None:
+            x, lit = r.x, self.lighting
+            p, n = self.rep(self.p, x), self.rep(self.n, x)
+            if r.y is not None:                                  # a light sample: shadow ray to y
+                r.first = lit.unblocked(p, n, r.w, r.y, r.j)
+            else:
+                hits, _ = lit.trace(p, n, r.w)
+                r.first = lit.light_hit(hits) == r.j
+                if r.front is None:
+                    r.front = dot(hits.n, r.w) < 0
+        return r.first
+
+    def emission(self, r: _Rows) -> np.ndarray:
+        """L_e,j V_j reaching the points along each row ``(R, 3)``."""
+        if r.le is None:
+            r.le = scale(self.lighting.light_radiance(r.j), self.first_seen(r) & r.front & (r.j >= 0))
+        return r.le
+
+    def light_pdf(self, r: _Rows) -> np.ndarray:
+        """P_j p_j(w) per row (cached)."""
+        if "light" not in r.pdfs:
+            lit = self.lighting
+            if lit.lights is None:
+                r.pdfs["light"] = np.zeros(len(r.j), F32)
+            else:
+                r.pdfs["light"] = lit.lights.pdf(self.rep(self.p, r.x), r.w, r.j, r.hit_p).astype(F32)
+        return r.pdfs["light"]
+
+    # ---------------------------------------------------------------- named extras
+    def _lambertian(self, x: np.ndarray) -> np.ndarray:
+        r = self.rows(x)
+        lit = self.lighting
+        if lit.lights is None or not np.any(self.kd > 0):
+            return np.zeros((3,) + x.shape[:-1])
+        if self._valid is None:
+            self.control("lambertian")
+        jj = np.maximum(r.j, 0)
+        valid = self.rep(self._valid, x)[np.arange(len(jj)), jj] & (r.j >= 0) & (self.light_pdf(r) > 0)
+        g = (self.kd / np.pi) * lit.light_radiance(r.j) * np.clip(r.wl[:, 2:3], 0.0, None)
+        return self._rgb(scale(g, valid), x)
+
+    def _lambertian_integral(self) -> np.ndarray:
+        lit = self.lighting
+        if lit.lights is None or not np.any(self.kd > 0) or len(self.p) == 0:
+            return np.zeros((3, len(self.p)))
+        integral, self._valid = lit.lights.cos_integrals(self.p, self.n)           # (N, L)
+        return ((self.kd / np.pi) * ((integral * self._valid) @ lit.lights.radiance)).T
+
+    def _unshadowed(self, x: np.ndarray) -> np.ndarray:
+        r = self.rows(x)
+        if r.front is None:          # not a sample of a technique: the traced ray decides the facing
+            self.first_seen(r)
+        fr = self.bsdf.eval(self.rep(self.wo_l, x), r.wl)
+        t = luminance(fr) * luminance(self.lighting.light_radiance(r.j))
+        return np.where(r.front & (r.j >= 0), np.maximum(t, 0.0), 0.0).reshape(x.shape[:-1])
+
+
+class _Directional:
+    """``"bsdf"`` (warp None), ``"cosine"`` or ``"uniform"``: w from a local warp, j traced."""
+
+    dim_u, dim_x, measure = 2, 4, "solid angle x lights"
+
+    def __init__(self, shading: ShadingIntegrand, warp: str | None):
+        self.s, self.warp = shading, warp
+        self.key = warp or "bsdf"
+
+    def __repr__(self) -> str:
+        return f"ShadingTechnique({self.key!r})"
+
+    def _local_pdf(self, wo_l: np.ndarray, wl: np.ndarray) -> np.ndarray:
+        if self.warp is None:
+            return self.s.bsdf.pdf(wo_l, wl)
+        return np.asarray(_WARPS[self.warp].pdf(wl), F32)
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        s, lit = self.s, self.s.lighting
+        u = np.asarray(u)
+        shape = u.shape[:-1]
+        u2 = uniforms32(u.reshape(-1, 2))
+        wo_l = s.rep(s.wo_l, u)
+        if self.warp is None:
+            wl = np.asarray(s.bsdf.distribution(wo_l).sample(u2))
+        else:
+            wl = np.asarray(_WARPS[self.warp].sample(u2), F32)
+        w = s.rep_frame(shape[-1]).to_world(wl)
+        hits, le = lit.trace(s.rep(s.p, u), s.rep(s.n, u), w)
+        j = lit.light_hit(hits)
+        x, r = s.new_points(w, j, shape)
+        r.wl, r.le, r.hit_p = wl, le, hits.p
+        r.first, r.front = np.ones(len(j), bool), dot(hits.n, w) < 0
+        r.pdfs[self.key] = self._local_pdf(wo_l, wl)
+        return x
+
+    def pdf(self, x: np.ndarray) -> np.ndarray:
+        """p(w) [j is the first thing seen along w]."""
+        s = self.s
+        r = s.rows(x)
+        if self.key not in r.pdfs:
+            r.pdfs[self.key] = np.where(s.first_seen(r), self._local_pdf(s.rep(s.wo_l, x), r.wl), 0.0)
+        return r.pdfs[self.key].reshape(x.shape[:-1])
+
+
+class _LightTechnique:
+    """``"light"``: light j ~ P (one uniform), w towards it (two uniforms)."""
+
+    dim_u, dim_x, measure = 3, 4, "solid angle x lights"
+
+    def __init__(self, shading: ShadingIntegrand):
+        self.s = shading
+
+    def __repr__(self) -> str:
+        return "ShadingTechnique('light')"
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        s, lit = self.s, self.s.lighting
+        u = np.asarray(u)
+        shape = u.shape[:-1]
+        p = s.rep(s.p, u)
+        if lit.lights is None:                        # no emitters: nothing to sample (density 0)
+            x, r = s.new_points(s.rep(s.n, u), np.full(len(p), -1), shape)
+            r.pdfs["light"], r.first, r.front = np.zeros(len(p), F32), np.zeros(len(p), bool), np.zeros(len(p), bool)
+            return x
+        j, w, pdf, front, y = lit.lights.sample(p, u.reshape(-1, 3))
+        x, r = s.new_points(w, j, shape)
+        r.pdfs["light"], r.front = pdf.astype(F32), front
+        if lit.lights.simple:
+            r.y = y
+        return x
+
+    def pdf(self, x: np.ndarray) -> np.ndarray:
+        s = self.s
+        return s.light_pdf(s.rows(x)).reshape(x.shape[:-1])
