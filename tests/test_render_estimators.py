@@ -168,3 +168,22 @@ def test_shading_integrand_techniques_are_distributions_with_exact_densities():
         est = v.mean(-1)[1]                       # green channel, both points
         se = v.std(-1)[1] / np.sqrt(200_000)
         assert np.all(np.abs(est - exact) < 5 * se + 1e-4 * exact), (name, est, exact, se)
+
+
+def test_points_take_vrlab_and_scipy_engines_as_classes_or_instances(raises_naming):
+    """``points=`` drives the pixels' primary-sample-space uniforms: SciPy's engines (class or
+    instance of the right dimension) and vrlab's, as a shared set shifted per pixel; over
+    independent seeds the images average to the closed form."""
+    from scipy.stats import qmc
+
+    from vrlab.points import Halton, PaddedStratified
+
+    dim = PixelIntegrand(SC, "light").dim
+    for points in (qmc.Sobol, qmc.Halton(dim, rng=4), Halton, PaddedStratified(dim, rng=2), "halton"):
+        reps = np.array([render(SC, 16, "light", rng=[8, r], points=points).value for r in range(12)])
+        mean, se = reps.mean(0), reps.std(0, ddof=1) / np.sqrt(len(reps))
+        z = (mean[..., 1] - EXACT[..., 1]) / np.sqrt(se[..., 1] ** 2 + (CENTRE_TOL * EXACT[..., 1]) ** 2)
+        assert abs(z.mean() * np.sqrt(z.size)) < 4 + 2, points                 # pooled, t with 11 dof
+        assert render(SC, 4, "light", rng=0, points=points).extra["stderr_note"]
+    with raises_naming(ValueError, "points"):
+        render(SC, 4, "light", points=qmc.Sobol(dim + 1, rng=0))

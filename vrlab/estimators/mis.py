@@ -386,12 +386,13 @@ class MIS(Estimator):
                 q = 0.0
                 for k, other in enumerate(dists):
                     if counts[k]:
-                        q = q + counts[k] * as_float(other.pdf(x))
+                        pk = as_float(other.pdf(x))
+                        q = q + pk.dtype.type(counts[k]) * pk       # float32 densities stay float32
                 v = ratio(f, q)
             else:
                 P = _stack_pdfs(dists, x)
-                w = mis_weights(P * counts, self.heuristic, beta=self.beta, alpha=self.alpha)
-                v = ratio(w[..., i], c * P[..., i]) * f
+                w = mis_weights(P * counts.astype(P.dtype), self.heuristic, beta=self.beta, alpha=self.alpha)
+                v = ratio(w[..., i], P.dtype.type(c) * P[..., i]) * f
             v = v if c == 1 else v.reshape(v.shape[:-1] + (m, c)).sum(-1)
             if isinstance(total, np.ndarray) and total.shape == v.shape:
                 total += v

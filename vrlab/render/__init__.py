@@ -11,6 +11,7 @@ from .builtin import builtin_scene_path, describe_builtin_scene, export_builtin_
 from .loader import load_scene, read_obj
 from .scene import BSDF, AreaEmitter, Integrator, Scene, SceneError, Sensor, Shape
 from .film import render
+from .gradient import GradientDomainImage, render_gradient_domain
 from .pixels import PixelIntegrand
 from .presets import PRESETS, preset
 from .shading import ShadingIntegrand
@@ -20,6 +21,7 @@ from .._lazy import lazy_attributes
 __all__ = ["BSDFModel", "Diffuse", "Phong", "RoughConductor", "AreaEmitter", "BSDF", "Integrator", "Scene",
            "SceneError", "Sensor", "Shape", "builtin_scene_path", "describe_builtin_scene", "export_builtin_scene",
            "keep_freed_memory", "list_builtin_scenes", "load_scene", "read_obj", "render", "PixelIntegrand", "PRESETS", "preset",
+           "GradientDomainImage", "render_gradient_domain",
            "ShadingIntegrand", "screened_poisson",
            "transforms"]
 

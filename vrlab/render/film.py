@@ -90,22 +90,30 @@ class _Job:
             self._integrand = PixelIntegrand(self.scene, **self.settings)
         return self._integrand
 
-    def tile(self, t: int) -> tuple[int, np.ndarray, np.ndarray]:
-        """(first pixel, estimate (n, 3), standard error (n, 3)) of tile ``t``."""
+    #: the per-pixel (n, 3) arrays a tile returns
+    outputs = ("value", "stderr")
+
+    def tile(self, t: int) -> tuple[int, tuple[np.ndarray, ...]]:
+        """(first pixel, (estimate (n, 3), standard error (n, 3))) of tile ``t``: its pixels
+        block after block, uniforms from the tile's own stream."""
         a, b = t * TILE_PIXELS, min((t + 1) * TILE_PIXELS, self.n_pixels)
         gen = np.random.default_rng(unit_seed(self.root, t + 1))
-        mean, err = np.zeros((b - a, 3)), np.zeros((b - a, 3))
-        integrand = self.integrand
+        out = tuple(np.zeros((b - a, 3)) for _ in self.outputs)
         for c in range(a, b, self.chunk):
             idx = np.arange(c, min(c + self.chunk, b))
             pix = np.stack(np.divmod(idx, self.width), -1)
             u = self.sampler.draw(len(pix), gen)
-            with np.errstate(invalid="ignore"):
-                mean[idx - a], err[idx - a] = integrand.estimate(pix, u)
-        return a, mean, err
+            with np.errstate(invalid="ignore", divide="ignore"):
+                for buf, value in zip(out, self.block(pix, u)):
+                    buf[idx - a] = value
+        return a, out
+
+    def block(self, pixels: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The outputs of a block of pixels ``(P, 2)`` with uniforms ``(P, spp, dim)``."""
+        return self.integrand.estimate(pixels, u)
 
 
-def _run_tiles(job: _Job, tiles: list[int]) -> list[tuple[int, np.ndarray, np.ndarray]]:
+def _run_tiles(job: _Job, tiles: list[int]) -> list[tuple[int, tuple[np.ndarray, ...]]]:
     keep_freed_memory()     # worker processes are vrlab's own: reuse freed ray temporaries (vrlab._alloc)
     return [job.tile(t) for t in tiles]
 
@@ -153,25 +161,43 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     not a lambda).
     """
     t0 = time.perf_counter()
+    job, sampler, workers = plan(scene, spp, settings=dict(
+        estimator=estimator, units=units, light_selection=light_selection, emitter_samples=emitter_samples,
+        bsdf_samples=bsdf_samples, ris_candidates=ris_candidates), points=points, rng=rng, workers=workers,
+        chunk_pixels=chunk_pixels, width=width, height=height)
+    value, stderr = execute(job, workers, executor, progress)
+    integrand, spp = job.integrand, job.spp
+    est = integrand.estimator
+    extra = {"units": integrand.units, "points": sampler.label}
+    if not sampler.iid:
+        extra["stderr_note"] = ("stderr uses the i.i.d. formula but the pixel's points are not independent "
+                                f"({sampler.label}): it is not a valid error bar")
+    evals = integrand.units * int(getattr(est, "evals_per_unit", 1))
+    return Estimate(value, stderr, spp, spp * evals, time.perf_counter() - t0, stderr.astype(np.float64) ** 2 * spp,
+                    est.label, extra)
+
+
+def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLike, workers: int | None,
+         chunk_pixels: int | None, width: int | None, height: int | None, job_class: type = _Job,
+         cost: int = 1) -> tuple[_Job, Any, int]:
+    """Check the arguments of a render and build its job: ``(job, point sampler, workers)``.
+    ``cost``: pixel-integrand evaluations per sample (3 for the gradient-domain renders)."""
     scene = _as_scene(scene)
     spp = checks.integer(scene.sensor.spp if spp is None else spp, "spp", low=1)
     chunk_pixels = _optional_int(chunk_pixels, "chunk_pixels", 1)
     limit = max(256, 4 * (os.cpu_count() or 1))
     workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1, high=limit)
-    if progress is not None and not callable(progress):
-        raise TypeError(f"progress must be a callable progress(done, total) or None, got {type(progress).__name__}")
     if width is not None or height is not None:
         sensor = dataclasses.replace(scene.sensor, width=scene.sensor.width if width is None else width,
                                      height=scene.sensor.height if height is None else height)
         scene = dataclasses.replace(scene, sensor=sensor)
-    settings = dict(estimator=estimator, units=units, light_selection=light_selection,
-                    emitter_samples=emitter_samples, bsdf_samples=bsdf_samples, ris_candidates=ris_candidates)
+    settings = dict(settings)
     integrand = PixelIntegrand(scene, **settings)
     est = integrand.estimator
     need = int(getattr(est, "min_units", 1))
     if spp < need:
         raise ValueError(f"spp: {est.label} fits its coefficients per pixel and needs spp >= {need}, got {spp}")
-    work = integrand.work_per_sample
+    work = integrand.work_per_sample * cost
     if spp * work > MAX_PIXEL_WORK:
         raise ValueError(f"spp: {spp} samples per pixel x {work} (rays + uniforms/4 per sample, for {est.label} "
                          f"with {integrand.units} unit(s) per shading point) exceeds the per-pixel block limit "
@@ -187,23 +213,33 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     root = as_seed_sequence(rng)
     sampler = SetSampler(points, integrand.dim, spp, rng=unit_seed(root, 0))
     settings["estimator"], settings["units"] = est, integrand.units
-    job = _Job(scene, settings, sampler, spp, root, min(chunk_pixels, TILE_PIXELS), integrand)
-    height, width = scene.sensor.height, scene.sensor.width
+    job = job_class(scene, settings, sampler, spp, root, min(chunk_pixels, TILE_PIXELS), integrand)
+    return job, sampler, workers
+
+
+def execute(job: _Job, workers: int, executor: Any = None,
+            progress: Callable[[int, int], None] | None = None) -> tuple[np.ndarray, ...]:
+    """Run a job's tiles (in this process, a process pool of ``workers`` or the caller's
+    ``executor``): its outputs as ``(H, W, 3)`` float32 images."""
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a callable progress(done, total) or None, got {type(progress).__name__}")
+    if executor is not None and not callable(getattr(executor, "submit", None)):
+        raise TypeError(f"executor: expected a concurrent.futures.Executor or None, got {type(executor).__name__}")
+    height, width = job.scene.sensor.height, job.scene.sensor.width
     n_pixels = height * width
     tiles = list(range(-(-n_pixels // TILE_PIXELS)))
-    mean, err = np.zeros((n_pixels, 3), np.float32), np.zeros((n_pixels, 3), np.float32)
+    images = tuple(np.zeros((n_pixels, 3), np.float32) for _ in job.outputs)
     done = 0
 
     def collect(results):
         nonlocal done
-        for a, m, e in results:
-            mean[a:a + len(m)], err[a:a + len(m)] = m, e
-            done += len(m)
+        for a, arrays in results:
+            for image, arr in zip(images, arrays):
+                image[a:a + len(arr)] = arr
+            done += len(arrays[0])
             if progress is not None:
                 progress(done, n_pixels)
 
-    if executor is not None and not callable(getattr(executor, "submit", None)):
-        raise TypeError(f"executor: expected a concurrent.futures.Executor or None, got {type(executor).__name__}")
     workers = min(workers, len(tiles))
     if workers == 1 and executor is None:
         for t in tiles:
@@ -212,8 +248,8 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
         try:
             pickle.dumps(job)
         except (pickle.PicklingError, AttributeError, TypeError) as exc:
-            raise TypeError(f"estimator: {est!r} cannot be sent to worker processes ({exc}); define functions "
-                            "it uses (e.g. a heuristic) at module level, or use workers=1") from None
+            raise TypeError(f"estimator: {job.integrand.estimator!r} cannot be sent to worker processes ({exc}); "
+                            "define functions it uses (e.g. a heuristic) at module level, or use workers=1") from None
         n_batches = 2 * workers
         batches = [b for b in (tiles[i::n_batches] for i in range(n_batches)) if b]
         if executor is not None:
@@ -225,15 +261,7 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
             with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
                 for res in pool.map(_run_tiles, [job] * len(batches), batches):
                     collect(res)
-    shape = (height, width, 3)
-    value, stderr = mean.reshape(shape), err.reshape(shape)
-    extra = {"units": integrand.units, "points": sampler.label}
-    if not sampler.iid:
-        extra["stderr_note"] = ("stderr uses the i.i.d. formula but the pixel's points are not independent "
-                                f"({sampler.label}): it is not a valid error bar")
-    evals = integrand.units * int(getattr(est, "evals_per_unit", 1))
-    return Estimate(value, stderr, spp, spp * evals, time.perf_counter() - t0, stderr.astype(np.float64) ** 2 * spp,
-                    est.label, extra)
+    return tuple(image.reshape(height, width, 3) for image in images)
 
 
 def default_workers() -> int:

@@ -26,13 +26,14 @@ from typing import Any
 import numpy as np
 
 from .. import checks
+from ..integrands.base import Integrand
 from .direct import DirectLighting
 from .presets import preset
 from .scene import Scene
 from .scene_checks import MAX_SAMPLES
 from .shading import ShadingIntegrand
 
-__all__ = ["PixelIntegrand", "as_estimator"]
+__all__ = ["PixelFunction", "PixelIntegrand", "as_estimator"]
 
 
 def as_estimator(estimator: Any, *, emitter_samples: int = 1, bsdf_samples: int = 1,
@@ -113,12 +114,18 @@ class PixelIntegrand:
         shape = np.maximum(hits.shape, 0)
         group = np.where((hits.shape >= 0) & lit.shaded[shape], lit.group_of_shape[shape], -1)
         counts = np.bincount(group + 1, minlength=len(lit.bsdfs) + 1)[1:]
-        ue = u[..., 2:].reshape(P * S, self.units, self.unit_dim)
+        ue = u.reshape(P * S, self.dim)[:, 2:]                          # a view: rows are gathered below
         out = None
         for g in np.flatnonzero(counts):
-            rows = slice(None) if counts[g] == len(o) else np.flatnonzero(group == g)   # no gathers
-            sh = self.shading(g, hits.p[rows], hits.n[rows], -d[rows])
-            vals = np.asarray(self.estimator.unit_outputs(sh, ue[rows]))
+            if counts[g] == len(o):                                       # one group everywhere: no gathers
+                rows, p, n, wo, ug = slice(None), hits.p, hits.n, -d, ue
+            else:
+                rows = np.flatnonzero(group == g)
+                p, n, wo, ug = (np.take(a, rows, axis=0) for a in (hits.p, hits.n, d, ue))
+                wo = np.negative(wo, out=wo)
+            sh = self.shading(g, p, n, wo)
+            ug = ug.reshape(len(ug), self.units, self.unit_dim)
+            vals = np.asarray(self.estimator.unit_outputs(sh, ug))
             vals = np.broadcast_to(vals, (3,) + vals.shape[-3:])
             vals = vals[..., 0, :] if self.units == 1 else vals.mean(-2)                # (3, rows, c)
             if out is None:
@@ -136,6 +143,14 @@ class PixelIntegrand:
         """The values ``(P, S, 3)`` of the pixel samples (for averaging estimators: each an
         unbiased estimate of its pixel, RGB last)."""
         return np.moveaxis(self.outputs(pixels, u)[..., 0], 0, -1)
+
+    def integrand(self, pixels: np.ndarray, shift: tuple[int, int] = (0, 0)) -> "PixelFunction":
+        """The pixels ``(P, 2)`` (moved by ``shift`` = (rows, columns)) as one batched
+        :class:`vrlab.Integrand` on the unit cube of primary sample space: points ``u (P, n,
+        dim)``, values ``(3, P, n)``, integral the pixel values.  Any estimator of
+        :mod:`vrlab.estimators` runs on it (``MonteCarlo()`` is the plain pixel estimate,
+        ``CRNDifference`` on two of them an image gradient)."""
+        return PixelFunction(self, pixels, shift)
 
     def image_values(self, spp: int, rng: Any = None, *, block_pixels: int = 4096) -> np.ndarray:
         """The values ``(H, W, spp, 3)`` of ``spp`` samples in every pixel of the sensor, from
@@ -157,3 +172,30 @@ class PixelIntegrand:
         """``(value, stderr)``, both ``(P, 3)``: the estimator's fold of each pixel's S samples."""
         value, stderr = self.estimator.fold(self.outputs(pixels, u))
         return np.moveaxis(np.asarray(value), 0, -1), np.moveaxis(np.asarray(stderr), 0, -1)
+
+
+class PixelFunction(Integrand):
+    """Pixels of a :class:`PixelIntegrand` as a batched integrand over ``[0, 1)^dim`` (see
+    :meth:`PixelIntegrand.integrand`).  The last evaluation is kept: the same points again
+    (two estimators sharing a pixel's uniforms, as in gradient-domain rendering) are not
+    rendered twice."""
+
+    def __init__(self, pixel_integrand: PixelIntegrand, pixels: np.ndarray, shift: tuple[int, int] = (0, 0)):
+        pixels = np.asarray(pixels)
+        if pixels.ndim != 2 or pixels.shape[1] != 2 or not np.issubdtype(pixels.dtype, np.integer):
+            raise ValueError(f"pixels: expected integer (row, column) pairs of shape (P, 2), got {pixels.shape}")
+        shift = tuple(checks.integer(k, "shift") for k in shift) if isinstance(shift, (tuple, list)) else None
+        if shift is None or len(shift) != 2:
+            raise TypeError("shift: expected (rows, columns), two integers")
+        super().__init__(self._values, [(0.0, 1.0)] * pixel_integrand.dim, name=f"pixels{list(shift)}")
+        self.pixel_integrand, self.pixels, self.shift = pixel_integrand, pixels + np.asarray(shift), shift
+        self._last: tuple | None = None
+
+    def _values(self, u: np.ndarray) -> np.ndarray:
+        if self._last is not None and self._last[0].shape == u.shape and np.array_equal(self._last[0], u):
+            return self._last[1]
+        if u.ndim != 3 or u.shape[0] != len(self.pixels):
+            raise ValueError(f"u: expected points (P={len(self.pixels)}, n, {self.dim}), got shape {u.shape}")
+        values = np.moveaxis(self.pixel_integrand.values(self.pixels, u), -1, 0)
+        self._last = (u.copy(), values)
+        return values
