@@ -129,6 +129,11 @@ def test_other_strategies_agree_with_mitsuba(name, strategy, options):
     their 64-spp samples are so heavy-tailed (|z| = 44 for plain light sampling) that no
     standard error describes them."""
     spp, block, mean_tol, _ = CASES[name]
+    if strategy == "mixture":
+        # one-sample MIS has a larger per-sample variance than the MIS reference's on the sharp
+        # plates, where 64 samples can all miss a highlight (|z| = 7.9 for one pixel with seed 7,
+        # its stderr from 64 samples far too small); 256 samples describe those pixels
+        spp = 256
     ref = np.load(DATA / f"{name}_mean.npy")
     ref_err = np.load(DATA / f"{name}_stderr.npy")
     h, w, _ = ref.shape

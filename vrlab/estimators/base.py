@@ -161,12 +161,21 @@ class Estimator:
         there).  Default: the unit values as one column."""
         return self.unit_values(integrand, u)[..., None]
 
+    def accumulate(self, outputs: np.ndarray):
+        """Mergeable statistics of the unit outputs ``(*batch, m, c)`` of m units (``merge``
+        combines those of disjoint sets of units, Chan et al.'s update): for averaging
+        estimators the :class:`~vrlab.estimate.Moments` of column 0."""
+        return Moments().add(np.asarray(outputs)[..., 0])
+
+    def summarize(self, stats) -> tuple[np.ndarray, np.ndarray]:
+        """``(estimate, standard error)`` from :meth:`accumulate`'s statistics (merged or not):
+        the mean and sqrt(s^2 / m)."""
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.asarray(stats.mean), np.sqrt(stats.variance / stats.count)
+
     def fold(self, outputs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(estimate, standard error)`` from the unit outputs ``(*batch, m, c)`` of m
-        units: for averaging estimators the mean of column 0 and sqrt(s^2 / m)."""
-        mom = Moments().add(np.asarray(outputs)[..., 0])
-        with np.errstate(invalid="ignore"):
-            return np.asarray(mom.mean), np.sqrt(mom.variance / mom.count)
+        """``(estimate, standard error)`` from the unit outputs ``(*batch, m, c)`` of m units."""
+        return self.summarize(self.accumulate(outputs))
 
     def units_for(self, n: int) -> int:
         n = check_n(n)

@@ -80,6 +80,21 @@ class CoMoments:
         self.count = n
         return self
 
+    def merge(self, other: "CoMoments") -> "CoMoments":
+        """Fold the co-moments of another, disjoint set of units into these (Chan et al.)."""
+        if other.count == 0:
+            return self
+        if self.count == 0:
+            self.count, self.mean, self.comoment = other.count, other.mean, other.comoment
+            return self
+        n = self.count + other.count
+        delta = other.mean - self.mean
+        self.comoment = (self.comoment + other.comoment
+                         + (delta[..., :, None] * delta[..., None, :]) * (self.count * other.count / n))
+        self.mean = self.mean + delta * (other.count / n)
+        self.count = n
+        return self
+
     @property
     def covariance(self) -> np.ndarray:
         if self.count < 2:
@@ -164,17 +179,24 @@ class _Regression(Estimator):
         """Columns ``(*batch, m, 1 + K)``: Y = f/p and the centred controls h_j/p - theta_j."""
         return self._columns(integrand, u)
 
-    def fold(self, outputs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The regression estimate and its standard error from columns of m units (with a
-        fixed alpha: the mean of the unit values Y - alpha^T (H - theta))."""
+    def accumulate(self, outputs: np.ndarray):
+        """With a fitted alpha: the :class:`CoMoments` of the columns (mergeable); with a
+        fixed one, the moments of the unit values Y - alpha^T (H - theta)."""
         outputs = np.asarray(outputs)
         a = self._alpha()
         if not isinstance(a, str) or outputs.shape[-1] == 1:
             if outputs.shape[-1] > 1:
                 outputs = (outputs[..., 0] - np.sum(np.atleast_1d(np.asarray(a, float))[..., None, :]
                                                     * outputs[..., 1:], -1))[..., None]
-            return super().fold(outputs)
-        r = regression_estimate(CoMoments().add(outputs), 0.0, a)
+            return super().accumulate(outputs)
+        return CoMoments().add(outputs)
+
+    def summarize(self, stats) -> tuple[np.ndarray, np.ndarray]:
+        """The regression estimate and its standard error (a fixed alpha: mean and sqrt(s^2 / m))."""
+        if not isinstance(stats, CoMoments):
+            return super().summarize(stats)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = regression_estimate(stats, 0.0, self._alpha())
         return r["value"], r["stderr"]
 
     def unit_values(self, integrand, u: np.ndarray) -> np.ndarray:

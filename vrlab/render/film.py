@@ -24,11 +24,11 @@ veach_mis than with the tuning (2.9-3.3 s against 2.1-2.6 s at 128x96, 16 spp, o
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import os
 import pickle
 import time
-from concurrent.futures import ProcessPoolExecutor
 from typing import Any, Callable
 
 import numpy as np
@@ -37,6 +37,7 @@ from .. import checks
 from .._alloc import keep_freed_memory
 from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Estimate
+from ..execution import check_executor, run_units
 from .pixels import PixelIntegrand
 from .scene import Scene
 
@@ -46,6 +47,8 @@ TILE_PIXELS = 1024           # pixels per work unit (fixed: it defines the rando
 _RAYS_PER_CHUNK = 5 << 14    # block size budget (1024 pixels x 64 spp of mis-power: one block per tile)
 #: one pixel's block (spp x (rays + uniforms/4) per sample) may be at most 32 default blocks (~1 GB)
 MAX_PIXEL_WORK = 32 * 4 * _RAYS_PER_CHUNK
+SPP_BATCH = 64               # samples per pixel of one work unit (a batch); more spp: more batches
+MAX_SPP = 1 << 40
 
 
 def _as_scene(scene: Any) -> Scene:
@@ -70,14 +73,32 @@ def _optional_int(value: Any, name: str, low: int, high: int | None = None) -> i
     return None if value is None else checks.integer(value, name, low=low, high=high)
 
 
-class _Job:
-    """Everything a process needs to render tiles; pickled to workers without the built
-    integrand (each process builds it once per task from the scene)."""
+def _concat(stats: list):
+    """Per-block statistics (pixel axis 1 of their arrays) joined into one for the tile."""
+    out = copy.copy(stats[0])
+    for name, value in vars(out).items():
+        if isinstance(value, np.ndarray) and value.ndim >= 2:
+            setattr(out, name, np.concatenate([getattr(s, name) for s in stats], axis=1))
+    return out
 
-    def __init__(self, scene: Scene, settings: dict, sampler, spp: int, root, chunk: int,
+
+class _Job:
+    """Everything a process needs to render units; pickled to workers without the built
+    integrand (each process builds it once per task from the scene).
+
+    A unit is (tile t, spp batch k): the tile's pixels with samples [k B, (k + 1) B) of each
+    (B = ``batch``), uniforms from the unit's own stream, child (t + 1, k) of the root seed.
+    It returns mergeable per-pixel statistics (``Estimator.accumulate``), merged over the
+    batches in batch order: so a render in one batch or in many, resumed or extended from a
+    checkpoint, on any number of workers, gives the same bytes for the same batch size."""
+
+    #: the estimates a render returns (one statistics object each per unit)
+    estimates = ("image",)
+
+    def __init__(self, scene: Scene, settings: dict, samplers: dict, spp: int, batch: int, root, chunk: int,
                  integrand: PixelIntegrand | None = None):
-        self.scene, self.settings, self.sampler = scene, settings, sampler
-        self.spp, self.root, self.chunk = spp, root, chunk
+        self.scene, self.settings, self.samplers = scene, settings, samplers
+        self.spp, self.batch, self.root, self.chunk = spp, batch, root, chunk
         self.width, self.n_pixels = scene.sensor.width, scene.sensor.width * scene.sensor.height
         self._integrand = integrand
 
@@ -90,32 +111,46 @@ class _Job:
             self._integrand = PixelIntegrand(self.scene, **self.settings)
         return self._integrand
 
-    #: the per-pixel (n, 3) arrays a tile returns
-    outputs = ("value", "stderr")
+    @property
+    def n_batches(self) -> int:
+        return -(-self.spp // self.batch)
 
-    def tile(self, t: int) -> tuple[int, tuple[np.ndarray, ...]]:
-        """(first pixel, (estimate (n, 3), standard error (n, 3))) of tile ``t``: its pixels
-        block after block, uniforms from the tile's own stream."""
+    @property
+    def n_tiles(self) -> int:
+        return -(-self.n_pixels // TILE_PIXELS)
+
+    def unit(self, t: int, k: int) -> tuple[int, int, tuple]:
+        """``(t, k, statistics)`` of tile ``t``, spp batch ``k``: its pixels block after block."""
         a, b = t * TILE_PIXELS, min((t + 1) * TILE_PIXELS, self.n_pixels)
-        gen = np.random.default_rng(unit_seed(self.root, t + 1))
-        out = tuple(np.zeros((b - a, 3)) for _ in self.outputs)
+        size = min(self.batch, self.spp - k * self.batch)
+        gen = np.random.default_rng(unit_seed(self.root, t + 1, k))
+        stats = []
         for c in range(a, b, self.chunk):
             idx = np.arange(c, min(c + self.chunk, b))
             pix = np.stack(np.divmod(idx, self.width), -1)
-            u = self.sampler.draw(len(pix), gen)
+            u = self.samplers[size].draw(len(pix), gen)
             with np.errstate(invalid="ignore", divide="ignore"):
-                for buf, value in zip(out, self.block(pix, u)):
-                    buf[idx - a] = value
-        return a, out
+                stats.append(self.block(pix, u, gen))
+        return t, k, tuple(_concat(list(s)) for s in zip(*stats))
 
-    def block(self, pixels: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
-        """The outputs of a block of pixels ``(P, 2)`` with uniforms ``(P, spp, dim)``."""
-        return self.integrand.estimate(pixels, u)
+    def block(self, pixels: np.ndarray, u: np.ndarray, gen: np.random.Generator) -> tuple:
+        """Statistics of a block of pixels ``(P, 2)`` with uniforms ``(P, S, dim)``."""
+        integ = self.integrand
+        return (integ.estimator.accumulate(integ.outputs(pixels, u)),)
+
+    def summarize(self, i: int, stats) -> tuple[np.ndarray, np.ndarray]:
+        """``(value, stderr)``, both ``(P, 3)``, of estimate ``i`` from its merged statistics."""
+        value, stderr = self.integrand.estimator.summarize(stats)
+        return np.moveaxis(np.asarray(value), 0, -1), np.moveaxis(np.asarray(stderr), 0, -1)
 
 
-def _run_tiles(job: _Job, tiles: list[int]) -> list[tuple[int, tuple[np.ndarray, ...]]]:
-    keep_freed_memory()     # worker processes are vrlab's own: reuse freed ray temporaries (vrlab._alloc)
-    return [job.tile(t) for t in tiles]
+def _units(job: _Job, units: list[tuple[int, int]]) -> list:
+    return [job.unit(t, k) for t, k in units]
+
+
+def _units_in_own_worker(job: _Job, units: list[tuple[int, int]]) -> list:
+    keep_freed_memory()     # vrlab's own worker processes: reuse freed ray temporaries (vrlab._alloc)
+    return _units(job, units)
 
 
 def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: Any = "mis-power", *,
@@ -124,7 +159,7 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
            light_selection: str = "uniform", emitter_samples: int | None = None,
            bsdf_samples: int | None = None, ris_candidates: int = 8, chunk_pixels: int | None = None,
            progress: Callable[[int, int], None] | None = None, width: int | None = None,
-           height: int | None = None) -> Estimate:
+           height: int | None = None, spp_batch: int | None = None, checkpoint: Any = None) -> Estimate:
     """Render ``scene`` with direct lighting: an :class:`~vrlab.Estimate` whose ``value``
     (the image) and ``stderr`` (the per-pixel standard error) are ``(H, W, 3)`` float32,
     with ``n`` = spp.
@@ -150,7 +185,11 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     with the spawn start method) to run the tiles on instead, in 2 x ``workers`` tasks,
     also with the same result;
     ``progress(done_pixels, total)`` is called after each tile; ``light_selection``:
-    ``"uniform"`` or ``"power"``.  ``scene`` may be a :class:`Scene`, a path to a scene XML
+    ``"uniform"`` or ``"power"``.  ``spp_batch``: samples per pixel of one work unit
+    (default 64; the image depends on it, not on how units are run).  ``checkpoint``: a
+    ``.npz`` path where the per-pixel statistics are saved after each batch; an existing
+    checkpoint of the same render resumes it, or extends it to a larger ``spp``
+    (:mod:`vrlab.render.checkpoint`).  ``scene`` may be a :class:`Scene`, a path to a scene XML
     file, an XML string or a built-in scene name; ``width``/``height`` override its sensor.
 
     Checked once per call, with errors naming the argument: the scene, the estimator
@@ -164,11 +203,11 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     job, sampler, workers = plan(scene, spp, settings=dict(
         estimator=estimator, units=units, light_selection=light_selection, emitter_samples=emitter_samples,
         bsdf_samples=bsdf_samples, ris_candidates=ris_candidates), points=points, rng=rng, workers=workers,
-        chunk_pixels=chunk_pixels, width=width, height=height)
-    value, stderr = execute(job, workers, executor, progress)
+        chunk_pixels=chunk_pixels, width=width, height=height, spp_batch=spp_batch)
+    ((value, stderr),) = execute(job, workers, executor, progress, checkpoint)
     integrand, spp = job.integrand, job.spp
     est = integrand.estimator
-    extra = {"units": integrand.units, "points": sampler.label}
+    extra = {"units": integrand.units, "points": sampler.label, "spp_batch": job.batch}
     if not sampler.iid:
         extra["stderr_note"] = ("stderr uses the i.i.d. formula but the pixel's points are not independent "
                                 f"({sampler.label}): it is not a valid error bar")
@@ -178,12 +217,13 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
 
 
 def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLike, workers: int | None,
-         chunk_pixels: int | None, width: int | None, height: int | None, job_class: type = _Job,
-         cost: int = 1) -> tuple[_Job, Any, int]:
+         chunk_pixels: int | None, width: int | None, height: int | None, spp_batch: int | None = None,
+         job_class: type = _Job, cost: int = 1) -> tuple[_Job, Any, int]:
     """Check the arguments of a render and build its job: ``(job, point sampler, workers)``.
     ``cost``: pixel-integrand evaluations per sample (3 for the gradient-domain renders)."""
     scene = _as_scene(scene)
-    spp = checks.integer(scene.sensor.spp if spp is None else spp, "spp", low=1)
+    spp = checks.integer(scene.sensor.spp if spp is None else spp, "spp", low=1, high=MAX_SPP)
+    batch = min(spp, SPP_BATCH if spp_batch is None else checks.integer(spp_batch, "spp_batch", low=1))
     chunk_pixels = _optional_int(chunk_pixels, "chunk_pixels", 1)
     limit = max(256, 4 * (os.cpu_count() or 1))
     workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1, high=limit)
@@ -198,70 +238,83 @@ def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLi
     if spp < need:
         raise ValueError(f"spp: {est.label} fits its coefficients per pixel and needs spp >= {need}, got {spp}")
     work = integrand.work_per_sample * cost
-    if spp * work > MAX_PIXEL_WORK:
-        raise ValueError(f"spp: {spp} samples per pixel x {work} (rays + uniforms/4 per sample, for {est.label} "
-                         f"with {integrand.units} unit(s) per shading point) exceeds the per-pixel block limit "
-                         f"{MAX_PIXEL_WORK}; use spp <= {MAX_PIXEL_WORK // work}, or fewer samples per shading point")
+    if batch * work > MAX_PIXEL_WORK:
+        raise ValueError(f"spp_batch: {batch} samples per pixel and batch x {work} (rays + uniforms/4 per sample, "
+                         f"for {est.label} with {integrand.units} unit(s) per shading point) exceeds the per-pixel "
+                         f"block limit {MAX_PIXEL_WORK}; use spp_batch <= {MAX_PIXEL_WORK // work}")
     if chunk_pixels is None:
-        chunk_pixels = max(1, (4 * _RAYS_PER_CHUNK) // (spp * work))
-    elif min(chunk_pixels, TILE_PIXELS) * spp * work > MAX_PIXEL_WORK:
-        raise ValueError(f"chunk_pixels: a block of {chunk_pixels} pixels x {spp} spp x {work} (rays + "
+        chunk_pixels = max(1, (4 * _RAYS_PER_CHUNK) // (batch * work))
+    elif min(chunk_pixels, TILE_PIXELS) * batch * work > MAX_PIXEL_WORK:
+        raise ValueError(f"chunk_pixels: a block of {chunk_pixels} pixels x {batch} spp x {work} (rays + "
                          f"uniforms/4 per sample) exceeds the block limit {MAX_PIXEL_WORK}; use "
-                         f"chunk_pixels <= {MAX_PIXEL_WORK // (spp * work)} or None (automatic)")
+                         f"chunk_pixels <= {MAX_PIXEL_WORK // (batch * work)} or None (automatic)")
     from ..points import SetSampler
 
     root = as_seed_sequence(rng)
-    sampler = SetSampler(points, integrand.dim, spp, rng=unit_seed(root, 0))
+    samplers = {batch: SetSampler(points, integrand.dim, batch, rng=unit_seed(root, 0))}
+    if spp % batch:                                    # the last, partial batch has its own set
+        samplers[spp % batch] = SetSampler(points, integrand.dim, spp % batch, rng=unit_seed(root, 0, spp % batch))
     settings["estimator"], settings["units"] = est, integrand.units
-    job = job_class(scene, settings, sampler, spp, root, min(chunk_pixels, TILE_PIXELS), integrand)
-    return job, sampler, workers
+    job = job_class(scene, settings, samplers, spp, batch, root, min(chunk_pixels, TILE_PIXELS), integrand)
+    return job, samplers[batch], workers
 
 
-def execute(job: _Job, workers: int, executor: Any = None,
-            progress: Callable[[int, int], None] | None = None) -> tuple[np.ndarray, ...]:
-    """Run a job's tiles (in this process, a process pool of ``workers`` or the caller's
-    ``executor``): its outputs as ``(H, W, 3)`` float32 images."""
+def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[int, int], None] | None = None,
+            checkpoint: Any = None) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    """Run a job's units, batch after batch (in this process, a process pool of ``workers``
+    or the caller's ``executor``), merging each tile's statistics in batch order and saving
+    them to ``checkpoint`` after each batch: ``(value, stderr)`` images ``(H, W, 3)`` float32
+    per estimate of the job."""
+    from .checkpoint import check_path, load_checkpoint, render_hash, save_checkpoint
+
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a callable progress(done, total) or None, got {type(progress).__name__}")
-    if executor is not None and not callable(getattr(executor, "submit", None)):
-        raise TypeError(f"executor: expected a concurrent.futures.Executor or None, got {type(executor).__name__}")
-    height, width = job.scene.sensor.height, job.scene.sensor.width
-    n_pixels = height * width
-    tiles = list(range(-(-n_pixels // TILE_PIXELS)))
-    images = tuple(np.zeros((n_pixels, 3), np.float32) for _ in job.outputs)
-    done = 0
-
-    def collect(results):
-        nonlocal done
-        for a, arrays in results:
-            for image, arr in zip(images, arrays):
-                image[a:a + len(arr)] = arr
-            done += len(arrays[0])
-            if progress is not None:
-                progress(done, n_pixels)
-
-    workers = min(workers, len(tiles))
-    if workers == 1 and executor is None:
-        for t in tiles:
-            collect([job.tile(t)])
-    else:
+    executor = check_executor(executor)
+    path = None if checkpoint is None else check_path(checkpoint)
+    workers = min(workers, job.n_tiles)
+    if workers > 1 or executor is not None:
         try:
             pickle.dumps(job)
         except (pickle.PicklingError, AttributeError, TypeError) as exc:
             raise TypeError(f"estimator: {job.integrand.estimator!r} cannot be sent to worker processes ({exc}); "
                             "define functions it uses (e.g. a heuristic) at module level, or use workers=1") from None
-        n_batches = 2 * workers
-        batches = [b for b in (tiles[i::n_batches] for i in range(n_batches)) if b]
-        if executor is not None:
-            for res in executor.map(_run_tiles, [job] * len(batches), batches):
-                collect(res)
-        else:
-            import multiprocessing as mp
-            ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-            with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-                for res in pool.map(_run_tiles, [job] * len(batches), batches):
-                    collect(res)
-    return tuple(image.reshape(height, width, 3) for image in images)
+    digest = None
+    stats: dict = {}
+    start = 0
+    if path is not None:
+        digest = render_hash(type(job).__name__, job.scene, repr(job.integrand.estimator), job.settings["units"],
+                             {k: v for k, v in job.settings.items() if k not in ("estimator", "units")},
+                             job.samplers[job.batch].label, (job.root.entropy, tuple(job.root.spawn_key)), job.batch)
+        start, stats = load_checkpoint(path, digest, job.batch, job.spp)
+    tiles = list(range(job.n_tiles))
+    total, done = job.n_pixels * job.n_batches, min(start, job.n_batches) * job.n_pixels
+    # allocator tuning only in the local pool's processes, which vrlab starts and owns
+    fn = _units_in_own_worker if executor is None and workers > 1 else _units
+    groups = len(tiles) if workers == 1 and executor is None else 2 * workers
+    for k in range(start, job.n_batches):
+        units = [(t, k) for t in tiles]
+        new: dict = {}
+        for _, res in run_units(fn, [(job, units[i::groups]) for i in range(min(groups, len(units)))],
+                                workers=workers, executor=executor):
+            for t, _, st in res:
+                new[t] = st
+                done += min((t + 1) * TILE_PIXELS, job.n_pixels) - t * TILE_PIXELS
+                if progress is not None:
+                    progress(done, total)
+        for t in tiles:                     # merge in batch order: the same bytes however units ran
+            stats[t] = new[t] if t not in stats else tuple(a.merge(b) for a, b in zip(stats[t], new[t]))
+        if path is not None:
+            save_checkpoint(path, digest, job.spp, job.batch, k + 1, stats)
+    height, width = job.scene.sensor.height, job.scene.sensor.width
+    out = []
+    for i in range(len(job.estimates)):
+        value, stderr = np.zeros((job.n_pixels, 3), np.float32), np.zeros((job.n_pixels, 3), np.float32)
+        for t in tiles:
+            a = t * TILE_PIXELS
+            v, e = job.summarize(i, stats[t][i])
+            value[a:a + len(v)], stderr[a:a + len(e)] = v, e
+        out.append((value.reshape(height, width, 3), stderr.reshape(height, width, 3)))
+    return tuple(out)
 
 
 def default_workers() -> int:

@@ -55,38 +55,32 @@ class GradientDomainImage:
 
 
 class _GradientJob(_Job):
-    """Tiles of primal, dx and dy estimates (the base pixel's values are shared)."""
+    """Units of primal, dx and dy statistics (the base pixel's values are shared)."""
 
-    outputs = ("primal", "primal_stderr", "dx", "dx_stderr", "dy", "dy_stderr")
+    estimates = ("primal", "dx", "dy")
     common = True
 
-    def block(self, pixels: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
+    def block(self, pixels: np.ndarray, u: np.ndarray, gen: np.random.Generator) -> tuple:
         from ..estimators import CRNDifference, MonteCarlo
 
-        integ, spp = self.integrand, self.spp
+        integ = self.integrand
         base = integ.integrand(pixels)
-        out = []
-        primal = MonteCarlo().estimate(base, spp, points=u)
-        out += [primal.value.T, primal.stderr.T]
+        mc, crn = MonteCarlo(), CRNDifference(common=self.common)
+        out = [mc.accumulate(mc.unit_outputs(base, u))]
         for shift in ((0, 1), (1, 0)):                   # right neighbour (dx), lower neighbour (dy)
             other = integ.integrand(pixels, shift)
             if self.common:
                 pts = u
             else:                                        # the neighbour's own uniforms, then the base's
-                pts = np.concatenate([self.sampler.draw(len(pixels), self._gen), u], -1)
-            d = CRNDifference(common=self.common).estimate((other, base), 2 * spp, points=pts)
-            out += [d.value.T, d.stderr.T]
+                pts = np.concatenate([self.samplers[u.shape[1]].draw(len(pixels), gen), u], -1)
+            out.append(crn.accumulate(crn.unit_outputs((other, base), pts)))
         return tuple(out)
 
-    def tile(self, t: int):
-        # independent neighbours draw their uniforms from a second stream of the tile's seed
-        from .._rng import unit_seed
+    def summarize(self, i: int, stats) -> tuple[np.ndarray, np.ndarray]:
+        from ..estimators import MonteCarlo
 
-        self._gen = np.random.default_rng(unit_seed(self.root, t + 1, 1))
-        return super().tile(t)
-
-    def __getstate__(self) -> dict:
-        return {k: v for k, v in super().__getstate__().items() if k != "_gen"}
+        value, stderr = MonteCarlo().summarize(stats)
+        return np.moveaxis(np.asarray(value), 0, -1), np.moveaxis(np.asarray(stderr), 0, -1)
 
 
 def render_gradient_domain(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: Any = "mis-power",
@@ -95,7 +89,8 @@ def render_gradient_domain(scene: Scene | str | os.PathLike, spp: int | None = N
                            light_selection: str = "uniform", emitter_samples: int | None = None,
                            bsdf_samples: int | None = None, ris_candidates: int = 8,
                            chunk_pixels: int | None = None, progress: Callable[[int, int], None] | None = None,
-                           width: int | None = None, height: int | None = None) -> GradientDomainImage:
+                           width: int | None = None, height: int | None = None, spp_batch: int | None = None,
+                           checkpoint: Any = None) -> GradientDomainImage:
     """Render the primal image and its CRN gradients: a :class:`GradientDomainImage` with
     ``.primal`` (H, W, 3), ``.dx`` (H, W - 1, 3) = I(x + 1, y) - I(x, y) and ``.dy``
     (H - 1, W, 3), each a :class:`~vrlab.Estimate` with a per-pixel ``stderr``, and
@@ -103,7 +98,7 @@ def render_gradient_domain(scene: Scene | str | os.PathLike, spp: int | None = N
 
     ``common``: the neighbour's sample uses the same uniforms as the pixel's (True, CRN)
     or independent ones (False).  The other arguments are :func:`~vrlab.render.render`'s;
-    the image depends on the seed only, as there.  ``dx.extra`` / ``dy.extra`` hold
+    the image depends on the seed only, as there (``spp_batch``, ``checkpoint`` too).  ``dx.extra`` / ``dy.extra`` hold
     ``common``.  The gradients' stderr is valid for i.i.d. ``points`` only.
     """
     t0 = time.perf_counter()
@@ -111,11 +106,11 @@ def render_gradient_domain(scene: Scene | str | os.PathLike, spp: int | None = N
     job, sampler, workers = plan(scene, spp, settings=dict(
         estimator=estimator, units=units, light_selection=light_selection, emitter_samples=emitter_samples,
         bsdf_samples=bsdf_samples, ris_candidates=ris_candidates), points=points, rng=rng, workers=workers,
-        chunk_pixels=chunk_pixels, width=width, height=height, job_class=_GradientJob, cost=3)
+        chunk_pixels=chunk_pixels, width=width, height=height, spp_batch=spp_batch, job_class=_GradientJob, cost=3)
     if job.spp < 2:
         raise ValueError(f"spp: gradient-domain rendering needs spp >= 2 (a standard error per pixel), got {job.spp}")
     job.common = common
-    p, pe, dx, dxe, dy, dye = execute(job, workers, executor, progress)
+    (p, pe), (dx, dxe), (dy, dye) = execute(job, workers, executor, progress, checkpoint)
     seconds = time.perf_counter() - t0
     spp, integ = job.spp, job.integrand
     label = integ.estimator.label

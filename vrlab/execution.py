@@ -1,0 +1,90 @@
+"""One way to run work units: in this process, in local worker processes, or on any
+``concurrent.futures``-style executor (a ``ProcessPoolExecutor``, a Dask ``Client``).
+
+A work unit is a picklable call ``fn(*args)`` whose randomness comes from a seed that is
+part of its arguments (spawned per unit, never per worker), so the results do not depend
+on where or in which order units run.  :func:`run_units` yields ``(index, result)`` as
+units finish; callers place results by index.  ``vrlab.lab.run`` and
+``vrlab.render.render`` both send their units through it.
+
+* ``executor=None, workers=1``: in this process, one unit after the other;
+* ``executor=None, workers=k``: a local ``ProcessPoolExecutor`` of k processes (forked where
+  the platform allows, else spawned), shut down at the end;
+* ``executor=`` an object with ``submit`` (a ``concurrent.futures.Executor``), or a Dask
+  ``distributed.Client`` (its ``get_executor()`` is used): the caller's, left running.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from typing import Any
+
+from . import checks
+
+__all__ = ["check_executor", "run_units"]
+
+MAX_WORKERS = 256
+
+
+def check_executor(executor: Any, name: str = "executor"):
+    """``executor`` as a ``concurrent.futures``-style executor (a Dask ``Client`` becomes its
+    ``get_executor()``), or None; ``TypeError`` naming ``name`` otherwise."""
+    if executor is None:
+        return None
+    if callable(getattr(executor, "get_executor", None)) and type(executor).__module__.startswith("distributed"):
+        return executor.get_executor()
+    if not callable(getattr(executor, "submit", None)):
+        raise TypeError(f"{name}: expected a concurrent.futures.Executor, a dask.distributed.Client or None, "
+                        f"got {type(executor).__name__}")
+    return executor
+
+
+def _local_pool(workers: int) -> ProcessPoolExecutor:
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+    return ProcessPoolExecutor(workers, mp_context=ctx)
+
+
+def run_units(fn: Callable, args: Sequence[tuple], *, workers: int = 1, executor: Any = None,
+              window: int | None = None) -> Iterator[tuple[int, Any]]:
+    """Run ``fn(*args[i])`` for every i; yield ``(i, result)`` as units finish.
+
+    ``workers``: local processes when ``executor`` is None (1: this process).  At most
+    ``window`` units (default 4 x workers, at least 8) are in flight at once, so memory
+    stays bounded however many units there are and results stream back as they come.
+    A unit's exception propagates (the remaining units are cancelled).
+    """
+    workers = checks.integer(workers, "workers", low=1, high=MAX_WORKERS)
+    executor = check_executor(executor)
+    args = list(args)
+    if executor is None and (workers == 1 or len(args) <= 1):
+        for i, a in enumerate(args):
+            yield i, fn(*a)
+        return
+    own = executor is None
+    pool = _local_pool(min(workers, len(args))) if own else executor
+    window = max(8, 4 * workers) if window is None else checks.integer(window, "window", low=1)
+    try:
+        pending: dict = {}
+        todo: Iterable = iter(enumerate(args))
+        for i, a in todo:
+            pending[pool.submit(fn, *a)] = i
+            if len(pending) >= window:
+                break
+        while pending:
+            done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
+            for fut in done:
+                i = pending.pop(fut)
+                yield i, fut.result()
+            for i, a in todo:
+                pending[pool.submit(fn, *a)] = i
+                if len(pending) >= window:
+                    break
+    except BaseException:
+        for fut in list(pending):
+            fut.cancel()
+        raise
+    finally:
+        if own:
+            pool.shutdown(wait=True, cancel_futures=True)
