@@ -27,8 +27,9 @@ def test_render_import_loads_only_the_estimators_it_uses():
     at_import, after = out.strip().splitlines()
     assert at_import == "[]", out
     loaded = ast.literal_eval(after)           # the printed list of module names
-    assert [m for m in loaded if m.startswith("vrlab.estimators.")] == ["vrlab.estimators.base",
-                                                                       "vrlab.estimators.mis"], out
+    assert [m for m in loaded if m.startswith("vrlab.estimators.")] == [
+        "vrlab.estimators.base", "vrlab.estimators.heuristics", "vrlab.estimators.mis",
+        "vrlab.estimators.regression"], out
     assert not {"vrlab.points.sobol", "vrlab.points.halton", "vrlab.points.lhs"} & set(loaded), out
 
 

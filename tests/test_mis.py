@@ -135,9 +135,9 @@ def test_broken_weights_are_detected(raises_naming, monkeypatch):
         MIS(dists, heuristic=ones).estimate(integrand, 20_000, rng=11)
     with raises_naming(ValueError, "heuristic"):
         OneSampleMIS(dists, heuristic=ones).estimate(integrand, 20_000, rng=11)
-    import vrlab.estimators.mis as mis_module
+    import vrlab.estimators.heuristics as heuristics_module
 
-    monkeypatch.setattr(mis_module, "check_heuristic_weights", lambda h, q: np.asarray(h(q), float))
+    monkeypatch.setattr(heuristics_module, "check_heuristic_weights", lambda h, q: np.asarray(h(q), float))
     est = MIS(dists, heuristic=ones).estimate(integrand, 20_000, rng=11)
     assert abs(est.zscore(integrand.exact)) > 4
     assert est.value == pytest.approx(2.0, rel=0.02)

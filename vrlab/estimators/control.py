@@ -47,108 +47,13 @@ from ..integrands.base import checked_values
 from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_technique, ratio,
                    resolve_distribution, support_probe, uniform_blocks)
 from .importance import MonteCarlo
-
-
-class CoMoments:
-    """Running count, mean vector and co-moment matrix of ``p`` columns (batched).
-
-    ``add(values)`` takes ``values (*batch, m, p)``; blocks merge with the matrix form
-    of Chan, Golub & LeVeque (1979): C = C_a + C_b + delta delta^T n_a n_b / n.
-    ``covariance`` is the unbiased (ddof = 1) covariance matrix ``(*batch, p, p)``.
-    """
-
-    def __init__(self) -> None:
-        self.count = 0
-        self.mean: np.ndarray | None = None
-        self.comoment: np.ndarray | None = None
-
-    def add(self, values: np.ndarray) -> "CoMoments":
-        v = np.asarray(values, dtype=float)
-        m = v.shape[-2]
-        if m == 0:
-            return self
-        mean_b = v.mean(axis=-2)
-        dev = v - mean_b[..., None, :]
-        com_b = np.swapaxes(dev, -1, -2) @ dev
-        if self.count == 0:
-            self.count, self.mean, self.comoment = m, mean_b, com_b
-            return self
-        n = self.count + m
-        delta = mean_b - self.mean
-        self.comoment = self.comoment + com_b + (delta[..., :, None] * delta[..., None, :]) * (self.count * m / n)
-        self.mean = self.mean + delta * (m / n)
-        self.count = n
-        return self
-
-    def merge(self, other: "CoMoments") -> "CoMoments":
-        """Fold the co-moments of another, disjoint set of units into these (Chan et al.)."""
-        if other.count == 0:
-            return self
-        if self.count == 0:
-            self.count, self.mean, self.comoment = other.count, other.mean, other.comoment
-            return self
-        n = self.count + other.count
-        delta = other.mean - self.mean
-        self.comoment = (self.comoment + other.comoment
-                         + (delta[..., :, None] * delta[..., None, :]) * (self.count * other.count / n))
-        self.mean = self.mean + delta * (other.count / n)
-        self.count = n
-        return self
-
-    @property
-    def covariance(self) -> np.ndarray:
-        if self.count < 2:
-            return np.full(np.shape(self.comoment), np.nan)
-        return self.comoment / (self.count - 1)
+from .regression import CoMoments, regression_estimate  # noqa: F401  (CoMoments: public here too)
 
 
 def _scalar(a):
     a = np.asarray(a, dtype=float)
     return float(a) if a.ndim == 0 else a
 
-
-def regression_estimate(mom: CoMoments, theta: np.ndarray, alpha: Any = "optimal") -> dict:
-    """Control-variate estimate from co-moments of columns ``(Y, H_1..H_K)``.
-
-    ``theta`` (broadcastable to ``(*batch, K)``): the controls' known means;
-    ``alpha``: ``"optimal"`` (least squares) or fixed coefficients broadcastable to
-    ``(*batch, K)``.  Returns value, stderr, per-unit residual variance, alpha,
-    plain variance of Y and the variance factor (residual / plain).
-    """
-    n = mom.count
-    mu, C = mom.mean, mom.comoment
-    K = mu.shape[-1] - 1
-    mu_y, syy = mu[..., 0], C[..., 0, 0]
-    if K == 0:
-        a = np.zeros(mu.shape[:-1] + (0,))
-        rss, dof, extra_var = syy, n - 1, 0.0
-        value = mu_y
-    else:
-        shh, shy = C[..., 1:, 1:], C[..., 1:, 0]
-        d = mu[..., 1:] - np.broadcast_to(theta, mu[..., 1:].shape)
-        if isinstance(alpha, str):
-            # pinv: a constant control or an all-zero batch element gives alpha = 0, no NaN
-            inv = np.linalg.pinv(shh, rcond=1e-12, hermitian=True)
-            a = (inv @ shy[..., None])[..., 0]
-            rss = np.maximum(syy - np.sum(a * shy, -1), 0.0)
-            dof = n - 1 - K
-            extra_var = np.einsum("...i,...ij,...j->...", d, inv, d)  # O(1/n) intercept term
-        else:
-            try:
-                a = np.broadcast_to(np.asarray(alpha, float), mu[..., 1:].shape)
-            except ValueError:
-                raise ValueError(f"alpha: shape {np.shape(alpha)} does not broadcast to the estimate's "
-                                 f"(*batch, K) = {mu[..., 1:].shape}") from None
-            rss = np.maximum(syy - 2 * np.sum(a * shy, -1) + np.einsum("...i,...ij,...j->...", a, shh, a), 0.0)
-            dof, extra_var = n - 1, 0.0
-        value = mu_y - np.sum(a * d, -1)
-    s2 = rss / dof
-    plain = syy / (n - 1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        factor = np.where(plain > 0, s2 / plain, 1.0)
-    stderr = np.sqrt(s2 * (1.0 / n + extra_var))
-    return {"value": value, "stderr": stderr, "variance": s2, "alpha": a, "plain_variance": plain,
-            "variance_factor": factor}
 
 
 class _Regression(Estimator):

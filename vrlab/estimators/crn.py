@@ -26,7 +26,7 @@ import numpy as np
 from .._rng import RNGLike, as_generator
 from ..estimate import Estimate
 from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, uniform_blocks
-from .control import CoMoments
+from .regression import CoMoments
 
 
 def _scalar(a):

@@ -35,7 +35,7 @@ VERSION = 1
 
 
 def _classes() -> dict:
-    from ..estimators.control import CoMoments
+    from ..estimators.regression import CoMoments
 
     return {"Moments": Moments, "CoMoments": CoMoments}
 
