@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import compileall
 import io
+import resource
 import shutil
 import statistics
 import subprocess
@@ -55,13 +56,17 @@ def sizes(scene: str) -> tuple[int, int]:
     return s.width, s.height
 
 
-def run(src: Path, scene: str, w: int, h: int, spp: int, est: str, workers: int) -> float:
+def run(src: Path, scene: str, w: int, h: int, spp: int, est: str, workers: int) -> tuple[float, float]:
+    """(wall seconds, CPU seconds of the process and its worker processes) of one render."""
     code = CODE.format(src=str(src), scene=scene, spp=spp, est=est, workers=workers, w=w, h=h)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tempfile.gettempdir())
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if p.returncode:
         raise RuntimeError(p.stderr[-2000:])
-    return time.perf_counter() - t
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def main(argv=None) -> int:
@@ -86,15 +91,21 @@ def main(argv=None) -> int:
                     times.setdefault((sc, k, which), []).append(
                         run(srcs[which], sc, k * w, k * h, args.spp, args.estimator, args.workers))
         print(f"vrlab {args.new} against {args.old}: {args.estimator}, {args.spp} spp, {args.workers} workers, "
-              f"{args.rounds} interleaved rounds; whole-process seconds (fastest / median)\n")
-        print("| scene | size | old | new | new/old (fastest) | new/old (median) |")
-        print("|---|---|---|---|---|---|")
+              f"{args.rounds} interleaved rounds.  Wall: whole-process seconds (fastest / median); CPU: user + "
+              "system seconds of the process and its workers (fastest); paired: the median over rounds of "
+              "new/old within the round\n")
+        print("| scene | size | wall old | wall new | new/old wall (fastest) | new/old wall (paired median) "
+              "| new/old CPU (fastest) |")
+        print("|---|---|---|---|---|---|---|")
         for sc, k in configs:
             w, h = sizes(sc)
             o, n = times[(sc, k, "old")], times[(sc, k, "new")]
-            print(f"| {sc} | {k * w}x{k * h} | {min(o):.2f} / {statistics.median(o):.2f} | "
-                  f"{min(n):.2f} / {statistics.median(n):.2f} | {min(n) / min(o):.3f} | "
-                  f"{statistics.median(n) / statistics.median(o):.3f} |")
+            ow, nw = [x[0] for x in o], [x[0] for x in n]
+            oc, nc = [x[1] for x in o], [x[1] for x in n]
+            paired = statistics.median(b / a for a, b in zip(ow, nw))
+            print(f"| {sc} | {k * w}x{k * h} | {min(ow):.2f} / {statistics.median(ow):.2f} | "
+                  f"{min(nw):.2f} / {statistics.median(nw):.2f} | {min(nw) / min(ow):.3f} | {paired:.3f} | "
+                  f"{min(nc) / min(oc):.3f} |")
     return 0
 
 

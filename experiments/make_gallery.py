@@ -4,6 +4,10 @@ For every entry of ``GALLERY`` whose script exists in ``experiments/``, run its
 ``main(tmp_dir / name, full=...)``, take the chosen PNG from what it wrote, shrink it if it is
 over ``MAX_BYTES`` (Pillow, which matplotlib already depends on) and save it as
 ``docs/gallery/<name>.png``.
+A script may define ``gallery_numbers(out) -> dict``, which reads the numbers of its caption
+from the CSV files its ``main`` wrote; they are saved next to the figure as
+``docs/gallery/<name>.json`` and fill the caption's ``{placeholders}`` (so no number in such a
+caption is typed by hand).
 Then (re)write the README section between ``<!-- gallery:start -->`` and
 ``<!-- gallery:end -->`` with one row per figure present in ``docs/gallery/`` (a script that
 does not exist yet is skipped with a message; re-run this script once it does).
@@ -16,6 +20,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import io
+import json
 import re
 import sys
 import tempfile
@@ -94,6 +99,15 @@ GALLERY: list[Entry] = [
           "only, the chain never leaves its start blob, so TV stays at 0.56 (the mass outside "
           "it). With 10% or 50% large steps it converges (0.026 and 0.015 after 8000 steps); "
           "i.i.d. sampling is the ideal."),
+    Entry("gradient_domain", "gradient_domain_relmse.png", "11_gradient_domain",
+          "Gradient-domain rendering",
+          "relMSE against a reference on the five built-in scenes at 64×48 (bars: {spp_hi} spp, mean of "
+          "{reps_hi} seeds): the plain render, the same at equal render time (a CRN gradient sample "
+          "measured {ratio_min}–{ratio_max}× the cost of a plain one), and the screened-Poisson "
+          "reconstructions (α = 0.2). At equal time, L1 wins on {l1_wins_hi} at {spp_hi} spp and on "
+          "{l1_wins_lo} at {spp_lo} spp; L2 wins on {l2_wins_hi} and is up to {l2_worst_factor_hi}× "
+          "worse ({l2_worst_hi}), where small bright lights and highlights give outlier gradients that "
+          "it spreads."),
 ]
 
 
@@ -103,6 +117,16 @@ def script_path(entry: Entry) -> Path:
 
 def gallery_path(entry: Entry) -> Path:
     return GALLERY_DIR / f"{entry.script}.png"
+
+
+def numbers_path(entry: Entry) -> Path:
+    return GALLERY_DIR / f"{entry.script}.json"
+
+
+def caption(entry: Entry) -> str:
+    """The entry's caption, its ``{placeholders}`` filled from ``docs/gallery/<name>.json``."""
+    path = numbers_path(entry)
+    return entry.caption.format(**json.loads(path.read_text())) if path.exists() else entry.caption
 
 
 def load(name: str):
@@ -141,7 +165,8 @@ def build_one(entry: Entry, tmp: Path, full: bool) -> Path | None:
         print(f"skip {entry.script}: experiments/{entry.script}.py does not exist yet")
         return None
     print(f"run {entry.script} ...", flush=True)
-    res = load(entry.script).main(tmp / entry.script, full=full)
+    module = load(entry.script)
+    res = module.main(tmp / entry.script, full=full)
     files = list(res.get("files", []))
     png = entry.png
     if png is None:
@@ -156,6 +181,10 @@ def build_one(entry: Entry, tmp: Path, full: bool) -> Path | None:
         raise RuntimeError(f"{entry.script}.main() did not report {png}; it wrote {files}")
     dst = gallery_path(entry)
     size = shrink_png(tmp / entry.script / png, dst)
+    if hasattr(module, "gallery_numbers"):
+        numbers = module.gallery_numbers(tmp / entry.script)
+        numbers_path(entry).write_text(json.dumps(numbers, indent=1, ensure_ascii=False) + "\n")
+        print(f"wrote {numbers_path(entry).relative_to(ROOT)} (caption numbers)")
     print(f"wrote {dst.relative_to(ROOT)} ({size / 1024:.0f} KB) from {png}")
     return dst
 
@@ -173,7 +202,7 @@ def section_lines() -> list[str]:
         if nb.exists():
             src += f"<br>[`notebooks/{e.notebook}.ipynb`](notebooks/{e.notebook}.ipynb)"
         img = f'<a href="{rel}"><img src="{rel}" width="360" alt="{e.title}"></a>'
-        rows.append(f"| {img} | **{e.title}.** {e.caption} | {src} |")
+        rows.append(f"| {img} | **{e.title}.** {caption(e)} | {src} |")
     return [
         "One key figure per experiment script (click for full size). Regenerate them with",
         "`python experiments/make_gallery.py` (`--full` for the large runs, `--only NAME` for one).",

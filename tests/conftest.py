@@ -83,3 +83,15 @@ def render_pair(*args, **kwargs):
 
     est = render(*args, **kwargs)
     return est.value, est.stderr
+
+
+def run_cli(capsys, argv):
+    """``vrlab`` with ``argv`` in this process: ``(exit code, stdout, stderr)``."""
+    from vrlab.cli import main
+
+    try:
+        code = main(argv)
+    except SystemExit as exc:
+        code = exc.code
+    out, err = capsys.readouterr()
+    return code, out, err

@@ -27,9 +27,16 @@ def test_quick_demo_writes_its_outputs(tmp_path, capsys):
     assert main(["demo", "--quick", "--out", str(tmp_path), "--json"]) == 0
     out = capsys.readouterr().out
     summary = json.loads(out[out.rindex("\n{") + 1:])  # the JSON summary comes last
-    expected = {"warps.png", "warps_gof.csv", "point_sets.png", "discrepancy.csv", "sampler_speed.csv",
-                "convergence.png", "lab_summary.csv", "veach_mis.png", "veach_mis.csv"}
+    expected = {"warps.png", "warps_gof.csv", "point_sets.png", "discrepancy.csv", "speed_qmc.csv",
+                "convergence.png", "efficiency.png", "lab_summary.csv", "lab_table.csv", "veach_mis.png",
+                "veach_mis.csv"}
     assert expected <= set(summary["files"])
+    # the sampler races are their own table: no column of NaN from another suite
+    assert not pd.read_csv(tmp_path / "speed_qmc.csv").isna().all().any()
+    # BRDF sampling misses the small bright light in most repetitions at n = 1024: its stderr is flagged
+    table = pd.read_csv(tmp_path / "lab_table.csv", keep_default_na=False)
+    row = table[(table["integrand"] == "glossy-light") & (table["estimator"] == "is:brdf")]
+    assert list(row["flag"]) == ["!"] and "! stderr too small" in out
     gof = pd.read_csv(tmp_path / "warps_gof.csv")
     # every warp's pdf integrates to 1 and no warp is rejected at the corrected level
     assert (abs(gof["pdf_integral"] - 1) < 2e-3).all()
@@ -66,7 +73,7 @@ def test_render_cli_counts_workers_and_progress(tmp_path, capsys):
     a, b = tmp_path / "a.npy", tmp_path / "b.npy"
     assert main(base + ["-o", str(a), "--progress"]) == 0
     captured = capsys.readouterr()
-    assert "render [" in captured.err and "1200/1200" in captured.err
+    assert "render:" in captured.err and "1200/1200" in captured.err     # tqdm's bar, asked for: shown
     assert main(base + ["-o", str(b), "--workers", "2", "--no-progress"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["workers"] == 2
@@ -201,3 +208,89 @@ def test_render_export_errors(argv, code, names, tmp_path, capsys):
         assert name in err, (name, err)
     assert (tmp_path / "DONE" / "furnace.xml").read_text() == "my edits"
     assert not (tmp_path / "x").exists()
+
+
+# --------------------------------------------------------------------------- --gradient-domain
+GD = ["render", "cornell_box", "--gradient-domain", "--spp", "4", "--width", "16", "--height", "12", "--seed", "3",
+      "--workers", "1", "--no-progress"]
+
+
+def _pad(diff, shape):
+    import numpy as np
+
+    out = np.zeros(shape, np.float32)
+    out[: diff.shape[0], : diff.shape[1]] = np.abs(diff)
+    return out
+
+
+@pytest.mark.parametrize("extra, alpha, norm, common", [([], 0.2, "l2", True),
+                                                        (["--reconstruct", "l1", "--alpha", "0.5"], 0.5, "l1", True),
+                                                        (["--independent"], 0.2, "l2", False)])
+def test_render_cli_gradient_domain_writes_its_files(extra, alpha, norm, common, tmp_path, capsys):
+    """-o OUT.npy holds the chosen reconstruction of render_gradient_domain at the same seed;
+    OUT_primal, OUT_dx, OUT_dy its primal and |differences| padded to (H, W); OUT_panels.png."""
+    import matplotlib.image
+    import numpy as np
+
+    from vrlab.render import render_gradient_domain
+
+    out = tmp_path / "gd.npy"
+    assert main(GD + extra + ["-o", str(out), "--stderr-out", str(tmp_path / "err.npy"), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    gd = render_gradient_domain("cornell_box", 4, rng=3, width=16, height=12, common=common)
+    assert res["alpha"] == alpha and res["reconstruct"] == norm and res["common"] is common
+    files = {k: np.load(res[k]) for k in ("output", "primal_output", "dx_output", "dy_output", "stderr_output")}
+    assert all(img.shape == (12, 16, 3) for img in files.values())
+    assert res["output"] == str(out) and res["dx_output"] == str(tmp_path / "gd_dx.npy")
+    np.testing.assert_array_equal(files["output"], gd.reconstruct(alpha, norm).astype(np.float32))
+    np.testing.assert_array_equal(files["primal_output"], gd.primal.value)
+    np.testing.assert_array_equal(files["stderr_output"], gd.primal.stderr)
+    np.testing.assert_array_equal(files["dx_output"], _pad(gd.dx.value, (12, 16, 3)))
+    np.testing.assert_array_equal(files["dy_output"], _pad(gd.dy.value, (12, 16, 3)))
+    assert files["dx_output"][:, -1].max() == 0 and files["dy_output"][-1].max() == 0
+    assert files["dx_output"].max() > 0 and files["dy_output"].max() > 0
+    assert res["figure"] == str(tmp_path / "gd_panels.png")
+    fig = matplotlib.image.imread(res["figure"])
+    assert fig.shape[1] > 2 * fig.shape[0]             # four panels side by side: a wide figure
+
+
+def test_render_cli_gradient_domain_json_and_reference(tmp_path, capsys):
+    """--reference: rel_mse of primal, l2 and l1 equal image.rel_mse of the images written
+    (the l1 one is in the figure only, so it is re-computed here from the same render)."""
+    import numpy as np
+
+    from vrlab.render import render_gradient_domain
+    from vrlab.render.image import rel_mse
+
+    ref = tmp_path / "ref.npy"
+    assert main(["render", "cornell_box", "--spp", "16", "--width", "16", "--height", "12", "--seed", "99",
+                 "--workers", "1", "--no-progress", "-o", str(ref)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "gd.png"
+    assert main(GD + ["--reconstruct", "l2", "-o", str(out), "--reference", str(ref), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert {"scene", "spp", "seconds", "alpha", "reconstruct", "output", "primal_output", "dx_output", "dy_output",
+            "figure", "rel_mse"} <= set(res)
+    assert res["spp"] == 4 and res["seconds"] > 0 and set(res["rel_mse"]) == {"primal", "l2", "l1"}
+    assert all((tmp_path / f"gd{tag}.png").stat().st_size > 0 for tag in ("", "_primal", "_dx", "_dy", "_panels"))
+    reference = np.load(ref)
+    gd = render_gradient_domain("cornell_box", 4, rng=3, width=16, height=12)
+    expected = {"primal": gd.primal.value, "l2": gd.reconstruct(0.2, "l2"), "l1": gd.reconstruct(0.2, "l1")}
+    for key, img in expected.items():
+        assert res["rel_mse"][key] == pytest.approx(rel_mse(img, reference), rel=1e-6), key
+    assert len(set(res["rel_mse"].values())) == 3         # three different images, three errors
+    # the same numbers from the .npy files the command writes
+    assert main(GD + ["-o", str(tmp_path / "gd.npy"), "--reference", str(ref), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["rel_mse"]["l2"] == pytest.approx(rel_mse(np.load(res["output"]), reference), rel=1e-5)
+    assert res["rel_mse"]["primal"] == pytest.approx(rel_mse(np.load(res["primal_output"]), reference), rel=1e-6)
+    # without --json: one line of key=value
+    assert main(GD + ["--reference", str(ref)]) == 0
+    line = capsys.readouterr().out.strip()
+    assert len(line.splitlines()) == 1 and "rel_mse_l1=" in line and "reconstruct=l2" in line
+
+
+def test_render_cli_gradient_domain_progress(capsys):
+    assert main(GD[:-1] + ["--progress"]) == 0
+    captured = capsys.readouterr()
+    assert "gradient-domain" in captured.err and "192/192" in captured.err and "spp=4" in captured.out

@@ -7,18 +7,10 @@ import sys
 import numpy as np
 import pytest
 
+from conftest import run_cli
 from vrlab.cli import main
 
 TINY = ["--width", "8", "--height", "6", "--spp", "1", "--workers", "1", "--no-progress"]
-
-
-def run_cli(capsys, argv):
-    try:
-        code = main(argv)
-    except SystemExit as exc:
-        code = exc.code
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def assert_one_line(err, prog, *names):
@@ -309,3 +301,50 @@ def test_subprocess_closed_stdout_is_quiet():
     r = subprocess.run(["bash", "-c", f"'{sys.executable}' -m vrlab lab --list | head -1"],
                        capture_output=True, text=True, timeout=120)
     assert r.stdout.startswith("Estimator recipes") and r.stderr == ""
+
+
+# --------------------------------------------------------------------------- render --gradient-domain
+GD_USAGE = [
+    (["--gradient-domain", "--spp", "1"], "--spp"), (["--gradient-domain", "--alpha", "0"], "--alpha"),
+    (["--gradient-domain", "--alpha", "-0.5"], "--alpha"), (["--gradient-domain", "--alpha", "nan"], "--alpha"),
+    (["--gradient-domain", "--alpha", "inf"], "--alpha"), (["--gradient-domain", "--alpha", "big"], "--alpha"),
+    (["--gradient-domain", "--alpha", ""], "--alpha"), (["--gradient-domain", "--alpha", "1e-200"], "--alpha"),
+    (["--gradient-domain", "--reconstruct", "l3"], "--reconstruct"),
+    (["--gradient-domain", "--reconstruct", ""], "--reconstruct"),
+    (["--alpha", "0.5"], "--alpha"), (["--reconstruct", "l1"], "--reconstruct"), (["--independent"], "--independent"),
+    (["--gradient-domain", "--compare"], "--compare"), (["--gradient-domain", "--compare", "bsdf,light"], "--compare"),
+    (["--gradient-domain", "--equal-time"], "--equal-time"),
+    (["--gradient-domain", "-o", "gd.txt"], "--output"),
+    (["--gradient-domain", "-o", "gd.npy", "--stderr-out", "gd_primal.npy"], "--stderr-out"),
+]
+
+
+@pytest.fixture
+def no_gradient_work(no_work, monkeypatch):
+    def fake(*a, **k):
+        no_work.append("render_gradient_domain")
+        raise AssertionError("render_gradient_domain started")
+    monkeypatch.setattr("vrlab.render.render_gradient_domain", fake)
+    return no_work
+
+
+@pytest.mark.parametrize("extra,flag", GD_USAGE, ids=[" ".join(a) for a, _ in GD_USAGE])
+def test_render_gradient_domain_usage_errors(extra, flag, capsys, tmp_path, monkeypatch, no_gradient_work):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run_cli(capsys, ["render", "furnace", "--width", "8", "--height", "6", "--spp", "2"] + extra)
+    assert code == 2 and out == ""
+    assert_one_line(err, "vrlab render", flag)
+    assert no_gradient_work == []
+
+
+def test_render_gradient_domain_side_files_are_checked_first(capsys, tmp_path, no_gradient_work):
+    (tmp_path / "gd_dx.npy").mkdir()                     # a folder where -o gd.npy writes |dx|
+    code, out, err = run_cli(capsys, ["render", "furnace", *TINY, "--spp", "2", "--gradient-domain",
+                                      "-o", str(tmp_path / "gd.npy")])
+    assert code == 1 and out == ""
+    assert_one_line(err, "vrlab render", "-o/--output", "gd_dx.npy")
+    code, out, err = run_cli(capsys, ["render", "furnace", *TINY, "--spp", "2", "--gradient-domain",
+                                      "-o", str(tmp_path / "no" / "gd.npy")])
+    assert code == 1
+    assert_one_line(err, "vrlab render", "-o/--output")
+    assert no_gradient_work == []

@@ -114,3 +114,15 @@ def test_every_strategy_and_pixel_sampler_has_a_description():
 
     assert set(STRATEGY_HELP) == set(PRESETS)
     assert set(PIXEL_SAMPLER_HELP) == set(PIXEL_SAMPLERS)
+
+
+def test_gradient_domain_flags_have_help():
+    """--gradient-domain and its flags are listed; the flags that need it say so, --reconstruct
+    names l2 and l1 and the files -o writes are named."""
+    render = next(p for path, p in _parsers(build_parser()) if path == "vrlab render")
+    helps = {s: a.help for a in render._actions for s in a.option_strings}
+    for flag in ("--reconstruct", "--alpha", "--independent"):
+        assert "with --gradient-domain" in helps[flag], flag
+    assert "l2:" in helps["--reconstruct"] and "l1:" in helps["--reconstruct"]
+    assert all(name in helps["--gradient-domain"] for name in ("OUT_primal", "OUT_dx", "OUT_dy", "OUT_panels.png"))
+    assert undocumented(build_parser()) == []

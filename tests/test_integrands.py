@@ -63,6 +63,35 @@ def test_glossy_light_each_technique_wins_on_one_part():
     assert I.mc_variance(small, light, bins=64) < I.mc_variance(small, brdf, bins=64) / 3
 
 
+@pytest.mark.parametrize("settings, exc, name", [
+    ({"center": (0.0, 0.5)}, ValueError, "center[0]"), ({"center": 0.5}, TypeError, "center"),
+    ({"sigma": 0.0}, ValueError, "sigma"), ({"k_s": -1.0}, ValueError, "k_s"),
+    ({"k_s": 0.0, "k_d": 0.0}, ValueError, "k_d"), ({"lights": []}, TypeError, "lights"),
+    ({"lights": [((0.5, 0.2), (0, 1), 1.0)]}, ValueError, "lights[0]"),
+    ({"lights": [((0, 1), (0, 1), 0.0)]}, ValueError, "lights[0][2]"),
+    ({"lights": [((0, 0.5), (0, 0.5), 1.0), ((0.4, 0.6), (0.4, 0.6), 2.0)]}, ValueError, "lights"),
+])
+def test_glossy_light_settings_are_checked(raises_naming, settings, exc, name):
+    with raises_naming(exc, name):
+        I.GlossyLight(**settings)
+
+
+def test_glossy_light_closed_forms_follow_the_lobe():
+    """Moving the lobe changes int f as the closed form says: with the lobe deep inside the big
+    light (L = 1) int f = k_s + k_d sum_k L_k |A_k| up to the lobe's tails beyond 4.8 sigma
+    (8e-7 of its mass); the default lobe
+    loses the unlit part, k_s (1 - Phi((x1 - c) / sigma)) with x1 the light's right edge."""
+    from scipy import stats
+
+    toy = I.GlossyLight()
+    (_, x1), _, _ = toy.lights[0]
+    power = sum((b - a) * (d - c) * L for (a, b), (c, d), L in toy.lights)
+    inside = I.get("glossy-light-in-span").exact
+    assert inside == pytest.approx(toy.k_s + toy.k_d * power, rel=2e-6)
+    lit = stats.norm.cdf((x1 - toy.center[0]) / toy.sigma)      # the other sides are > 5 sigma away
+    assert I.get("glossy-light").exact == pytest.approx(toy.k_s * lit + toy.k_d * power, rel=1e-6)
+
+
 def test_integrand_validation():
     with pytest.raises(ValueError, match="domain"):
         I.Integrand(np.sin, "torus")

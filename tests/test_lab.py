@@ -211,13 +211,32 @@ def test_run_argument_errors():
                 [64, 128], 2, workers=2)
 
 
-def test_progress_callback_and_bar(capsys):
+def test_progress_callback_and_bar(capsys, monkeypatch):
+    import io
+    import sys
+
+    from vrlab.lab.runner import ProgressBar
+
     seen = []
     lab.run(["mc"], ["exp"], [64, 128], 3, progress=lambda done, total: seen.append((done, total)))
-    assert seen[-1] == (6, 6)
+    assert seen[-1] == (6, 6) and all(a[0] < b[0] for a, b in zip(seen, seen[1:]))
     lab.run(["mc"], ["exp"], [64], 3, progress=True)
-    err = capsys.readouterr().err
-    assert "3/3" in err and "#" in err
+    assert capsys.readouterr().err == ""             # stderr is not a terminal: quiet (tqdm's rule)
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+    tty = Terminal()
+    monkeypatch.setattr(sys, "stderr", tty)
+    lab.run(["mc"], ["exp"], [64], 3, progress=True)
+    assert "3/3" in tty.getvalue() and tty.getvalue().startswith("\rlab:")
+    forced = io.StringIO()
+    bar = ProgressBar(4, stream=forced, label="render", disable=False)
+    bar.update(1)
+    bar.update(bar.done + 2 - bar.done)
+    assert bar.done == 3
+    bar.update(1)
+    assert "render" in forced.getvalue() and "4/4" in forced.getvalue() and forced.getvalue().endswith("\n")
 
 
 # -- summary ----------------------------------------------------------------------------------

@@ -271,7 +271,8 @@ def test_progress_bar_arguments(raises_naming):
     for kw, exc, name in (({"total": -1}, ValueError, "total"), ({"total": 2.5}, TypeError, "total"),
                           ({"total": 3, "width": 0}, ValueError, "width"),
                           ({"total": 3, "label": 3}, TypeError, "label"),
-                          ({"total": 3, "stream": "stderr"}, TypeError, "stream")):
+                          ({"total": 3, "stream": "stderr"}, TypeError, "stream"),
+                          ({"total": 3, "disable": "yes"}, TypeError, "disable")):
         with raises_naming(exc, name):
             ProgressBar(**kw)
     bar = ProgressBar(3, stream=io.StringIO())

@@ -15,7 +15,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 SCRIPTS = ["importance_sampling", "control_variates", "discrete_sampling", "metropolis_hastings",
-           "cosine_sampling", "mis", "antithetic_crn", "sampling_patterns", "light_surfaces", "ris"]
+           "cosine_sampling", "mis", "antithetic_crn", "sampling_patterns", "light_surfaces", "ris",
+           "gradient_domain"]
 
 
 def _load(name: str):

@@ -98,3 +98,28 @@ def test_dask_local_cluster_gives_the_same_image():
     for other in (two, dask):
         np.testing.assert_array_equal(one.value, other.value)
         np.testing.assert_array_equal(one.stderr, other.stderr)
+
+
+def test_a_killed_render_command_resumes_to_the_same_image(tmp_path):
+    """``vrlab render --checkpoint``: SIGKILL the process once a batch is saved, rerun the same
+    command, and the image is the uninterrupted render's, byte for byte."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    ckpt, out = tmp_path / "c.npz", tmp_path / "img.npy"
+    cmd = [sys.executable, "-m", "vrlab", "render", "cornell_box", "--spp", "192", "--spp-batch", "8",
+           "--width", "64", "--height", "64", "--workers", "1", "--checkpoint", str(ckpt), "-o", str(out),
+           "--no-progress"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while not ckpt.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert proc.returncode == -signal.SIGKILL and ckpt.exists() and not out.exists()
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    full = render("cornell_box", 192, "mis-power", rng=0, spp_batch=8, width=64, height=64)
+    np.testing.assert_array_equal(np.load(out), full.value)

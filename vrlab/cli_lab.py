@@ -6,14 +6,22 @@ each recipe applicable to each integrand), ``--n`` (integers 1 .. 2**30, no repe
 one trial estimate per pair at the smallest n, if <= 2**16, catches counts too small
 for a recipe),
 ``--reps`` (2 .. 10**6), ``--seed`` (0 .. 2**128-1), ``--workers`` (1 .. 256),
-``--csv`` (``.csv``) and ``--plot`` (``.png``, ``.pdf``, ``.svg``): suffix, and a
-folder that exists and is writable (else exit status 1).
+``--csv`` (``.csv``), ``--plot`` (``.png``, ``.pdf``, ``.svg``) and ``--store``
+(``.sqlite``): suffix, and a folder that exists and is writable (else exit status 1);
+``--scheduler`` (a Dask scheduler address, ``tcp://HOST:PORT`` or ``HOST:PORT``; not with
+``--workers`` > 1; needs ``dask.distributed``).
+
+Then, before the sweep starts: a scheduler that cannot be reached within
+``SCHEDULER_TIMEOUT`` seconds is a failure (exit status 1); a ``--store`` file of another
+sweep is a usage error (exit 2: give another file), one that is not a lab store a failure
+(exit 1).  With ``--store`` a rerun of the same command, after an interruption of any kind,
+runs only the missing units (:mod:`vrlab.lab.store`).
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
-import sys
 import warnings
 
 from . import cli_args as A
@@ -22,6 +30,7 @@ N_MAX = 2**30
 REPS_MAX = 10**6
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 PREFLIGHT_MAX = 2**16        # the trial estimate is skipped above this n (it would cost real time)
+SCHEDULER_TIMEOUT = 10.0     # seconds to reach a Dask scheduler (--scheduler)
 
 
 def add_parser(sub, **kw) -> argparse.ArgumentParser:
@@ -44,6 +53,12 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                                                  "repetition gets its own spawned seed (default: %(default)s)")
     lab.add_argument("--workers", default="1",
                      help=f"worker processes, 1 .. {A.WORKERS_MAX} (same numbers for any count; default: %(default)s)")
+    lab.add_argument("--scheduler", metavar="ADDRESS",
+                     help="run the units on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (needs "
+                          "vrlab[distributed]; same numbers as local runs)")
+    lab.add_argument("--store", metavar="FILE.sqlite",
+                     help="keep each finished unit in this SQLite file; rerunning the same command resumes "
+                          "an interrupted sweep (a store of another sweep is refused)")
     lab.add_argument("--csv", metavar="FILE.csv", help="write the per-repetition rows as CSV")
     lab.add_argument("--plot", metavar="FILE.png", help="write the convergence plot (RMSE vs n): .png, .pdf or .svg")
     lab.add_argument("--json", action="store_true", help="print summary, slopes and equal-time tables as JSON")
@@ -100,7 +115,12 @@ def check_lab(args: argparse.Namespace) -> dict:
                 seed=A.seed(args.seed), workers=A.workers(args.workers))
     plan["csv"] = A.output_file(args.csv, "--csv", (".csv",))
     plan["plot"] = A.output_file(args.plot, "--plot", FIGURE_SUFFIXES)
-    A.distinct({"--csv": plan["csv"], "--plot": plan["plot"]})
+    plan["store"] = A.output_file(args.store, "--store", (".sqlite",))
+    A.distinct({"--csv": plan["csv"], "--plot": plan["plot"], "--store": plan["store"]})
+    plan["scheduler"] = scheduler_address(args.scheduler)
+    if plan["scheduler"] is not None and plan["workers"] > 1:
+        raise A.UsageError("--scheduler and --workers > 1 do not go together: the scheduler's workers run the "
+                           "units (leave out --workers)")
     # each recipe on each integrand, once at the smallest n: names, applicability and counts
     # too small for a recipe (antithetic pairs, RQMC replicates ...) fail here, not mid-run
     n0 = min(ns)
@@ -126,13 +146,25 @@ def run_lab(args: argparse.Namespace) -> int:
     if args.list:
         return _lab_list(args)
     plan = check_lab(args)
+    from ._alloc import keep_freed_memory
+
+    keep_freed_memory()     # this process is vrlab's own: reuse freed NumPy temporaries (vrlab._alloc)
     import pandas as pd
 
     from .lab import convergence_plot, equal_time, fit_slopes, run, summarize
+    from .lab.store import StoreError, StoreMismatch
 
-    progress = args.progress if args.progress is not None else sys.stderr.isatty()
-    df = run(plan["estimators"], plan["integrands"], plan["ns"], plan["reps"], rng=plan["seed"],
-             progress=progress, workers=plan["workers"])
+    with contextlib.ExitStack() as stack:
+        client = None
+        if plan["scheduler"] is not None:
+            client = stack.enter_context(connect_scheduler(plan["scheduler"]))
+        try:
+            df = run(plan["estimators"], plan["integrands"], plan["ns"], plan["reps"], rng=plan["seed"],
+                     progress=_progress(args.progress), workers=plan["workers"], executor=client,
+                     store=plan["store"])
+        except StoreError as exc:            # raised before any unit runs
+            text = "--store" + str(exc).removeprefix("store")
+            raise (A.UsageError if isinstance(exc, StoreMismatch) else A.Failure)(text) from None
     summary = summarize(df)
     slopes = fit_slopes(summary)
     eq = equal_time(summary)
@@ -163,6 +195,76 @@ def run_lab(args: argparse.Namespace) -> int:
     if csv or plot:
         print("\nwrote " + ", ".join(p for p in (csv, plot) if p))
     return 0
+
+
+def _progress(flag):
+    """--progress: a bar even off a terminal; default: a bar when stderr is a terminal;
+    --no-progress: none."""
+    if flag is None or flag is False:
+        return flag is None
+    from .lab.progress import ProgressBar
+
+    bar = []
+
+    def show(done, total):
+        if not bar:
+            bar.append(ProgressBar(total))
+        bar[0].update(done - bar[0].done)
+    return show
+
+
+def scheduler_address(text: str | None, flag: str = "--scheduler") -> str | None:
+    """A Dask scheduler address (``tcp://HOST:PORT``, ``HOST:PORT``, another Dask scheme),
+    checked for form; ``UsageError`` if it is malformed or Dask is not installed."""
+    if text is None:
+        return None
+    if not isinstance(text, str) or not text.strip():
+        raise A.UsageError(f"{flag} must not be empty (give e.g. tcp://127.0.0.1:8786)")
+    text = text.strip()
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+        from distributed.comm.registry import backends
+    except ImportError:
+        raise A.UsageError(f"{flag} needs dask.distributed: pip install 'vrlab[distributed]'") from None
+    try:
+        scheme, loc = parse_address(text)
+        if scheme not in backends:
+            raise ValueError(f"unknown scheme {scheme!r}; Dask knows {', '.join(sorted(backends))}")
+        if scheme != "inproc":
+            parse_host_port(loc)
+    except (ValueError, TypeError) as exc:
+        raise A.UsageError(f"{flag}: {text!r} is not a scheduler address ({exc}); give e.g. "
+                           "tcp://127.0.0.1:8786") from None
+    return text
+
+
+@contextlib.contextmanager
+def connect_scheduler(address: str, flag: str = "--scheduler", timeout: float | None = None):
+    """A ``distributed.Client`` on the scheduler at ``address``, closed at the end (the
+    scheduler and its workers keep running); ``Failure`` naming ``flag`` if it cannot be
+    reached within ``timeout`` seconds (default ``SCHEDULER_TIMEOUT``)."""
+    import socket
+
+    from distributed import Client
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
+    scheme, loc = parse_address(address)
+    if scheme in ("tcp", "tls"):            # probe first: a failed Client leaves noise at exit
+        host, port = parse_host_port(loc)
+        try:
+            socket.create_connection((host, port), timeout=timeout).close()
+        except OSError as exc:
+            raise A.Failure(f"{flag}: cannot reach a Dask scheduler at {address!r} "
+                            f"({exc.strerror or exc})") from None
+    try:
+        client = Client(address, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise A.Failure(f"{flag}: cannot connect to a Dask scheduler at {address!r} ({exc})") from None
+    try:
+        yield client
+    finally:
+        client.close()
 
 
 def _records(df) -> list[dict]:

@@ -15,6 +15,7 @@ of that name already (else exit status 1).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
@@ -113,6 +114,28 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                            "(default: the Veach figure bsdf,light,mis-power); -o names the figure")
     rend.add_argument("--equal-time", action="store_true",
                       help="with --compare: give each strategy the time the last one needs for --spp")
+    rend.add_argument("--gradient-domain", action="store_true",
+                      help="render the image and its pixel differences with common random numbers and "
+                           "reconstruct it (screened Poisson); -o OUT.EXT also writes OUT_primal, OUT_dx, OUT_dy "
+                           "(|differences|) and the figure OUT_panels.png; spp >= 2 (vrlab.cli_gradient)")
+    rend.add_argument("--reconstruct", choices=["l2", "l1"], metavar="NORM",
+                      help="with --gradient-domain: the reconstruction written to -o. l2: least squares, "
+                           "exact DCT solve; l1: gradient terms in the 1-norm (IRLS), robust to outlying gradients "
+                           "(default: l2)")
+    rend.add_argument("--alpha", help="with --gradient-domain: weight of the primal image in the reconstruction, "
+                                      "finite and > 0 (default: 0.2)")
+    rend.add_argument("--independent", action="store_true",
+                      help="with --gradient-domain: the neighbour pixels get their own uniforms (no common "
+                           "random numbers; the baseline)")
+    rend.add_argument("--checkpoint", metavar="FILE.npz",
+                      help="save the per-pixel statistics after each spp batch; rerunning the same command "
+                           "resumes an interrupted render, a larger --spp extends a finished one (same bytes as "
+                           "one uninterrupted render)")
+    rend.add_argument("--spp-batch", help=f"samples per pixel of one work unit, 1 .. {SPP_MAX}: the image depends "
+                                          "on it, not on how units run (default: 64)")
+    rend.add_argument("--scheduler", metavar="ADDRESS",
+                      help="render the units on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (needs "
+                           "vrlab[distributed]; same image as a local render; not with --workers)")
     rend.add_argument("--json", action="store_true", help="print time, samples/s and errors as JSON (with "
                                                           "--list or --export: what they print)")
     rend.set_defaults(parser=rend, func=run_render)
@@ -214,7 +237,17 @@ def check_render(args: argparse.Namespace) -> dict:
              exposure=A.real(args.exposure, "--exposure", low=0, low_open=True))
     p["output"] = A.output_file(args.output, "-o/--output", FIGURE_SUFFIXES if compare else IMAGE_SUFFIXES)
     p["stderr_out"] = A.output_file(args.stderr_out, "--stderr-out", IMAGE_SUFFIXES)
-    A.distinct({"-o/--output": p["output"], "--stderr-out": p["stderr_out"]})
+    p["checkpoint"] = A.output_file(args.checkpoint, "--checkpoint", (".npz",))
+    p["spp_batch"] = A.integer(args.spp_batch, "--spp-batch", low=1, high=SPP_MAX)
+    A.distinct({"-o/--output": p["output"], "--stderr-out": p["stderr_out"], "--checkpoint": p["checkpoint"]})
+    from .cli_lab import scheduler_address
+
+    p["scheduler"] = scheduler_address(args.scheduler)
+    if p["scheduler"] is not None and p["workers"] not in (None, 1):
+        raise A.UsageError("--scheduler and --workers do not go together: the scheduler's workers render the "
+                           "units (leave out --workers)")
+    if compare and (p["checkpoint"] or p["scheduler"]):
+        raise A.UsageError("--checkpoint and --scheduler do not apply with --compare")
     ref_path = A.input_file(args.reference, "--reference", (".npy",))
     p["path"] = _scene_path(args.scene)
     scene = _load(p["path"])
@@ -306,6 +339,9 @@ def run_render(args: argparse.Namespace) -> int:
         return _list(args)
     if args.export is not None or args.to is not None:
         return _export(args)
+    if args.gradient_domain or args.reconstruct is not None or args.alpha is not None or args.independent:
+        from .cli_gradient import run_gradient      # (its flags without --gradient-domain: a usage error there)
+        return run_gradient(args)
     p = check_render(args)
     from ._alloc import keep_freed_memory
 
@@ -325,18 +361,31 @@ def run_render(args: argparse.Namespace) -> int:
         from .render.film import default_workers
         p["workers"] = default_workers()
     show = args.progress if args.progress is not None else sys.stderr.isatty()
-    bar = None
-    if show:
-        from .lab.runner import ProgressBar
-        bar = ProgressBar(scene.sensor.width * scene.sensor.height, label="render")
+    bar: list = []
 
-    def progress(done, total):
-        bar.update(done - bar.done)
+    def progress(done, total):                  # the bar is made on the first report: it knows the total
+        if not bar:
+            from .lab.runner import ProgressBar
+            bar.append(ProgressBar(total, label="render"))
+        bar[0].update(done - bar[0].done)
 
-    est = render(scene, p["spp"], args.strategy, rng=p["seed"], points=_points(args.pixel_sampler),
-                 light_selection=args.light_selection, emitter_samples=p["emitter_samples"],
-                 bsdf_samples=p["bsdf_samples"], ris_candidates=p["ris_candidates"],
-                 workers=p["workers"], progress=progress if bar else None)
+    with contextlib.ExitStack() as stack:
+        client = None
+        if p["scheduler"] is not None:
+            from .cli_lab import connect_scheduler
+
+            client = stack.enter_context(connect_scheduler(p["scheduler"]))
+        try:
+            est = render(scene, p["spp"], args.strategy, rng=p["seed"], points=_points(args.pixel_sampler),
+                         light_selection=args.light_selection, emitter_samples=p["emitter_samples"],
+                         bsdf_samples=p["bsdf_samples"], ris_candidates=p["ris_candidates"],
+                         workers=2 if client is not None else p["workers"], executor=client,
+                         progress=progress if show else None, spp_batch=p["spp_batch"],
+                         checkpoint=p["checkpoint"])
+        except ValueError as exc:
+            if str(exc).startswith("checkpoint"):      # another render's file: choose another name
+                raise A.UsageError("--" + str(exc)) from None
+            raise
     img, err = est.value, est.stderr
     seconds = time.perf_counter() - t0
     bad = int(np.count_nonzero(~np.isfinite(img)))

@@ -1,13 +1,53 @@
 """``vrlab demo``: the sampling layer at a glance, on built-in defaults.
 
-Writes into one folder:
-* ``warps.png`` – each warp's samples against its pdf (chi-square p-value in the title);
-* ``warps_gof.csv`` – the chi-square goodness-of-fit table behind it;
-* ``point_sets.png`` – 256 points of every point set in the unit square;
-* ``discrepancy.csv`` – centred L2 discrepancy of each point set vs n;
-* ``sampler_speed.csv`` – vrlab vs NumPy/SciPy timings (quick sizes), as ratios;
-* ``lab_summary.csv``, ``lab_slopes.csv``, ``lab_runs.csv``, ``convergence.png``, ``efficiency.png``
-  – estimators compared on ``exp``, ``sin``, ``glossy-light`` (:func:`lab_section`).
+Five sections, in this order.  Each prints its header *before* its work starts; the long
+steps (the warps, the lab sweep, the speed races of the full demo, the reference render)
+show a tqdm progress bar on stderr when stderr is a terminal, and stay quiet otherwise.
+
+1. Warps: ``warps.png`` (each warp's samples against its pdf, chi-square p-value in the
+   title) and ``warps_gof.csv`` (the goodness-of-fit table and each pdf's integral).
+2. Point sets: ``point_sets.png`` (256 points of every point set) and ``discrepancy.csv``,
+   the centred L2 discrepancy CD of each set vs n (Hickernell 1998).  SciPy's
+   ``scipy.stats.qmc.discrepancy(method="CD")`` (:func:`vrlab.points.discrepancy`) returns
+   the *squared* CD; the demo reports CD, its square root, which falls like the
+   integration error (~ n^-1/2 for independent points, ~ n^-1 up to logs for QMC).
+3. Speed, two separate tables: ``speed_qmc.csv`` (Halton / Hammersley against
+   ``scipy.stats.qmc.Halton``) and, in the full demo only, ``speed_discrete.csv`` (alias and
+   CDF tables against NumPy and SciPy); ``vrlab bench sampling`` runs both at full sizes.
+4. Lab: estimators on ``exp``, ``sin`` and ``glossy-light`` (:func:`lab_section`):
+   ``lab_runs.csv``, ``lab_summary.csv``, ``lab_slopes.csv``, ``lab_table.csv`` (the
+   printed table with its trust flags), ``convergence.png`` and ``efficiency.png``.
+5. Renderer: Veach's glossy plates, BSDF sampling | light sampling | MIS (``veach_mis.png``,
+   ``veach_mis.csv``), relMSE against a higher-spp MIS reference that it renders first.
+
+Sizes (``quick`` / full): warps 2e4 / 2e5 samples; discrepancy up to n = 1024 / 4096;
+QMC races at d = 2, 8 / 2, 8, 32 (best of 2 / 3), discrete races in the full demo only;
+lab: 10 of the 15 estimators on ``exp`` and ``glossy-light`` at n = 64 .. 1024 with 12
+repetitions in this process / all 15 on all three integrands at n = 64 .. 16384 with 40
+repetitions in 2 forked worker processes; render 64x48 at 8 spp with a 32-spp reference /
+128x96 at 16 spp with a 128-spp reference.  The figures are drawn in a forked process while
+the numbers go on (:class:`_Painter`).  ``benchmarks/bench_demo.py`` times both demos.
+
+Stderr trust flags (:func:`stderr_flags`; column ``flag`` of ``lab_summary.csv`` per
+(estimator, integrand, n), and of the printed table, where an estimator carries its worst
+flag over the sweep's n).  If an estimator's standard errors are honest, its R repetitions
+give z_r = (F_r - I) / stderr_r about N(0, 1): (R - 1) z_std^2 ~ chi^2_{R-1}, and the count
+K of 95 % intervals F_r +- 1.96 stderr_r that hold I is Binomial(R, 0.95).  Each
+(estimator, integrand, n) row gets two tests at the Sidak level
+alpha = 1 - 0.99^(1 / (2 rows)), so that with honest errors *any* flag in the sweep has a
+chance of at most about 1 %:
+
+* ``!`` stderr too small, the error bars cannot be trusted: z_std above the upper end of
+  the chi-square band ``std_band(R, alpha)`` (:mod:`vrlab.testing.stats`), or
+  P(K <= k) < alpha for the observed count k (coverage below the smallest
+  count that binomial chance allows).  Typical cause: a heavy tail that R samples of n
+  rarely reach (``is:brdf`` on ``glossy-light`` misses the small bright light), so the
+  sample variance underestimates the variance.
+* ``~`` stderr far too large: z_std below the band's lower end.  The intervals are safe but
+  say little (jittered and Latin hypercube errors, reported as if i.i.d.).
+
+The thresholds are computed from R and the number of rows, and printed under the table
+with the n at which each flag was raised.
 """
 from __future__ import annotations
 
@@ -17,199 +57,219 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import distributions as D
-from . import points as P
 from . import testing as T
-from ._rng import spawn
+from ._demo_samplers import discrepancy_table, draw_point_sets, draw_warps, showcase, warp_table
+
+#: Family-wise chance of a false flag in the lab table (see the module docstring).
+FLAG_FAMILY_ALPHA = 0.01
 
 
-def showcase() -> list[tuple[str, object, object, tuple]]:
-    """(name, distribution, chart, chi-square bins) for the warps shown in the demo."""
-    img = np.outer(np.hanning(24) + 0.05, np.hanning(32) + 0.05)
-    img[4:8, 20:28] += 2.0
-    return [
-        ("linear 8x/pi^2", D.LinearInterval(0, np.pi / 2, 0, 1), T.IntervalChart(0, np.pi / 2), (40,)),
-        ("exponential rate 2", D.Exponential(2.0), T.HalfLineChart(0.5), (40,)),
-        ("piecewise-constant 1D", D.PiecewiseConstant1D([1, 3, 0.5, 0, 2, 4]), T.IntervalChart(0, 1), (48,)),
-        ("disk (concentric)", D.Disk(), T.DiskChart(), (16, 24)),
-        ("triangle", D.Triangle((0, 0), (1, 0), (0.3, 0.9)), T.TriangleChart((0, 0), (1, 0), (0.3, 0.9)), (16, 16)),
-        ("image luminance 2D", D.PiecewiseConstant2D(img), T.BoxChart([(0, 1), (0, 1)]), (32, 24)),
-        ("uniform sphere", D.UniformSphere(), T.SphereChart(), (20, 30)),
-        ("uniform hemisphere", D.UniformHemisphere(), T.HemisphereChart(), (20, 30)),
-        ("cosine: inversion", D.CosineHemisphere("inversion"), T.HemisphereChart(), (20, 30)),
-        ("cosine: disk", D.CosineHemisphere("disk"), T.HemisphereChart(), (20, 30)),
-        ("cosine: sphere-shift", D.CosineHemisphere("sphere-shift"), T.HemisphereChart(), (20, 30)),
-        ("Phong n=20", D.PhongLobe(20), T.HemisphereChart(power=2), (30, 24)),
-        ("GGX alpha=0.3", D.GGX(0.3), T.HemisphereChart(power=2), (30, 24)),
-        ("cone cos=0.8", D.UniformCone(0.8), T.CapChart(0.8), (20, 24)),
-        ("box light (faces by area)", D.BoxSurface((0, 0, 0), (1.0, 0.5, 0.25)),
-         T.box_surface_chart((0, 0, 0), (1.0, 0.5, 0.25)), (24, 8)),
-        ("ellipsoid light (Jacobian pdf)", D.EllipsoidSurface.from_radii((0, 0, 0), (1.0, 0.5, 0.3)),
-         T.EllipsoidChart((0, 0, 0), np.diag([1.0, 0.5, 0.3])), (20, 30)),
-    ]
+def _bar(total: int, label: str):
+    """A tqdm bar on stderr, quiet when stderr is not a terminal."""
+    from .lab.progress import ProgressBar
+
+    return ProgressBar(total, label=label, disable=None)
 
 
-def _panel(ax, name, dist, x, gof):
-    import matplotlib.pyplot as plt  # noqa: F401  (backend chosen by caller)
+class _Painter:
+    """Draws figures in forked child processes, one at a time, while the demo computes on
+    (its figures cost about as much as its numbers, and the machine has 2 cores).  Without
+    ``fork`` or with a single core it draws in this process.  ``wait`` joins the children
+    and raises ``RuntimeError`` naming any figure that failed."""
 
-    if dist.dim_x == 1:
-        ax.hist(x[:, 0], bins=60, density=True, alpha=0.6, label="samples")
-        lo, hi = np.quantile(x[:, 0], [0.0, 0.999])
-        grid = np.linspace(lo, hi, 400)[:, None]
-        ax.plot(grid[:, 0], dist.pdf(grid), "k", lw=1.5, label="pdf")
-        ax.set_xlabel("x")
-    elif dist.dim_x == 2:
-        if isinstance(dist, D.PiecewiseConstant2D):
-            ax.imshow(dist.density, origin="lower", extent=(0, 1, 0, 1), cmap="magma")
-        ax.scatter(x[:1500, 0], x[:1500, 1], s=1.5, c="tab:cyan" if isinstance(dist, D.PiecewiseConstant2D)
-                   else "tab:blue")
-        ax.set_aspect("equal")
-    elif dist.measure == "area":
-        # a light surface in 3D: points seen from above (x, y), coloured by their area density
-        sc = ax.scatter(x[:3000, 0], x[:3000, 1], c=dist.pdf(x[:3000]), s=1.5, cmap="viridis")
-        ax.figure.colorbar(sc, ax=ax, shrink=0.8).ax.tick_params(labelsize=6)
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (colour: area pdf)")
-    else:
-        # azimuthally symmetric about +z: marginal density of z = cos(theta) is 2 pi p(w(z))
-        ax.hist(x[:, 2], bins=60, density=True, alpha=0.6, label="samples")
-        z = np.linspace(x[:, 2].min(), 1, 400)
-        w = np.stack([np.sqrt(1 - z**2), np.zeros_like(z), z], -1)
-        ax.plot(z, 2 * np.pi * dist.pdf(w), "k", lw=1.5, label="2 pi p(w)")
-        ax.set_xlabel("cos theta")
-    ax.set_title(f"{name}\nchi2 p = {gof.pvalue:.3f}", fontsize=8)
-    ax.tick_params(labelsize=6)
+    def __init__(self):
+        import multiprocessing as mp
+        import os
 
+        fork = "fork" in mp.get_all_start_methods() and (os.cpu_count() or 1) > 1
+        self._ctx = mp.get_context("fork") if fork else None
+        self._lock = self._ctx.Lock() if fork else None
+        self._jobs: list = []
 
-def warp_figure(out: Path, seed: int, n: int) -> pd.DataFrame:
-    import matplotlib.pyplot as plt
+    @staticmethod
+    def _locked(lock, fn, args):
+        with lock:
+            fn(*args)
 
-    cases = showcase()
-    rngs = spawn(seed, len(cases))
-    cols = 5
-    rows = -(-len(cases) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.0 * cols, 2.7 * rows))
-    table = []
-    for ax, (name, dist, chart, bins), rng in zip(axes.ravel(), cases, rngs):
-        gof = T.chi2_gof(dist, chart, bins, n=n, rng=rng, name=name)
-        x = dist.sample(rng.random((min(n, 50_000), dist.dim_u)))
-        table.append({"warp": name, "measure": dist.measure, "n": n, "chi2": gof.statistic, "dof": gof.dof,
-                      "p_value": gof.pvalue,
-                      "pdf_integral": T.integrate(dist.pdf, chart, tuple(2 * b for b in bins))})
-        _panel(ax, name, dist, x, gof)
-    for ax in axes.ravel()[len(cases):]:
-        ax.axis("off")
-    level = T.sidak_threshold(0.01, len(cases))
-    fig.suptitle("vrlab warps: samples (histogram / scatter) against the pdf; "
-                 f"reject a warp if p < {level:.1e} (1% family-wise over {len(cases)} tests)", fontsize=11)
-    fig.tight_layout()
-    fig.savefig(out / "warps.png", dpi=110)
-    plt.close(fig)
-    df = pd.DataFrame(table)
-    df.to_csv(out / "warps_gof.csv", index=False)
-    return df
+    def draw(self, name: str, fn, *args) -> None:
+        if self._ctx is None:
+            fn(*args)
+            return
+        p = self._ctx.Process(target=self._locked, args=(self._lock, fn, args), name=f"vrlab demo: {name}",
+                              daemon=True)
+        p.start()
+        self._jobs.append((name, p))
+
+    def wait(self) -> None:
+        failed = []
+        for name, p in self._jobs:
+            p.join()
+            if p.exitcode != 0:
+                failed.append(f"{name} (exit code {p.exitcode})")
+        self._jobs = []
+        if failed:
+            raise RuntimeError("vrlab demo: drawing failed: " + ", ".join(failed))
 
 
-def point_set_engines(d: int, seed: int) -> dict:
-    """Fresh engines for the point sets compared in the demo (each with its own child seed)."""
-    rng = spawn(seed, 8)
-    return {
-        "independent": P.Independent(d, rng=rng[0]),
-        "stratified (jittered)": P.Stratified(d, rng=rng[1]),
-        "latin hypercube": P.LatinHypercube(d, rng=rng[2]),
-        "halton": P.Halton(d),
-        "halton scrambled": P.Halton(d, scramble=True, rng=rng[3]),
-        "hammersley": P.Hammersley(d),
-        "sobol (scrambled)": P.Sobol(d, rng=rng[4]),
-        "hammersley + CP rotation": P.CranleyPatterson(P.Hammersley(d), rng=rng[5]),
-    }
+def speed_tables(out: Path, quick: bool) -> dict[str, pd.DataFrame]:
+    """QMC generation races (and, in the full demo, discrete sampling races) as two tables,
+    each with its own columns (``speed_qmc.csv``, ``speed_discrete.csv``)."""
+    from .bench.discrete import bench_discrete
+    from .bench.qmc import bench_qmc
+
+    steps = {"qmc": lambda: bench_qmc(True, dims=(2, 8) if quick else (2, 8, 32), repeat=2 if quick else 3)}
+    if not quick:
+        steps["discrete"] = lambda: bench_discrete(True)
+    bar = _bar(len(steps), "speed") if len(steps) > 1 else None
+    tables = {}
+    for name, step in steps.items():
+        tables[name] = pd.DataFrame(step()).drop(columns="suite", errors="ignore")
+        tables[name].to_csv(out / f"speed_{name}.csv", index=False)
+        if bar is not None:
+            bar.update()
+    return tables
 
 
-def point_set_figure(out: Path, seed: int) -> None:
-    import matplotlib.pyplot as plt
+def trust_thresholds(reps: int, tests: int, family_alpha: float = FLAG_FAMILY_ALPHA) -> dict:
+    """Thresholds of the stderr trust flags for R = ``reps`` repetitions when the table holds
+    ``tests`` tests (2 per row): ``alpha`` (Sidak per-test level), ``z_lo``, ``z_hi`` (the
+    chi-square band of z_std) and ``min_cover`` (the smallest count of covering intervals,
+    as a share of R, that binomial chance allows at level alpha)."""
+    from scipy import stats
 
-    engines = point_set_engines(2, seed)
-    fig, axes = plt.subplots(2, 4, figsize=(12, 6.4))
-    for ax, (name, eng) in zip(axes.ravel(), engines.items()):
-        u = eng.random(256)
-        ax.scatter(u[:, 0], u[:, 1], s=4)
-        ax.set_xlim(0, 1), ax.set_ylim(0, 1), ax.set_aspect("equal")
-        ax.set_xticks(np.linspace(0, 1, 5)), ax.set_yticks(np.linspace(0, 1, 5))
-        ax.grid(alpha=0.3)
-        ax.set_title(f"{name}\nCD = {P.discrepancy(u):.2e}", fontsize=9)
-        ax.tick_params(labelsize=6)
-    fig.suptitle("256 points of each point set (CD = centred L2 discrepancy)")
-    fig.tight_layout()
-    fig.savefig(out / "point_sets.png", dpi=110)
-    plt.close(fig)
+    from .testing.stats import std_band
+
+    alpha = T.sidak_threshold(family_alpha, tests)
+    z_lo, z_hi = std_band(reps, alpha)
+    k = np.arange(reps + 1)
+    allowed = k[stats.binom.cdf(k, reps, 0.95) >= alpha]
+    return {"alpha": alpha, "z_lo": z_lo, "z_hi": z_hi, "min_cover": int(allowed[0]) / reps}
 
 
-def discrepancy_table(out: Path, seed: int, ns=(64, 256, 1024, 4096), d: int = 2) -> pd.DataFrame:
-    rows = []
-    for n in ns:
-        for name, eng in point_set_engines(d, seed).items():
-            rows.append({"point set": name, "n": n, "d": d, "CD discrepancy": P.discrepancy(eng.random(n))})
-    df = pd.DataFrame(rows).pivot(index="point set", columns="n", values="CD discrepancy")
-    df.to_csv(out / "discrepancy.csv")
-    return df
+def stderr_flags(table: pd.DataFrame, family_alpha: float = FLAG_FAMILY_ALPHA) -> pd.Series:
+    """Per row of a lab summary (columns ``reps``, ``z_std``, ``coverage``): ``"!"`` if the
+    stderr is too small to trust, ``"~"`` if it is far too large, ``""`` otherwise (the rule
+    and its levels are in the module docstring; a NaN z_std or coverage tests nothing)."""
+    reps = table["reps"].to_numpy(int)
+    z, cover = table["z_std"].to_numpy(float), table["coverage"].to_numpy(float)
+    th = {r: trust_thresholds(int(r), 2 * len(table), family_alpha) for r in np.unique(reps)}
+    hi, lo, least = (np.array([th[r][k] for r in reps]) for k in ("z_hi", "z_lo", "min_cover"))
+    small = (z > hi) | (cover < least - 1e-12)
+    large = ~small & (z < lo)
+    flags = np.where(small, "!", np.where(large, "~", ""))
+    return pd.Series(flags, index=table.index, name="flag", dtype=object)
+
+
+def _worst(flags: pd.Series) -> str:
+    return "!" if (flags == "!").any() else "~" if (flags == "~").any() else ""
+
+
+def _flag_notes(flagged: pd.DataFrame, th: dict, reps: int) -> list[str]:
+    """One line per kind of flag: the thresholds and who got it at which n."""
+    notes = []
+    for mark, text in (("!", f"stderr too small, error bars not to be trusted (z_std > {th['z_hi']:.2f} or "
+                             f"coverage < {th['min_cover']:.2f})"),
+                       ("~", f"stderr far too large, safe but uninformative (z_std < {th['z_lo']:.2f})")):
+        rows = flagged[flagged["flag"] == mark]
+        if len(rows):
+            who = "; ".join(f"{e} on {i} (n = {', '.join(str(n) for n in g['n'])})"
+                            for (i, e), g in rows.groupby(["integrand", "estimator"], sort=False))
+            notes.append(f"{mark} {text}: {who}")
+    if notes:
+        notes.append(f"  (R = {reps}, every n of the sweep tested; with honest errors any flag has a "
+                     f"{FLAG_FAMILY_ALPHA:.0%} chance; rule: vrlab.demo docstring)")
+    return notes
 
 
 #: estimators of the demo's lab section (recipes that do not apply to an integrand, or whose
 #: estimator module is not installed, are left out of that integrand's rows)
 LAB_ESTIMATORS = ("mc", "is:linear", "is:brdf", "is:light", "mis-balance", "mis-power", "onesample",
                   "defensive", "antithetic", "cv", "stratified", "jittered", "lhs", "rqmc-sobol", "ris:8")
+#: the quick demo's subset, one or two of each family (scrambled Halton for RQMC: building
+#: scrambled Sobol' engines costs more than all the other estimators of the quick sweep together)
+QUICK_ESTIMATORS = ("mc", "is:linear", "is:brdf", "is:light", "mis-balance", "defensive", "antithetic", "cv",
+                    "jittered", "rqmc-halton")
 LAB_INTEGRANDS = ("exp", "sin", "glossy-light")
+#: the quick demo's integrands: a smooth 1D one and the 2D MIS toy
+QUICK_INTEGRANDS = ("exp", "glossy-light")
 
 
-def lab_section(out: Path, seed: int, quick: bool) -> dict:
-    """Estimators on ``exp``, ``sin`` and ``glossy-light``: a comparison table at the largest n
-    (``lab_summary.csv``, ``lab_slopes.csv``, per-repetition ``lab_runs.csv``) and the
-    convergence plot ``convergence.png`` (RMSE vs n with fitted slopes) plus ``efficiency.png``."""
+def lab_sizes(quick: bool) -> tuple[tuple[int, ...], int]:
+    """(sample counts, repetitions) of the lab section."""
+    return ((64, 256, 1024), 12) if quick else ((64, 256, 1024, 4096, 16384), 40)
+
+
+def lab_section(out: Path, seed: int, quick: bool, painter: _Painter | None = None) -> dict:
+    """Estimators on ``exp``, ``sin`` (full demo) and ``glossy-light``: a comparison table at
+    the largest n with stderr trust flags (printed and ``lab_table.csv``), ``lab_summary.csv``,
+    ``lab_slopes.csv``, per-repetition ``lab_runs.csv``, the convergence plot
+    ``convergence.png`` (RMSE vs n with fitted slopes; drawn by ``painter`` if given) and
+    ``efficiency.png``."""
     import os
 
     from . import lab
 
     out = Path(out)
-    ns = (64, 256, 1024) if quick else (64, 256, 1024, 4096, 16384)
-    reps = 12 if quick else 40
+    ns, reps = lab_sizes(quick)
+    # the full sweep in 2 forked workers (the same numbers as 1 process); the quick one in this
+    # process, while the painter draws the earlier figures on the other core
     workers = 1 if quick else max(1, min(2, os.cpu_count() or 1))
     t0 = time.perf_counter()
-    df = lab.run(LAB_ESTIMATORS, LAB_INTEGRANDS, ns, reps, rng=seed, skip=True, workers=workers)
+    estimators, integrands = (QUICK_ESTIMATORS, QUICK_INTEGRANDS) if quick else (LAB_ESTIMATORS, LAB_INTEGRANDS)
+    df = lab.run(estimators, integrands, ns, reps, rng=seed, skip=True, workers=workers, progress=True)
     summary = lab.summarize(df)
     slopes = lab.fit_slopes(summary)
     eq = lab.equal_time(summary)
+    flagged = summary.assign(flag=stderr_flags(summary))        # every (estimator, integrand, n)
     df.to_csv(out / "lab_runs.csv", index=False)
-    summary.to_csv(out / "lab_summary.csv", index=False)
+    flagged.to_csv(out / "lab_summary.csv", index=False)
     slopes.to_csv(out / "lab_slopes.csv", index=False)
-    lab.convergence_plot(summary, out / "convergence.png", title="vrlab lab: RMSE vs n (dashed: theoretical slope)")
-    lab.efficiency_plot(summary, out / "efficiency.png")
+
+    def convergence():
+        lab.convergence_plot(summary, out / "convergence.png", title="vrlab lab: RMSE vs n (dashed: theoretical slope)")
+
+    if painter is not None:
+        painter.draw("convergence.png", convergence)     # meanwhile: the table, efficiency.png, the render
+    else:
+        convergence()
     top = summary[summary["n"] == max(ns)].merge(eq[["integrand", "n", "estimator", "relative_efficiency"]],
                                                   on=["integrand", "n", "estimator"])
     table = top.merge(slopes[["estimator", "integrand", "slope", "theory"]], on=["estimator", "integrand"])
-    table = table[["integrand", "estimator", "rmse", "bias", "z_std", "coverage", "relative_efficiency",
-                   "slope", "theory"]]
-    print(f"\nLab: estimators at n = {max(ns)} over {reps} repetitions (efficiency relative to mc at equal "
-          "time; slope of RMSE vs n; convergence.png, efficiency.png)")
+    worst = flagged.groupby(["estimator", "integrand"], sort=False)["flag"].agg(_worst).reset_index()
+    table = table.merge(worst, on=["estimator", "integrand"])      # flagged at any n of the sweep
+    table = table[["integrand", "estimator", "flag", "rmse", "bias", "z_std", "coverage", "relative_efficiency",
+                   "slope", "theory", "reps"]]
+    table.to_csv(out / "lab_table.csv", index=False)
     with pd.option_context("display.width", 160, "display.max_columns", 20, "display.max_rows", 200):
-        print(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+        print(table.drop(columns="reps").to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+    for line in _flag_notes(flagged[flagged["flag"] != ""], trust_thresholds(reps, 2 * len(flagged)), reps):
+        print(line)
     skipped = df.attrs.get("skipped", [])
     missing = sorted({s["estimator"] for s in skipped if "not available" in s["reason"]})
     if missing:
         print("not run (estimator module not installed): " + ", ".join(missing))
-    return {"lab_seconds": time.perf_counter() - t0, "lab_rows": len(df), "lab_skipped": len(skipped)}
+    lab.efficiency_plot(summary, out / "efficiency.png")
+    return {"lab_seconds": time.perf_counter() - t0, "lab_rows": len(df), "lab_skipped": len(skipped),
+            "lab_flagged": {m: int((table["flag"] == m).sum()) for m in ("!", "~")}}
 
 
 def render_section(out: Path, seed: int, quick: bool) -> pd.DataFrame:
-    """The Veach figure: BSDF sampling | light sampling | MIS on the glossy plates scene."""
+    """The Veach figure: BSDF sampling | light sampling | MIS on the glossy plates scene.
+    The reference (an MIS render at more spp, its own seed) is rendered first, with progress."""
     import dataclasses
 
-    from .render import builtin_scene_path, load_scene
+    from .render import builtin_scene_path, load_scene, render
     from .render.compare import compare, compare_figure
 
     scene = load_scene(builtin_scene_path("veach_mis"))
     w, h = (64, 48) if quick else (128, 96)
     scene.sensor = dataclasses.replace(scene.sensor, width=w, height=h)
-    res = compare(scene, spp=8 if quick else 16, rng=seed, ref_spp=32 if quick else 128)
+    ref_spp = 32 if quick else 128
+    bar = _bar(w * h, f"reference, {ref_spp} spp")
+    reference = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([seed, 1]),
+                       progress=lambda done, total: bar.update(max(0, done - bar.done))).value
+    bar.close()
+    res = compare(scene, spp=8 if quick else 16, rng=seed, reference=reference)
     compare_figure(res, out / "veach_mis.png",
                    title=f"Veach's glossy plates, {res['spp']} spp: BSDF sampling | light sampling | MIS (power)")
     df = pd.DataFrame({"strategy": list(res["rel_mse"]), "rel_mse": list(res["rel_mse"].values()),
@@ -218,13 +278,25 @@ def render_section(out: Path, seed: int, quick: bool) -> pd.DataFrame:
     return df
 
 
+def _header(text: str) -> None:
+    print("\n" + text, flush=True)
+
+
+def _table(df: pd.DataFrame, digits: int = 4, index: bool = False) -> str:
+    with pd.option_context("display.width", 160, "display.max_columns", 20):
+        return df.to_string(index=index, float_format=lambda v: f"{v:.{digits}g}")
+
+
 def run_demo(out: str | Path = "vrlab-demo", seed: int = 2026, quick: bool = False) -> dict:
-    """Run the showcase and write its figures and tables into ``out``; returns a summary."""
+    """Run the showcase and write its figures and tables into ``out``; returns a summary with
+    the seconds of each section (``sections``, figures drawn in the background counted in
+    ``"figures (waiting)"``) and in all (``seconds``)."""
     import matplotlib
 
     matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401  (imported once here, inherited by the forked painters)
+
     from . import checks
-    from .bench import run as run_bench
 
     if not isinstance(out, (str, Path)) or not str(out):
         raise TypeError(f"out must be a folder path, got {out!r}")
@@ -234,24 +306,57 @@ def run_demo(out: str | Path = "vrlab-demo", seed: int = 2026, quick: bool = Fal
         raise ValueError(f"out: {out} exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    print(f"vrlab demo: writing into {out.resolve()}")
-    gof = warp_figure(out, seed, 20_000 if quick else 200_000)
-    print("\nWarps: chi-square goodness of fit of samples against the pdf (warps.png)")
-    print(gof.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    point_set_figure(out, seed)
-    disc = discrepancy_table(out, seed)
-    print("\nPoint sets: centred L2 discrepancy in d = 2 (lower is more uniform; point_sets.png)")
-    print(disc.to_string(float_format=lambda v: f"{v:.2e}"))
-    speed = pd.DataFrame(run_bench("sampling", quick=True))
-    speed.to_csv(out / "sampler_speed.csv", index=False)
-    print("\nSamplers: vrlab vs peers, quick sizes (run `vrlab bench sampling` for full sizes)")
-    with pd.option_context("display.width", 160, "display.max_columns", 20):
-        print(speed.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    lab_info = lab_section(out, seed, quick)
-    veach = render_section(out, seed, quick)
-    print("\nRenderer: Veach's glossy plates at equal spp, relMSE against a high-spp MIS render (veach_mis.png)")
-    print(veach.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    sections: dict[str, float] = {}
+    painter = _Painter()
+    print(f"vrlab demo{' --quick' if quick else ''}: writing into {out.resolve()}", flush=True)
+
+    t = time.perf_counter()
+    _header("Warps: chi-square goodness of fit of samples against the pdf (warps.png)")
+    bar = _bar(len(showcase()), "warps")
+    gof, panels = warp_table(seed, 20_000 if quick else 200_000, progress=bar.update)
+    gof.to_csv(out / "warps_gof.csv", index=False)
+    painter.draw("warps.png", draw_warps, out / "warps.png", panels)
+    print(_table(gof))
+    sections["warps"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    _header("Point sets: CD = centred L2 discrepancy in d = 2, lower is more uniform (point_sets.png); "
+            "CD is the square root of SciPy's qmc.discrepancy(method='CD'), which is CD^2")
+    painter.draw("point_sets.png", draw_point_sets, out / "point_sets.png", seed)
+    disc = discrepancy_table(seed, (64, 256, 1024) if quick else (64, 256, 1024, 4096))
+    disc.to_csv(out / "discrepancy.csv")
+    print(_table(disc, 3, index=True))
+    sections["point sets"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    _header("Speed: vrlab vs NumPy/SciPy at quick sizes, best of a few runs (`vrlab bench sampling`: full sizes)")
+    speed = speed_tables(out, quick)
+    print("QMC point generation (speedup = peer seconds / vrlab seconds):\n" + _table(speed["qmc"]))
+    if "discrete" in speed:
+        print("\nDiscrete sampling (ratio_vs_vrlab = seconds / vrlab AliasTable seconds):\n"
+              + _table(speed["discrete"]))
+    else:
+        print("(discrete sampling races: in the full demo, or `vrlab bench discrete`)")
+    sections["speed"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    ns, reps = lab_sizes(quick)
+    _header(f"Lab: estimators at n = {max(ns)} over {reps} repetitions (efficiency relative to mc at equal "
+            "time; slope of RMSE vs n; flag: stderr not to be trusted at some n, see below; "
+            "convergence.png, efficiency.png)")
+    lab_info = lab_section(out, seed, quick, painter)
+    sections["lab"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    _header("Renderer: Veach's glossy plates at equal spp, relMSE against a higher-spp MIS render "
+            "(veach_mis.png)")
+    print(_table(render_section(out, seed, quick)))
+    sections["render"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    painter.wait()
+    sections["figures (waiting)"] = time.perf_counter() - t
     files = sorted(p.name for p in out.iterdir())
     seconds = time.perf_counter() - t0
     print(f"\nwrote {', '.join(files)} in {seconds:.1f} s")
-    return {"out": str(out.resolve()), "files": files, "seconds": seconds, **lab_info}
+    return {"out": str(out.resolve()), "files": files, "seconds": seconds, "sections": sections, **lab_info}

@@ -1,6 +1,7 @@
 """The integral lab: estimators x integrands x sample counts x repetitions -> tables and plots.
 
-``run`` (tidy DataFrame, spawned seeds, optional worker processes), ``summarize``,
+``run`` (tidy DataFrame, spawned seeds; local processes or a Dask cluster; resumable with
+an SQLite ``store``), ``summarize``,
 ``fit_slopes``, ``equal_time``, ``convergence_plot``, ``efficiency_plot``; estimator
 recipes by name in :mod:`vrlab.lab.registry` (``list_recipes``, ``applicable``, ``build``).
 """

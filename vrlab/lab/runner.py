@@ -12,6 +12,13 @@ are in the same run: ``workers=k`` gives bit-identical values to ``workers=1``, 
 ``crn=True`` the estimator index is left out (e = 0), so all estimators see the same seed
 in the same (integrand, n, rep): common random numbers across estimators.
 
+Execution.  The work units -- blocks of repetitions of one (estimator, integrand, n), at
+most about ``UNIT_SAMPLES`` evaluations each -- go through :func:`vrlab.execution.run_units`:
+in this process, in ``workers`` local processes, or on an ``executor`` (a process pool, a
+Dask ``Client``); results are placed by their key, so the table is the same every way.
+With ``store=`` each finished unit is written to SQLite at once (:mod:`vrlab.lab.store`)
+and a rerun computes only the repetitions that are missing.
+
 Arguments are checked before any work (errors name them): at least one estimator and one
 integrand, known recipe and catalogue names, unique labels and names, sample counts
 ``ns`` integers in [1, ``MAX_N``] without repeats, ``reps`` in [2, ``MAX_REPS``],
@@ -23,11 +30,8 @@ from __future__ import annotations
 import copy
 import numbers
 import pickle
-import sys
-import time
 import zlib
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from typing import Any
 
@@ -36,13 +40,19 @@ import pandas as pd
 
 from .. import checks
 from .._rng import unit_seed
+from ..execution import MAX_WORKERS, check_executor, run_units
 from . import registry
 from ._args import flag, lab_integrand
+from .progress import ProgressBar
+from .store import ResultStore, describe_estimator, describe_integrand, store_path
 
-#: Largest sample count per estimate, repetitions and worker processes of one ``run``.
+#: Largest sample count per estimate and repetitions of one ``run`` (worker processes:
+#: ``vrlab.execution.MAX_WORKERS``).
 MAX_N = 2**30
 MAX_REPS = 10**6
-MAX_WORKERS = 256
+#: A work unit holds repetitions of one (estimator, integrand, n) up to about this many
+#: evaluations, so that large-n sweeps balance over workers and resume unit by unit.
+UNIT_SAMPLES = 2**22
 
 CORE_COLUMNS = ["estimator", "integrand", "n", "rep", "value", "stderr", "exact", "error", "seconds",
                 "n_evals", "n_units", "points", "class", "dim_u", "smooth"]
@@ -167,53 +177,33 @@ def _run_block(task) -> list[tuple]:
     return [_one(estimator, integrand, points, n, unit_seed(root, *key, r), chunk, label) for r in reps]
 
 
-class ProgressBar:
-    """A one-line text progress bar on ``stream`` (default stderr), redrawn at most 10 times a second.
+def _run_block_own(task) -> list[tuple]:
+    """:func:`_run_block` in a local pool's process, which vrlab starts and owns: there freed
+    NumPy temporaries are kept for reuse (:mod:`vrlab._alloc`; the numbers do not change)."""
+    from .._alloc import keep_freed_memory
 
-    Checked: ``total`` an integer >= 0, ``width`` in [1, 200], ``label`` a string, ``stream``
-    with ``write`` and ``flush``; ``update(k)`` takes an integer ``k >= 0``.
-    """
-
-    def __init__(self, total: int, stream=None, width: int = 30, label: str = "lab"):
-        total = checks.integer(total, "total", low=0)
-        width = checks.integer(width, "width", low=1, high=200)
-        if not isinstance(label, str):
-            raise TypeError(f"label must be a string, got {type(label).__name__}")
-        if stream is not None and not (callable(getattr(stream, "write", None))
-                                       and callable(getattr(stream, "flush", None))):
-            raise TypeError(f"stream must be a text stream (write, flush) or None, got {type(stream).__name__}")
-        self.total, self.width, self.label = max(total, 1), width, label
-        self.stream = stream if stream is not None else sys.stderr
-        self.done, self.t0, self._last = 0, time.perf_counter(), 0.0
-
-    def update(self, k: int = 1) -> None:
-        self.done += checks.integer(k, "k", low=0)
-        now = time.perf_counter()
-        if now - self._last >= 0.1 or self.done >= self.total:
-            self._last = now
-            frac = self.done / self.total
-            fill = round(frac * self.width)
-            elapsed = now - self.t0
-            eta = elapsed / frac - elapsed if frac > 0 else float("nan")
-            self.stream.write(f"\r{self.label} [{'#' * fill}{'.' * (self.width - fill)}] "
-                              f"{self.done}/{self.total} {elapsed:5.1f} s, ~{eta:4.0f} s left ")
-            if self.done >= self.total:
-                self.stream.write("\n")
-            self.stream.flush()
+    keep_freed_memory()
+    return _run_block(task)
 
 
 def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int, *, rng: Any = 0,
         progress: bool | Callable[[int, int], None] = False, workers: int = 1, skip: bool = False,
-        crn: bool = False, chunk: int | None = None) -> pd.DataFrame:
+        crn: bool = False, chunk: int | None = None, executor: Any = None, store: Any = None) -> pd.DataFrame:
     """Run every estimator on every integrand at every ``n`` (integrand evaluations), ``reps`` times.
 
     ``estimators``: recipe names (see :mod:`vrlab.lab.registry`) or tuples
     ``(label, estimator[, points])``.  ``integrands``: catalogue names or ``Integrand``
-    objects.  ``rng``: root seed (int, ``SeedSequence`` or None).  ``workers``: processes
-    (``concurrent.futures.ProcessPoolExecutor``); objects other than names must then be
-    picklable.  ``skip``: leave out estimator x integrand pairs whose recipe does not
-    apply (listed in ``df.attrs["skipped"]``) instead of raising.  ``progress``: a text
-    bar on stderr, or a callback ``(done, total)``.
+    objects.  ``rng``: root seed (int, ``SeedSequence`` or None).  ``workers``: local
+    processes (:func:`vrlab.execution.run_units`); ``executor``: run the units on a
+    ``concurrent.futures.Executor`` or a ``dask.distributed.Client`` instead (``workers``
+    is then unused); objects other than names must then be picklable (Dask: by cloudpickle).
+    The numbers are the same for every choice.  ``store``: a ``.sqlite`` file
+    (:mod:`vrlab.lab.store`) that keeps each finished unit; a rerun with the same store runs
+    only what is missing and returns the same table (it needs a fixed ``rng``; a store of
+    another sweep is refused with a ``ValueError`` naming ``store``).  ``skip``: leave out
+    estimator x integrand pairs whose recipe does not apply (listed in
+    ``df.attrs["skipped"]``) instead of raising.  ``progress``: True for a tqdm bar on
+    stderr (shown when stderr is a terminal), or a callback ``(done, total)``.
 
     Returns one row per estimator x integrand x n x rep with columns ``estimator,
     integrand, n, rep, value, stderr, exact, error (= value - exact), seconds, n_evals,
@@ -231,16 +221,24 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
         raise TypeError(f"progress must be True, False or a callback (done, total), got {type(progress).__name__}")
     progress = bool(progress) if isinstance(progress, (bool, np.bool_)) else progress
     chunk = None if chunk is None else checks.integer(chunk, "chunk", low=1)
+    pool = check_executor(executor)
+    if store is not None:
+        store_path(store)
+        if rng is None:
+            raise ValueError("store: a resumable sweep needs a fixed seed; rng=None draws fresh entropy, "
+                             "so a rerun could not continue it (give rng=<int>)")
     root = _root(rng)
 
     jobs: dict[tuple[int, int], _Job] = {}
     skipped: list[dict] = []
     seen: dict[str, int] = {}
+    described = []
     for jj, ispec in enumerate(int_specs):
         integrand = _integrand(ispec)
         if integrand.name in seen:
             raise ValueError(f"integrands: the name {integrand.name!r} occurs twice (names label rows and seeds)")
         seen[integrand.name] = jj
+        described.append(describe_integrand(ispec, integrand))
         for ii, (label, espec) in enumerate(specs):
             try:
                 est, pts = _instantiate(espec, integrand)
@@ -252,69 +250,125 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
                 continue
             jobs[ii, jj] = _Job(label, espec, ispec, est, pts, integrand)
 
-    # blocks of repetitions: enough tasks to balance the workers, few enough to keep overhead low
-    per = reps if workers == 1 else max(1, -(-reps // 4))
-    seed_state = (root.entropy, tuple(root.spawn_key), root.pool_size)
-    tasks = []
     keys = [stable_index(label) for label, _ in specs]
     if len(set(keys)) < len(keys):   # pragma: no cover - a CRC-32 collision between two labels
         raise ValueError("estimators: two labels share a seed index; rename one")
     if not jobs:
         raise ValueError("estimators, integrands: no estimator applies to any integrand; skipped: "
                          + "; ".join(f"{s['estimator']} on {s['integrand']}: {s['reason']}" for s in skipped))
-    for (ii, jj), job in jobs.items():
-        for kk, n in enumerate(ns):
-            for lo in range(0, reps, per):
-                key = (0 if crn else keys[ii], stable_index(job.integrand.name), n)
-                tasks.append(((ii, jj, kk, lo), job, key, n, range(lo, min(lo + per, reps))))
+    parallel = workers if pool is None else _parallelism(pool)
+    serial = pool is None and workers == 1
+    wire = {} if serial else _wire_specs(jobs, executor)
+    seed_state = (root.entropy, tuple(root.spawn_key), root.pool_size)
+    est_ids = [describe_estimator(label, spec, "" if isinstance(spec, str) else _points_name(spec[1]))
+               for label, spec in specs]
+    settings = {"estimators": est_ids, "integrands": described, "ns": ns, "reps": reps, "crn": crn, "chunk": chunk,
+                "skip": skip,
+                "seed": {"entropy": root.entropy, "spawn_key": list(root.spawn_key), "pool_size": root.pool_size}}
+    db = None if store is None else ResultStore(store, settings)
+    bar = None
+    try:
+        results: dict[tuple, tuple] = {}
+        if db is not None:
+            stored = db.done()
+            for (ii, jj), job in jobs.items():
+                for n in ns:
+                    for r in range(reps):
+                        got = stored.get((job.label, job.integrand.name, n, r))
+                        if got is not None:
+                            results[ii, jj, n, r] = got
+        # units: blocks of repetitions -- enough to balance the workers, small enough to resume
+        # finely, few enough to keep the per-unit overhead low; the numbers do not depend on them
+        tasks = []
+        for (ii, jj), job in jobs.items():
+            for n in ns:
+                todo = [r for r in range(reps) if (ii, jj, n, r) not in results]
+                per = max(1, min(reps if parallel == 1 else -(-reps // (4 * parallel)), UNIT_SAMPLES // n))
+                for lo in range(0, len(todo), per):
+                    key = (0 if crn else keys[ii], stable_index(job.integrand.name), n)
+                    tasks.append(((ii, jj), key, n, tuple(todo[lo:lo + per])))
 
-    total = len(jobs) * len(ns) * reps
-    bar = ProgressBar(total) if progress is True else None
+        total = len(jobs) * len(ns) * reps
+        bar = ProgressBar(total, disable=None) if progress is True else None   # quiet off a terminal
 
-    def tick(k):
-        if bar is not None:
-            bar.update(k)
-        elif callable(progress):
-            tick.done += k
-            progress(tick.done, total)
-    tick.done = 0
+        def tick(k):
+            if bar is not None:
+                bar.update(k)
+            elif callable(progress):
+                tick.done += k
+                progress(tick.done, total)
+        tick.done = 0
+        if results:
+            tick(len(results))
 
-    results: dict[tuple, list] = {}
-    if workers == 1 or len(tasks) <= 1:
-        for tid, job, key, n, rr in tasks:
-            results[tid] = _run_block((job, seed_state, key, n, rr, chunk))
+        def unit(t):
+            ij, key, n, rr = t
+            return (jobs[ij] if serial else wire[ij], seed_state, key, n, rr, chunk),
+
+        fn = _run_block_own if pool is None and workers > 1 and len(tasks) > 1 else _run_block
+        # units in flight: a few per worker; more on an executor, to hide its round trip (~ms)
+        for i, out in run_units(fn, [unit(t) for t in tasks], workers=workers, executor=pool,
+                                window=max(8, 4 * parallel) if pool is None else max(32, 8 * parallel)):
+            (ii, jj), _, n, rr = tasks[i]
+            for r, res in zip(rr, out):
+                results[ii, jj, n, r] = res
+            if db is not None:
+                job = jobs[ii, jj]
+                db.add([(job.label, job.integrand.name, n, r, res) for r, res in zip(rr, out)])
             tick(len(rr))
-    else:
-        wire = {}
-        for tid, job, *_ in tasks:
-            if id(job) not in wire:
-                wire[id(job)] = (job.label, job.est_spec, job.int_spec)
-                try:
-                    pickle.dumps(wire[id(job)])
-                except (pickle.PicklingError, AttributeError, TypeError) as exc:
-                    raise TypeError(f"workers > 1: cannot send {job.label!r} on {job.integrand.name!r} to a worker "
-                                    f"process ({exc}); use recipe and catalogue names, picklable objects "
-                                    "(module-level functions, no lambdas), or workers=1") from None
-        with ProcessPoolExecutor(max_workers=min(workers, len(tasks))) as pool:
-            futures = {pool.submit(_run_block, (wire[id(job)], seed_state, key, n, rr, chunk)): (tid, len(rr))
-                       for tid, job, key, n, rr in tasks}
-            for fut in as_completed(futures):
-                tid, k = futures[fut]
-                results[tid] = fut.result()
-                tick(k)
+    finally:
+        if bar is not None:
+            bar.close()
+        if db is not None:
+            db.close()
 
     rows = []
-    for tid, job, key, n, rr in tasks:
+    for (ii, jj), job in jobs.items():
         meta = _meta(job)
         exact = meta.pop("exact")
-        for r, (value, stderr, seconds, n_evals, n_units) in zip(rr, results[tid]):
-            rows.append({"estimator": job.label, "integrand": job.integrand.name, "n": n, "rep": r,
-                         "value": value, "stderr": stderr, "exact": exact, "error": value - exact,
-                         "seconds": seconds, "n_evals": n_evals, "n_units": n_units, **meta})
+        for n in ns:
+            for r in range(reps):
+                value, stderr, seconds, n_evals, n_units = results[ii, jj, n, r]
+                rows.append({"estimator": job.label, "integrand": job.integrand.name, "n": n, "rep": r,
+                             "value": value, "stderr": stderr, "exact": exact, "error": value - exact,
+                             "seconds": seconds, "n_evals": n_evals, "n_units": n_units, **meta})
     df = pd.DataFrame(rows, columns=None if rows else CORE_COLUMNS)
     df.attrs.update({"entropy": root.entropy, "spawn_key": tuple(root.spawn_key), "crn": crn,
                      "skipped": skipped})
     return df
+
+
+def _parallelism(pool) -> int:
+    """How many units an executor runs at once: a Dask client's worker threads, a pool's
+    processes (at least 1)."""
+    client = getattr(pool, "_client", None)
+    if client is not None and callable(getattr(client, "nthreads", None)):
+        try:
+            return max(1, sum(client.nthreads().values()))
+        except Exception:   # noqa: BLE001 - a scheduler that does not answer: plan for one
+            return 1
+    return max(1, int(getattr(pool, "_max_workers", 1) or 1))
+
+
+def _wire_specs(jobs: dict, executor) -> dict:
+    """What a unit sends of its job: (label, estimator spec, integrand spec), checked picklable
+    (by cloudpickle for Dask, which ships lambdas; by pickle for process pools)."""
+    dask = executor is not None and type(executor).__module__.startswith("distributed")
+    if dask:
+        import cloudpickle
+        dumps = cloudpickle.dumps
+    else:
+        dumps = pickle.dumps
+    wire = {}
+    for ij, job in jobs.items():
+        wire[ij] = (job.label, job.est_spec, job.int_spec)
+        try:
+            dumps(wire[ij])
+        except (pickle.PicklingError, AttributeError, TypeError) as exc:
+            raise TypeError(f"workers > 1: cannot send {job.label!r} on {job.integrand.name!r} to a worker "
+                            f"process ({exc}); use recipe and catalogue names, picklable objects "
+                            "(module-level functions, no lambdas), or workers=1") from None
+    return wire
 
 
 def _sample_counts(ns) -> list[int]:

@@ -1,0 +1,196 @@
+"""``vrlab render SCENE --gradient-domain``: the primal image and its CRN gradients
+(:func:`vrlab.render.render_gradient_domain`), then a screened Poisson reconstruction
+(:func:`vrlab.render.screened_poisson`, ``--reconstruct l2|l1``, ``--alpha``).
+
+The scene, ``--spp``, ``--strategy``, ``--pixel-sampler``, ``--seed``, ``--workers``,
+``--light-selection``, ``--emitter-samples``/``--bsdf-samples``/``--ris-candidates``,
+``--width``/``--height``, ``--exposure``, ``--reference`` and ``--stderr-out`` (the
+primal's standard error) mean what they mean for a plain render and are checked by
+:func:`vrlab.cli_render.check_render`.  ``--independent`` gives the neighbours their own
+uniforms (``common=False``, the baseline without common random numbers).
+
+With ``-o OUT.EXT`` (.npy, .png or .exr) the files are, next to ``OUT``:
+
+* ``OUT.EXT``: the reconstruction chosen by ``--reconstruct`` (default l2);
+* ``OUT_primal.EXT``: the primal image;
+* ``OUT_dx.EXT``, ``OUT_dy.EXT``: ``|dx|`` and ``|dy|`` per channel, ``dx`` (H, W-1) padded
+  with a zero last column and ``dy`` (H-1, W) with a zero last row to the image's (H, W);
+* ``OUT_panels.png``: primal | ``|dx| + |dy|`` | L1 | L2 | reference (with ``--reference``),
+  each labelled, with ``relMSE = mean((img-ref)^2/(ref^2+0.01))`` under the images when a
+  reference is given.  L1 and L2 are both computed for it whatever ``--reconstruct`` says.
+
+Checked before rendering, usage errors (exit status 2): ``--reconstruct`` (argparse
+choice), ``--alpha`` a finite real > 0 whose square is finite and non-zero, the spp
+(given or the scene's) >= 2, ``--compare``/``--equal-time`` (they do not apply), and
+``--reconstruct``/``--alpha``/``--independent`` without ``--gradient-domain``; the
+derived file names must not clash with ``--stderr-out``.  Failures (exit status 1):
+a derived file that is a folder or not writable.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from . import cli_args as A
+
+DEFAULTS = {"reconstruct": "l2", "alpha": "0.2"}
+NORMS = ("l2", "l1")
+#: flags of vrlab render that do not go with --gradient-domain (dest -> flag)
+NOT_WITH_GRADIENT = {"compare": "--compare", "equal_time": "--equal-time"}
+#: flags that only mean something with --gradient-domain (dest -> flag)
+NEED_GRADIENT = {"reconstruct": "--reconstruct", "alpha": "--alpha", "independent": "--independent"}
+#: the files written next to -o OUT.EXT: key in the JSON -> file name suffix
+SIDE_FILES = {"primal_output": "_primal", "dx_output": "_dx", "dy_output": "_dy"}
+
+
+def _side(path: Path, tag: str, suffix: str | None = None) -> Path:
+    return path.with_name(f"{path.stem}{tag}{path.suffix if suffix is None else suffix}")
+
+
+def check_gradient(args: argparse.Namespace) -> dict:
+    """The settings of ``--gradient-domain`` (see the module docstring) on top of
+    :func:`vrlab.cli_render.check_render`'s; raises UsageError / Failure before any work."""
+    def given(key):
+        return getattr(args, key) not in (None, False)
+
+    if not args.gradient_domain:
+        for key, flag in NEED_GRADIENT.items():
+            if given(key):
+                raise A.UsageError(f"{flag} needs --gradient-domain")
+    for key, flag in NOT_WITH_GRADIENT.items():
+        if given(key):
+            raise A.UsageError(f"{flag} does not apply with --gradient-domain (it renders one image and "
+                               "its gradients; the panels figure OUT_panels.png compares primal, L1 and L2)")
+    if given("scheduler"):
+        raise A.UsageError("--scheduler does not apply with --gradient-domain yet (use --workers; "
+                           "vrlab.render.render_gradient_domain(executor=client) in Python)")
+    for key, value in DEFAULTS.items():
+        if getattr(args, key) is None:
+            setattr(args, key, value)
+    alpha = A.real(args.alpha, "--alpha", low=0, low_open=True)
+    if not 0.0 < alpha * alpha < float("inf"):
+        raise A.UsageError(f"--alpha must have a finite, non-zero square, got {alpha:g}")
+    from .cli_render import check_render
+
+    p = check_render(args)
+    if p["spp"] < 2:
+        given = "" if args.spp is not None else " (the scene's spp; give --spp 2 or more)"
+        raise A.UsageError(f"--spp: --gradient-domain needs spp >= 2 (gradients need a standard error per "
+                           f"pixel), got {p['spp']}{given}")
+    p.update(alpha=alpha, norm=args.reconstruct, common=not args.independent, files={})
+    out = p["output"]
+    if out is not None:
+        files = {key: _side(out, tag) for key, tag in SIDE_FILES.items()}
+        files["figure"] = _side(out, "_panels", ".png")
+        for key, path in files.items():
+            A.output_file(str(path), "-o/--output", (path.suffix.lower(),))
+        A.distinct({"-o/--output": out, **{f"-o/--output ({path.name})": path for path in files.values()},
+                    "--stderr-out": p["stderr_out"]})
+        p["files"] = files
+    return p
+
+
+def _magnitude(diff, shape: tuple):
+    """``|diff|`` per channel, padded with zeros to ``shape`` (a last column or row)."""
+    import numpy as np
+
+    out = np.zeros(shape, np.float32)
+    out[: diff.shape[0], : diff.shape[1]] = np.abs(diff)
+    return out
+
+
+def panels_figure(panels: list[tuple[str, object, float | None]], path: Path, *, title: str,
+                  exposure: float) -> Path:
+    """Images side by side (matplotlib, Agg), as :func:`vrlab.render.compare.compare_figure`
+    draws them: ``(label, linear image, relMSE or None)`` each, tone mapped with ``exposure``."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from .render.image import srgb_encode
+
+    h, w, _ = np.shape(panels[0][1])
+    fig = Figure(figsize=(3.2 * len(panels), 3.2 * h / w + 1.2))
+    FigureCanvasAgg(fig)
+    for k, (label, img, err) in enumerate(panels):
+        ax = fig.add_subplot(1, len(panels), k + 1)
+        ax.imshow(srgb_encode(np.nan_to_num(np.asarray(img, float)) * exposure))
+        ax.set_xticks([]), ax.set_yticks([])
+        ax.set_xlabel(label if err is None else f"{label}\nrelMSE = {err:.3g}", fontsize=9)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def run_gradient(args: argparse.Namespace) -> int:
+    """``vrlab render ... --gradient-domain``: check, render, reconstruct, write, report."""
+    p = check_gradient(args)
+    import numpy as np
+
+    from .render import render_gradient_domain
+    from .render.image import rel_mse, save_image
+
+    scene = p["scene"]
+    if p["workers"] is None:
+        from .render.film import default_workers
+        p["workers"] = default_workers()
+    show = args.progress if args.progress is not None else sys.stderr.isatty()
+    bars = []
+
+    def progress(done, total):
+        if not bars:
+            from .lab.progress import ProgressBar
+            bars.append(ProgressBar(total, label="gradient-domain", disable=False))
+        bars[0].update(done - bars[0].done)
+
+    t0 = time.perf_counter()
+    gd = render_gradient_domain(scene, p["spp"], args.strategy, rng=p["seed"], points=None if args.pixel_sampler
+                                == "independent" else args.pixel_sampler, workers=p["workers"], common=p["common"],
+                                light_selection=args.light_selection, emitter_samples=p["emitter_samples"],
+                                bsdf_samples=p["bsdf_samples"], ris_candidates=p["ris_candidates"],
+                                progress=progress if show else None, spp_batch=p["spp_batch"],
+                                checkpoint=p["checkpoint"])
+    seconds = time.perf_counter() - t0
+    primal = gd.primal.value
+    bad = int(np.count_nonzero(~np.isfinite(primal)))
+    if bad:
+        import warnings
+        warnings.warn(f"the primal image has {bad} non-finite values (NaN or inf)", RuntimeWarning, stacklevel=1)
+    both = p["output"] is not None or p["reference"] is not None
+    t1 = time.perf_counter()
+    recon = {norm: gd.reconstruct(p["alpha"], norm) for norm in (NORMS if both else (p["norm"],))}
+    h, w = scene.sensor.height, scene.sensor.width
+    out = {"scene": str(p["path"]), "strategy": args.strategy, "spp": p["spp"], "workers": p["workers"],
+           "width": w, "height": h, "common": p["common"], "alpha": p["alpha"], "reconstruct": p["norm"],
+           "seconds": seconds, "reconstruct_seconds": time.perf_counter() - t1}
+    if p["reference"] is not None:
+        out["rel_mse"] = {"primal": rel_mse(primal, p["reference"]),
+                          **{norm: rel_mse(recon[norm], p["reference"]) for norm in ("l2", "l1")}}
+    if p["output"] is not None:
+        files, exposure = p["files"], p["exposure"]
+        dx, dy = _magnitude(gd.dx.value, (h, w, 3)), _magnitude(gd.dy.value, (h, w, 3))
+        out["output"] = str(save_image(p["output"], recon[p["norm"]], exposure))
+        for key, img in (("primal_output", primal), ("dx_output", dx), ("dy_output", dy)):
+            out[key] = str(save_image(files[key], img, exposure))
+        err = out.get("rel_mse", {})
+        panels = [("primal", primal, err.get("primal")), ("|dx| + |dy|", dx + dy, None),
+                  (f"L1, alpha = {p['alpha']:g}", recon["l1"], err.get("l1")),
+                  (f"L2, alpha = {p['alpha']:g}", recon["l2"], err.get("l2"))]
+        if p["reference"] is not None:
+            panels.append(("reference", p["reference"], None))
+        kind = "common random numbers" if p["common"] else "independent neighbours"
+        title = f"{p['path'].stem}: gradient-domain, {args.strategy}, {p['spp']} spp, {kind}"
+        out["figure"] = str(panels_figure(panels, files["figure"], title=title, exposure=exposure))
+    if p["stderr_out"] is not None:
+        out["stderr_output"] = str(save_image(p["stderr_out"], gd.primal.stderr))
+    if args.json:
+        print(json.dumps(out, indent=2))
+    else:
+        flat = {**{k: v for k, v in out.items() if k != "rel_mse"},
+                **{f"rel_mse_{k}": v for k, v in out.get("rel_mse", {}).items()}}
+        print("  ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in flat.items()))
+    return 0
