@@ -418,7 +418,7 @@ def test_render_bad_argument(raises_naming, name, value, exc):
     (dict(estimator="light", emitter_samples=0), "emitter_samples"),
     (dict(emitter_samples=0, bsdf_samples=0), "bsdf_samples"),
     (dict(points=Sobol(2)), "points"),                   # an engine of another dimension than the pixel's
-    (dict(chunk_pixels=1000, spp=100000), "chunk_pixels")])
+    (dict(chunk_pixels=1000, spp=100000, spp_batch=100000), "chunk_pixels")])
 def test_render_bad_combination(raises_naming, kw, name):
     with raises_naming(ValueError, name):
         render(tiny(), **{"spp": 1, **kw})

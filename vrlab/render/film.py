@@ -48,7 +48,7 @@ _RAYS_PER_CHUNK = 5 << 14    # block size budget (1024 pixels x 64 spp of mis-po
 #: one pixel's block (spp x (rays + uniforms/4) per sample) may be at most 32 default blocks (~1 GB)
 MAX_PIXEL_WORK = 32 * 4 * _RAYS_PER_CHUNK
 SPP_BATCH = 64               # samples per pixel of one work unit (a batch); more spp: more batches
-MAX_SPP = 1 << 40
+MAX_SPP = 1 << 24              # samples per pixel of one render (16.7 M: days of work on a large image)
 
 
 def _as_scene(scene: Any) -> Scene:
