@@ -25,12 +25,12 @@ import json
 import warnings
 
 from . import cli_args as A
+from .cli_args import SCHEDULER_TIMEOUT, connect_scheduler, scheduler_address  # noqa: F401
 
 N_MAX = 2**30
 REPS_MAX = 10**6
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 PREFLIGHT_MAX = 2**16        # the trial estimate is skipped above this n (it would cost real time)
-SCHEDULER_TIMEOUT = 10.0     # seconds to reach a Dask scheduler (--scheduler)
 
 
 def add_parser(sub, **kw) -> argparse.ArgumentParser:
@@ -211,60 +211,6 @@ def _progress(flag):
             bar.append(ProgressBar(total))
         bar[0].update(done - bar[0].done)
     return show
-
-
-def scheduler_address(text: str | None, flag: str = "--scheduler") -> str | None:
-    """A Dask scheduler address (``tcp://HOST:PORT``, ``HOST:PORT``, another Dask scheme),
-    checked for form; ``UsageError`` if it is malformed or Dask is not installed."""
-    if text is None:
-        return None
-    if not isinstance(text, str) or not text.strip():
-        raise A.UsageError(f"{flag} must not be empty (give e.g. tcp://127.0.0.1:8786)")
-    text = text.strip()
-    try:
-        from distributed.comm.addressing import parse_address, parse_host_port
-        from distributed.comm.registry import backends
-    except ImportError:
-        raise A.UsageError(f"{flag} needs dask.distributed: pip install 'vrlab[distributed]'") from None
-    try:
-        scheme, loc = parse_address(text)
-        if scheme not in backends:
-            raise ValueError(f"unknown scheme {scheme!r}; Dask knows {', '.join(sorted(backends))}")
-        if scheme != "inproc":
-            parse_host_port(loc)
-    except (ValueError, TypeError) as exc:
-        raise A.UsageError(f"{flag}: {text!r} is not a scheduler address ({exc}); give e.g. "
-                           "tcp://127.0.0.1:8786") from None
-    return text
-
-
-@contextlib.contextmanager
-def connect_scheduler(address: str, flag: str = "--scheduler", timeout: float | None = None):
-    """A ``distributed.Client`` on the scheduler at ``address``, closed at the end (the
-    scheduler and its workers keep running); ``Failure`` naming ``flag`` if it cannot be
-    reached within ``timeout`` seconds (default ``SCHEDULER_TIMEOUT``)."""
-    import socket
-
-    from distributed import Client
-    from distributed.comm.addressing import parse_address, parse_host_port
-
-    timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
-    scheme, loc = parse_address(address)
-    if scheme in ("tcp", "tls"):            # probe first: a failed Client leaves noise at exit
-        host, port = parse_host_port(loc)
-        try:
-            socket.create_connection((host, port), timeout=timeout).close()
-        except OSError as exc:
-            raise A.Failure(f"{flag}: cannot reach a Dask scheduler at {address!r} "
-                            f"({exc.strerror or exc})") from None
-    try:
-        client = Client(address, timeout=timeout, set_as_default=False)
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise A.Failure(f"{flag}: cannot connect to a Dask scheduler at {address!r} ({exc})") from None
-    try:
-        yield client
-    finally:
-        client.close()
 
 
 def _records(df) -> list[dict]:

@@ -240,9 +240,7 @@ def check_render(args: argparse.Namespace) -> dict:
     p["checkpoint"] = A.output_file(args.checkpoint, "--checkpoint", (".npz",))
     p["spp_batch"] = A.integer(args.spp_batch, "--spp-batch", low=1, high=SPP_MAX)
     A.distinct({"-o/--output": p["output"], "--stderr-out": p["stderr_out"], "--checkpoint": p["checkpoint"]})
-    from .cli_lab import scheduler_address
-
-    p["scheduler"] = scheduler_address(args.scheduler)
+    p["scheduler"] = A.scheduler_address(args.scheduler)
     if p["scheduler"] is not None and p["workers"] not in (None, 1):
         raise A.UsageError("--scheduler and --workers do not go together: the scheduler's workers render the "
                            "units (leave out --workers)")
@@ -372,9 +370,7 @@ def run_render(args: argparse.Namespace) -> int:
     with contextlib.ExitStack() as stack:
         client = None
         if p["scheduler"] is not None:
-            from .cli_lab import connect_scheduler
-
-            client = stack.enter_context(connect_scheduler(p["scheduler"]))
+            client = stack.enter_context(A.connect_scheduler(p["scheduler"]))
         try:
             est = render(scene, p["spp"], args.strategy, rng=p["seed"], points=_points(args.pixel_sampler),
                          light_selection=args.light_selection, emitter_samples=p["emitter_samples"],
