@@ -48,6 +48,7 @@ _RAYS_PER_CHUNK = 5 << 14    # block size budget (1024 pixels x 64 spp of mis-po
 #: one pixel's block (spp x (rays + uniforms/4) per sample) may be at most 32 default blocks (~1 GB)
 MAX_PIXEL_WORK = 32 * 4 * _RAYS_PER_CHUNK
 SPP_BATCH = 64               # samples per pixel of one work unit (a batch); more spp: more batches
+TASKS_PER_WORKER = 4         # tasks (groups of tiles) per worker process and batch: balances the load
 MAX_SPP = 1 << 24              # samples per pixel of one render (16.7 M: days of work on a large image)
 
 
@@ -83,8 +84,8 @@ def _concat(stats: list):
 
 
 class _Job:
-    """Everything a process needs to render units; pickled to workers without the built
-    integrand (each process builds it once per task from the scene).
+    """Everything a process needs to render units, pickled to workers with the built
+    integrand (13-110 KB for the built-in scenes: cheaper to unpickle than to rebuild).
 
     A unit is (tile t, spp batch k): the tile's pixels with samples [k B, (k + 1) B) of each
     (B = ``batch``), uniforms from the unit's own stream, child (t + 1, k) of the root seed.
@@ -102,8 +103,6 @@ class _Job:
         self.width, self.n_pixels = scene.sensor.width, scene.sensor.width * scene.sensor.height
         self._integrand = integrand
 
-    def __getstate__(self) -> dict:
-        return {**self.__dict__, "_integrand": None}
 
     @property
     def integrand(self) -> PixelIntegrand:
@@ -182,7 +181,7 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     otherwise).  ``rng`` seeds everything (see the module docstring); ``workers``
     processes render tiles in parallel with the same result (None: :func:`default_workers`);
     ``executor``: a ``concurrent.futures.Executor`` of the caller's (e.g. a process pool
-    with the spawn start method) to run the tiles on instead, in 2 x ``workers`` tasks,
+    with the spawn start method) to run the tiles on instead, in about 4 x ``workers`` tasks per batch,
     also with the same result;
     ``progress(done_pixels, total)`` is called after each tile; ``light_selection``:
     ``"uniform"`` or ``"power"``.  ``spp_batch``: samples per pixel of one work unit
@@ -290,21 +289,23 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     total, done = job.n_pixels * job.n_batches, min(start, job.n_batches) * job.n_pixels
     # allocator tuning only in the local pool's processes, which vrlab starts and owns
     fn = _units_in_own_worker if executor is None and workers > 1 else _units
-    groups = len(tiles) if workers == 1 and executor is None else 2 * workers
-    for k in range(start, job.n_batches):
-        units = [(t, k) for t in tiles]
-        new: dict = {}
-        for _, res in run_units(fn, [(job, units[i::groups]) for i in range(min(groups, len(units)))],
-                                workers=workers, executor=executor):
-            for t, _, st in res:
-                new[t] = st
-                done += min((t + 1) * TILE_PIXELS, job.n_pixels) - t * TILE_PIXELS
-                if progress is not None:
-                    progress(done, total)
-        for t in tiles:                     # merge in batch order: the same bytes however units ran
-            stats[t] = new[t] if t not in stats else tuple(a.merge(b) for a, b in zip(stats[t], new[t]))
-        if path is not None:
-            save_checkpoint(path, digest, job.spp, job.batch, k + 1, stats)
+    # one task per tile in this process; else about 4 tasks per worker and batch (one pool for all batches)
+    groups = len(tiles) if workers == 1 and executor is None else min(len(tiles), TASKS_PER_WORKER * workers)
+    tasks = [(job, [(t, k) for t in tiles[i::groups]]) for k in range(start, job.n_batches) for i in range(groups)]
+    new: dict = {}                          # batch -> {tile: statistics}, until the batch is merged
+    k = start
+    for _, res in run_units(fn, tasks, workers=workers, executor=executor):
+        for t, b, st in res:
+            new.setdefault(b, {})[t] = st
+            done += min((t + 1) * TILE_PIXELS, job.n_pixels) - t * TILE_PIXELS
+            if progress is not None:
+                progress(done, total)
+        while len(new.get(k, ())) == len(tiles):   # merge whole batches in batch order: the same bytes
+            for t, st in new.pop(k).items():        # however units ran
+                stats[t] = st if t not in stats else tuple(a.merge(b) for a, b in zip(stats[t], st))
+            k += 1
+            if path is not None:
+                save_checkpoint(path, digest, job.spp, job.batch, k, stats)
     height, width = job.scene.sensor.height, job.scene.sensor.width
     out = []
     for i in range(len(job.estimates)):

@@ -114,14 +114,16 @@ class PixelIntegrand:
         shape = np.maximum(hits.shape, 0)
         group = np.where((hits.shape >= 0) & lit.shaded[shape], lit.group_of_shape[shape], -1)
         counts = np.bincount(group + 1, minlength=len(lit.bsdfs) + 1)[1:]
-        ue = u.reshape(P * S, self.dim)[:, 2:]                          # a view: rows are gathered below
+        u2 = u.reshape(P * S, self.dim)
+        ue = u2[:, 2:]                                   # a view (whole rows are gathered below: 5x faster)
         out = None
         for g in np.flatnonzero(counts):
             if counts[g] == len(o):                                       # one group everywhere: no gathers
                 rows, p, n, wo, ug = slice(None), hits.p, hits.n, -d, ue
             else:
                 rows = np.flatnonzero(group == g)
-                p, n, wo, ug = (np.take(a, rows, axis=0) for a in (hits.p, hits.n, d, ue))
+                p, n, wo, ug = (np.take(a, rows, axis=0) for a in (hits.p, hits.n, d, u2))
+                ug = ug[:, 2:]
                 wo = np.negative(wo, out=wo)
             sh = self.shading(g, p, n, wo)
             ug = ug.reshape(len(ug), self.units, self.unit_dim)
