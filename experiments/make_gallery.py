@@ -1,6 +1,6 @@
 """Build the README gallery: one key figure per experiment script, copied to ``docs/gallery/``.
 
-For every entry of ``GALLERY`` whose script exists in ``experiments/``, run its
+For every entry of ``GALLERY`` whose module exists in ``vrlab/experiments/``, run its
 ``main(tmp_dir / name, full=...)``, take the chosen PNG from what it wrote, shrink it if it is
 over ``MAX_BYTES`` (Pillow, which matplotlib already depends on) and save it as
 ``docs/gallery/<name>.png``.
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-EXPERIMENTS = ROOT / "experiments"
+EXPERIMENTS = ROOT / "vrlab" / "experiments"
 GALLERY_DIR = ROOT / "docs" / "gallery"
 README = ROOT / "README.md"
 START, END = "<!-- gallery:start -->", "<!-- gallery:end -->"
@@ -39,9 +39,9 @@ MAX_WIDTH = 1200        # pixels; wider figures are downscaled
 
 @dataclass(frozen=True)
 class Entry:
-    script: str          # experiments/<script>.py
+    script: str          # vrlab/experiments/<script>.py
     png: str | None      # file written by that script's main(); None: not chosen yet
-    notebook: str        # notebooks/<notebook>.ipynb (may not exist yet)
+    notebook: str        # vrlab/notebooks/<notebook>.ipynb (may not exist yet)
     title: str
     caption: str
 
@@ -130,9 +130,7 @@ def caption(entry: Entry) -> str:
 
 
 def load(name: str):
-    spec = importlib.util.spec_from_file_location(f"experiments_{name}", EXPERIMENTS / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = importlib.import_module(f"vrlab.experiments.{name}")
     return module
 
 
@@ -162,7 +160,7 @@ def shrink_png(src: Path, dst: Path, max_bytes: int = MAX_BYTES, max_width: int 
 
 def build_one(entry: Entry, tmp: Path, full: bool) -> Path | None:
     if not script_path(entry).exists():
-        print(f"skip {entry.script}: experiments/{entry.script}.py does not exist yet")
+        print(f"skip {entry.script}: vrlab/experiments/{entry.script}.py does not exist yet")
         return None
     print(f"run {entry.script} ...", flush=True)
     module = load(entry.script)
@@ -197,10 +195,10 @@ def section_lines() -> list[str]:
         if not path.exists():
             continue
         rel = path.relative_to(ROOT).as_posix()
-        nb = ROOT / "notebooks" / f"{e.notebook}.ipynb"
-        src = f"[`experiments/{e.script}.py`](experiments/{e.script}.py)"
+        nb = ROOT / "vrlab" / "notebooks" / f"{e.notebook}.ipynb"
+        src = f"[`vrlab/experiments/{e.script}.py`](vrlab/experiments/{e.script}.py)"
         if nb.exists():
-            src += f"<br>[`notebooks/{e.notebook}.ipynb`](notebooks/{e.notebook}.ipynb)"
+            src += f"<br>[`vrlab/notebooks/{e.notebook}.ipynb`](vrlab/notebooks/{e.notebook}.ipynb)"
         img = f'<a href="{rel}"><img src="{rel}" width="360" alt="{e.title}"></a>'
         rows.append(f"| {img} | **{e.title}.** {caption(e)} | {src} |")
     return [

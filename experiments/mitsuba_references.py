@@ -5,8 +5,8 @@ aborts on this machine's system LLVM 14/15 with "Cannot select ... fmaximum") an
 ``direct`` integrator, at a small resolution override and high spp split into ``K``
 independent batches (sampler seeds 0..K-1).  Stores, per scene,
 
-    tests/data/mitsuba/<scene>_mean.npy     float32 (H, W, 3)  mean of the K batch means
-    tests/data/mitsuba/<scene>_stderr.npy   float32 (H, W, 3)  std(batch means, ddof=1)/sqrt(K)
+    vrlab/render/scenes/mitsuba/<scene>_mean.npy     float32 (H, W, 3)  mean of the K batch means
+    vrlab/render/scenes/mitsuba/<scene>_stderr.npy   float32 (H, W, 3)  std(batch means, ddof=1)/sqrt(K)
 
 Only two in-memory edits are made to each XML (the file on disk is not touched):
 
@@ -38,7 +38,7 @@ import numpy as np
 
 SCENES = ("furnace", "cornell_box", "veach_mis", "many_lights")
 SCENE_DIR = Path(__file__).resolve().parents[1] / "vrlab" / "render" / "scenes"
-OUT_DIR = Path(__file__).resolve().parents[1] / "tests" / "data" / "mitsuba"
+OUT_DIR = Path(__file__).resolve().parents[1] / "vrlab" / "render" / "scenes" / "mitsuba"
 
 
 def scene_xml(name: str, width: int, height: int, black_emitters: bool = True) -> str:

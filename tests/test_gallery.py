@@ -74,7 +74,7 @@ def test_gallery_entry_names_a_figure_its_script_writes(entry):
     shown = gallery.gallery_path(entry).exists()
     if not script.exists():
         assert not shown, f"docs/gallery has a figure for {entry.script} but no script"
-        pytest.skip(f"experiments/{entry.script}.py not written yet")
+        pytest.skip(f"vrlab/experiments/{entry.script}.py not written yet")
     assert entry.caption and entry.title
     if entry.png is None:
         pytest.skip(f"no figure chosen for {entry.script} yet")

@@ -32,7 +32,7 @@ def exact_box(sc, k: int = 16) -> np.ndarray:
 
 
 BOX = exact_box(SC)
-DATA = Path(__file__).parent / "data" / "mitsuba"
+DATA = Path(__file__).resolve().parents[1] / "vrlab" / "render" / "scenes" / "mitsuba"
 
 
 @pytest.fixture(scope="module")

@@ -1,8 +1,8 @@
 """vrlab's direct-lighting renderer agrees with Mitsuba 3 on the built-in scenes.
 
-The references in ``tests/data/mitsuba`` were rendered by Mitsuba 3's ``direct``
+The references in ``vrlab/render/scenes/mitsuba`` were rendered by Mitsuba 3's ``direct``
 integrator from the same XML files (see ``experiments/mitsuba_references.py`` and
-``tests/data/mitsuba/README.md``); Mitsuba itself is not needed here.  Each scene is
+``vrlab/render/scenes/mitsuba/README.md``); Mitsuba itself is not needed here.  Each scene is
 rendered with vrlab at the references' resolution and compared
 
 * per pixel and channel (or per ``block x block`` pixel block for the slow, heavy-tailed
@@ -25,10 +25,10 @@ from scipy import stats
 from conftest import render_pair
 from vrlab.render import builtin_scene_path, load_scene
 
-DATA = Path(__file__).parent / "data" / "mitsuba"
+DATA = Path(__file__).resolve().parents[1] / "vrlab" / "render" / "scenes" / "mitsuba"
 ALPHA = 1e-3                       # family-wise error rate of each check
 FLOAT_RTOL = 1e-5                  # relative float32 accumulation error allowed
-MITSUBA_SPP = 16384                # 32 batches x 512 spp (tests/data/mitsuba/README.md)
+MITSUBA_SPP = 16384                # 32 batches x 512 spp (vrlab/render/scenes/mitsuba/README.md)
 
 # scene -> (vrlab spp, block size of the per-region z-test, bound on |mean difference| in
 # standard errors, marks).  many_lights (128 small lights of radiance up to 1000, uniform

@@ -1,29 +1,28 @@
 """The lecture notebooks and their experiment scripts run end to end.
 
-Every notebook in ``notebooks/`` is executed with nbclient (each ends with an ``assert``
-that a measured quantity agrees with theory); every ``experiments/<name>.py`` that a
-notebook uses writes its CSV tables and PNG figures through ``main(out)``.
+Every notebook in ``vrlab/notebooks/`` is executed with nbclient (each ends with an
+``assert`` that a measured quantity agrees with theory), from a copy made by ``vrlab
+notebooks`` in a folder outside the checkout, so it imports the package as an installed user
+has it; every module of :mod:`vrlab.experiments` writes its CSV tables and PNG figures
+through ``main(out)``.
 """
 from __future__ import annotations
 
-import importlib.util
-import os
+import importlib
 from pathlib import Path
 
 import pytest
 
+from conftest import run_cli
+from vrlab.experiments import NAMES as SCRIPTS
+from vrlab.experiments import export_notebooks, list_notebooks
+
 ROOT = Path(__file__).resolve().parents[1]
-NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
-SCRIPTS = ["importance_sampling", "control_variates", "discrete_sampling", "metropolis_hastings",
-           "cosine_sampling", "mis", "antithetic_crn", "sampling_patterns", "light_surfaces", "ris",
-           "gradient_domain"]
+NOTEBOOKS = sorted((ROOT / "vrlab" / "notebooks").glob("*.ipynb"))
 
 
 def _load(name: str):
-    spec = importlib.util.spec_from_file_location(f"experiments_{name}", ROOT / "experiments" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return importlib.import_module(f"vrlab.experiments.{name}")
 
 
 @pytest.mark.parametrize("name", SCRIPTS)
@@ -41,7 +40,9 @@ def test_every_experiment_has_a_notebook():
     assert len(NOTEBOOKS) >= len(SCRIPTS)
     text = "".join(nb.read_text() for nb in NOTEBOOKS)
     for name in SCRIPTS:
-        assert f"import {name}" in text, name
+        assert f"from vrlab.experiments import {name}" in text, name
+    assert "sys.path" not in text, "notebooks import the installed package, not a checkout"
+    assert [p.name for p in NOTEBOOKS] == list_notebooks()
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
@@ -53,11 +54,41 @@ def test_notebook_executes(path, tmp_path, monkeypatch):
     assert all(not c.get("outputs") for c in nb.cells if c.cell_type == "code"), "commit notebooks without outputs"
     last = [c for c in nb.cells if c.cell_type == "code"][-1]
     assert "assert" in last.source, "a notebook must end with an assert against theory"
-    # the kernel inherits the environment: outputs go to tmp, vrlab and experiments/ are importable
-    monkeypatch.setenv("VRLAB_ROOT", str(ROOT))
-    monkeypatch.setenv("VRLAB_NB_OUT", str(tmp_path))
+    # a copy outside the checkout, as `vrlab notebooks FOLDER` makes it; outputs beside it
+    (copy,) = [p for p in export_notebooks(tmp_path / "nb") if p.name == path.name]
+    monkeypatch.setenv("VRLAB_NB_OUT", str(tmp_path / "out"))
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
-    client = nbclient.NotebookClient(nb, timeout=120, kernel_name="python3",
-                                     resources={"metadata": {"path": str(tmp_path)}})
+    client = nbclient.NotebookClient(nbformat.read(copy, as_version=4), timeout=120, kernel_name="python3",
+                                     resources={"metadata": {"path": str(copy.parent)}})
     client.execute()
+
+
+def test_package_data_ships_every_data_file():
+    """A non-editable install carries the notebooks, the scenes and the Mitsuba references:
+    every file under vrlab/ that is not Python source matches a package-data pattern."""
+    import fnmatch
+    import tomllib
+
+    patterns = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["vrlab"]
+    package = ROOT / "vrlab"
+    data = [p.relative_to(package).as_posix() for p in package.rglob("*")
+            if p.is_file() and p.suffix not in (".py", ".pyc") and "__pycache__" not in p.parts]
+    assert len([d for d in data if d.endswith(".ipynb")]) == len(NOTEBOOKS) >= 11
+    missed = [d for d in data if not any(fnmatch.fnmatch(d, pat) for pat in patterns)]
+    assert not missed, f"not in [tool.setuptools.package-data]: {missed}"
+    extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    assert any(req.startswith(("jupyterlab", "notebook")) for req in extras["notebooks"])
+
+
+def test_vrlab_notebooks_command_copies_them_and_refuses_to_overwrite(tmp_path, capsys):
+    code, out, err = run_cli(capsys, ["notebooks", str(tmp_path / "nb")])
+    assert code == 0, err
+    assert sorted(p.name for p in (tmp_path / "nb").iterdir()) == list_notebooks()
+    assert f"jupyter lab {tmp_path / 'nb'}" in out
+    assert (tmp_path / "nb" / NOTEBOOKS[3].name).read_bytes() == NOTEBOOKS[3].read_bytes()
+    code, out, err = run_cli(capsys, ["notebooks", str(tmp_path / "nb")])
+    assert code == 1 and "--force" in err and len(err.strip().splitlines()) == 1
+    assert run_cli(capsys, ["notebooks", str(tmp_path / "nb"), "--force"])[0] == 0
+    (tmp_path / "file").write_text("x")
+    code, out, err = run_cli(capsys, ["notebooks", str(tmp_path / "file")])
+    assert code == 1 and "folder" in err and "Traceback" not in err

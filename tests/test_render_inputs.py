@@ -644,3 +644,28 @@ def test_scene_geometry_bad_inputs(raises_naming):
     with raises_naming(ValueError, "direction"):
         g.intersect(o, np.zeros((3, 3)))
 
+
+
+def test_auto_exposure_key_and_clip_closed_forms(raises_naming):
+    from vrlab.render.image import auto_exposure
+
+    grey = np.full((8, 8, 3), 2.0)                  # log-average luminance 2 + 1e-4: key / that
+    assert auto_exposure(grey) == pytest.approx(0.18 / (2.0 + 1e-4), rel=1e-12)
+    # 2% of the pixels 1000x brighter (lights seen directly): with clip=0.03 the 97% quantile is a
+    # dim pixel, so the key decides and the lights clip
+    img = np.full((20, 20, 3), 0.5)
+    img.reshape(-1, 3)[:8] = 500.0
+    lum_avg = np.exp(0.98 * np.log(0.5 + 1e-4) + 0.02 * np.log(500 + 1e-4))
+    assert auto_exposure(img) == pytest.approx(min(0.18 / lum_avg, 1 / 0.5), rel=1e-9)
+    # clip=0.01: the 99% quantile is a light pixel, so the exposure keeps the lights at white
+    assert auto_exposure(img, clip=0.01) == pytest.approx(1 / 500, rel=1e-9)
+    # at most `clip` of the pixels reach white, for a heavy-tailed image
+    rng = np.random.default_rng(3)
+    heavy = rng.pareto(1.2, (64, 64, 1)) * np.ones(3)
+    e = auto_exposure(heavy)
+    assert ((heavy * e).min(-1) >= 1).mean() <= 0.03 + 1 / heavy[..., 0].size
+    assert auto_exposure(np.zeros((4, 4, 3))) == 1.0
+    with raises_naming(ValueError, "clip"):
+        auto_exposure(grey, clip=1.5)
+    with raises_naming(ValueError, "key"):
+        auto_exposure(grey, key=0)

@@ -1,4 +1,5 @@
-"""The ``vrlab`` command line: ``vrlab demo``, ``vrlab lab``, ``vrlab render`` and ``vrlab bench``.
+"""The ``vrlab`` command line: ``vrlab demo``, ``vrlab lab``, ``vrlab render``, ``vrlab bench``
+and ``vrlab notebooks``.
 
 Errors: every flag is checked before any work starts (:mod:`vrlab.cli_args`), and an
 error is one line on stderr, ``vrlab render: error: --width must be >= 1, got 0``,
@@ -81,6 +82,23 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_notebooks(args: argparse.Namespace) -> int:
+    import importlib.util
+
+    from .experiments import export_notebooks
+
+    try:
+        paths = export_notebooks(args.folder, overwrite=args.force)
+    except FileExistsError:
+        raise Failure(f"{args.folder!r} already has vrlab's notebooks; --force replaces them, or choose "
+                      "another folder") from None
+    print(f"wrote {len(paths)} notebooks to {args.folder}")
+    if importlib.util.find_spec("jupyterlab") is None:
+        print('install Jupyter first: pip install "vrlab[notebooks]"')
+    print(f"open them with: jupyter lab {args.folder}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The parser of ``vrlab`` and its subcommands (errors raise :class:`UsageError`)."""
     from . import cli_lab, cli_render
@@ -103,7 +121,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="output folder, created if missing (default: %(default)s)")
     demo.add_argument("--seed", default="2026", help="root seed of every random number, 0 .. 2**128-1: the same "
                                                      "seed gives the same figures and tables (default: %(default)s)")
-    demo.add_argument("--quick", action="store_true", help="smaller sample counts (a few seconds)")
+    demo.add_argument("--quick", action="store_true",
+                      help="smaller sample counts, for a first look (under 10 s on 2 cores; the full demo: 1 minute)")
     demo.add_argument("--json", action="store_true", help="print a JSON summary of what was written")
     demo.set_defaults(func=_cmd_demo, parser=demo)
 
@@ -120,6 +139,16 @@ def build_parser() -> argparse.ArgumentParser:
     bench.set_defaults(func=_cmd_bench, parser=bench)
 
     cli_render.add_parser(sub, **kw)
+
+    nbs = sub.add_parser("notebooks", help="copy the lecture notebooks into a folder, to open with Jupyter",
+                         description="Copy the eleven lecture notebooks (importance sampling ... gradient-domain\n"
+                                     "rendering) into FOLDER. Open them with: jupyter lab FOLDER (Jupyter comes\n"
+                                     'with: pip install "vrlab[notebooks]"). Each notebook runs its experiment\n'
+                                     "from the installed package and writes its figures to vrlab-out/.", **kw)
+    nbs.add_argument("folder", nargs="?", default="vrlab-notebooks",
+                     help="where to write them, created if missing (default: %(default)s)")
+    nbs.add_argument("--force", action="store_true", help="replace notebooks already in the folder")
+    nbs.set_defaults(func=_cmd_notebooks, parser=nbs)
     return parser
 
 

@@ -1,4 +1,4 @@
-"""The shared command line of the ``experiments/`` scripts.
+"""The shared command line of the :mod:`vrlab.experiments` modules.
 
 Every script exposes ``main(out, full=False) -> dict`` and ends with
 ``experiment_cli(main, DEFAULT_OUT, __doc__)``: ``--full`` asks for publication-quality

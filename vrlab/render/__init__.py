@@ -7,7 +7,8 @@ for the supported subset and :mod:`vrlab.render.transforms` for the conventions.
 """
 from . import transforms
 from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor
-from .builtin import builtin_scene_path, describe_builtin_scene, export_builtin_scene, list_builtin_scenes
+from .builtin import (builtin_scene_path, describe_builtin_scene, export_builtin_scene, list_builtin_scenes,
+                      list_mitsuba_references, mitsuba_reference)
 from .loader import load_scene, read_obj
 from .scene import BSDF, AreaEmitter, Integrator, Scene, SceneError, Sensor, Shape
 from .film import render
@@ -20,7 +21,7 @@ from .._lazy import lazy_attributes
 
 __all__ = ["BSDFModel", "Diffuse", "Phong", "RoughConductor", "AreaEmitter", "BSDF", "Integrator", "Scene",
            "SceneError", "Sensor", "Shape", "builtin_scene_path", "describe_builtin_scene", "export_builtin_scene",
-           "keep_freed_memory", "list_builtin_scenes", "load_scene", "read_obj", "render", "PixelIntegrand", "PRESETS", "preset",
+           "keep_freed_memory", "list_builtin_scenes", "list_mitsuba_references", "mitsuba_reference", "load_scene", "read_obj", "render", "PixelIntegrand", "PRESETS", "preset",
            "GradientDomainImage", "render_gradient_domain",
            "ShadingIntegrand", "screened_poisson",
            "transforms"]

@@ -1,5 +1,7 @@
 """The scenes shipped with vrlab (``vrlab/render/scenes/*.xml``): names, paths, their
-descriptions (the ``<!-- vrlab: ... -->`` comment atop each file) and a copy for editing."""
+descriptions (the ``<!-- vrlab: ... -->`` comment atop each file), a copy for editing, and
+the Mitsuba 3 reference images of four of them (``scenes/mitsuba/``, 64 x 48, 16384 spp;
+how they were made: ``scenes/mitsuba/README.md``)."""
 from __future__ import annotations
 
 import os
@@ -10,7 +12,8 @@ from pathlib import Path
 from .. import checks
 from .loader import load_scene
 
-__all__ = ["builtin_scene_path", "describe_builtin_scene", "export_builtin_scene", "list_builtin_scenes"]
+__all__ = ["builtin_scene_path", "describe_builtin_scene", "export_builtin_scene", "list_builtin_scenes",
+           "list_mitsuba_references", "mitsuba_reference"]
 
 
 def _scenes_folder() -> Path:
@@ -73,3 +76,23 @@ def export_builtin_scene(name: str, folder: str | os.PathLike, *, overwrite: boo
         (folder / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(ref, folder / rel)
     return [folder / rel for rel in files.values()]
+
+
+def list_mitsuba_references() -> list[str]:
+    """Names of the built-in scenes that have a stored Mitsuba 3 reference image."""
+    return sorted(p.name[:-9] for p in (_scenes_folder() / "mitsuba").iterdir() if p.name.endswith("_mean.npy"))
+
+
+def mitsuba_reference(name: str):
+    """``(mean, stderr)``: Mitsuba 3's ``direct`` integrator on the built-in scene ``name`` at
+    64 x 48, float32 ``(48, 64, 3)`` each (mean and standard error of 32 batches of 512 spp).
+    ``ValueError`` naming ``name`` for a scene without one (see :func:`list_mitsuba_references`)."""
+    import numpy as np
+
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a built-in scene name (str), got {type(name).__name__}")
+    names = list_mitsuba_references()
+    if name not in names:
+        raise ValueError(f"name: no Mitsuba reference for {name!r}; available: {', '.join(names)}")
+    folder = _scenes_folder() / "mitsuba"
+    return np.load(folder / f"{name}_mean.npy"), np.load(folder / f"{name}_stderr.npy")

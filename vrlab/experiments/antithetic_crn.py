@@ -12,32 +12,24 @@ Questions answered (tables in ``antithetic_crn_*.csv``, figures ``*.png``):
   Var[f_a - f_b] = Var f_a + Var f_b - 2 Cov(f_a, f_b), measured with shared and with
   independent uniforms.
 
-Run ``python experiments/antithetic_crn.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.antithetic_crn [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from vrlab._rng import spawn
+from vrlab.estimators import Antithetic, MonteCarlo, crn_difference
+from vrlab.integrands import Integrand, catalogue
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from vrlab._rng import spawn  # noqa: E402
-from vrlab.estimators import Antithetic, MonteCarlo, crn_difference  # noqa: E402
-from vrlab.integrands import Integrand, catalogue  # noqa: E402
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
-
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "antithetic_crn"
+DEFAULT_OUT = Path("vrlab-out") / "antithetic_crn"          # relative to the working folder
 E = np.e
 
 

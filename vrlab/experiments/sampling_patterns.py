@@ -25,36 +25,28 @@ Questions answered (tables in ``sampling_patterns_*.csv``, figures ``*.png``):
   unbiasedness argument E[f/p] = int f is checked numerically by a pooled z-test of each
   image against an independent MIS reference.
 
-Run ``python experiments/sampling_patterns.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.sampling_patterns [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
 import dataclasses
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from vrlab import lab
+from vrlab import points as P
+from vrlab._rng import spawn
+from vrlab.estimators import MonteCarlo
+from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene, render
+from vrlab.render.image import rel_mse
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from vrlab import lab  # noqa: E402
-from vrlab import points as P  # noqa: E402
-from vrlab._rng import spawn  # noqa: E402
-from vrlab.estimators import MonteCarlo  # noqa: E402
-from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene, render  # noqa: E402
-from vrlab.render.image import rel_mse  # noqa: E402
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
-
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "sampling_patterns"
+DEFAULT_OUT = Path("vrlab-out") / "sampling_patterns"          # relative to the working folder
 
 
 def patterns(seed: int = 0) -> dict:

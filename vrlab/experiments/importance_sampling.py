@@ -9,34 +9,26 @@ Questions answered (tables in ``importance_sampling_*.csv``, figures ``*.png``):
   one on [0, 1] (A) by exactly (|A| - |B|) int f^2 = 31/320;
 * sin x on [0, pi/2]: p1 = 2/pi against p2 = 8x/pi^2, and RMSE-vs-n convergence.
 
-Run ``python experiments/importance_sampling.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.importance_sampling [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from vrlab import lab
+from vrlab._rng import spawn
+from vrlab.estimators import MonteCarlo
+from vrlab.integrands import catalogue
+from vrlab.integrands.theory import mc_variance
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from vrlab import lab  # noqa: E402
-from vrlab._rng import spawn  # noqa: E402
-from vrlab.estimators import MonteCarlo  # noqa: E402
-from vrlab.integrands import catalogue  # noqa: E402
-from vrlab.integrands.theory import mc_variance  # noqa: E402
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
-
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "importance_sampling"
+DEFAULT_OUT = Path("vrlab-out") / "importance_sampling"          # relative to the working folder
 
 
 class StepX2Ideal:

@@ -24,35 +24,26 @@ Questions answered (tables in ``gradient_domain_*.csv``, figures ``*.png``):
   pixels next to bright ones, smooth rest): where gradient-domain rendering loses;
 * the solve time of ``screened_poisson`` at 1024 x 1024 x 3 (best of 3).
 
-Run ``python experiments/gradient_domain.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.gradient_domain [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
 import dataclasses
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.render import (PixelIntegrand, builtin_scene_path, list_builtin_scenes, list_mitsuba_references,
+                          load_scene, mitsuba_reference, render, render_gradient_domain, screened_poisson)
+from vrlab.render.image import rel_mse, srgb_encode
 
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
-from vrlab.render import (PixelIntegrand, builtin_scene_path, list_builtin_scenes, load_scene,  # noqa: E402
-                          render, render_gradient_domain, screened_poisson)
-from vrlab.render.image import rel_mse, srgb_encode  # noqa: E402
-
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "gradient_domain"
-MITSUBA = Path(__file__).resolve().parents[1] / "tests" / "data" / "mitsuba"
+DEFAULT_OUT = Path("vrlab-out") / "gradient_domain"          # relative to the working folder
 WIDTH, HEIGHT = 64, 48                      # the stored references' resolution
 ALPHA = 0.2                                 # screened_poisson's default
 ALPHAS = (0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)
@@ -69,10 +60,9 @@ def sized(name: str, width: int = WIDTH, height: int = HEIGHT):
 
 def reference(name: str, scene, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray, str]:
     """(image, stderr, source): the stored Mitsuba 3 reference, else a vrlab render of ``spp``."""
-    path = MITSUBA / f"{name}_mean.npy"
-    if path.exists():
-        return (np.load(path).astype(float), np.load(MITSUBA / f"{name}_stderr.npy").astype(float),
-                "Mitsuba 3, 16384 spp")
+    if name in list_mitsuba_references() and scene.sensor.width == 64 and scene.sensor.height == 48:
+        mean, stderr = mitsuba_reference(name)
+        return mean.astype(float), stderr.astype(float), "Mitsuba 3, 16384 spp"
     est = render(scene, spp, rng=[seed, 999], workers=2)
     return est.value.astype(float), est.stderr.astype(float), f"vrlab mis-power, {spp} spp"
 
@@ -154,7 +144,7 @@ def plot_variance(maps: dict, path: Path) -> Path:
 def crn_images(spp: int, reps: int, seed: int = 21) -> tuple[pd.DataFrame, dict]:
     """Cornell box at 64x48: every pixel with the same uniforms, or each pixel its own."""
     scene = sized("cornell_box")
-    ref = np.load(MITSUBA / "cornell_box_mean.npy").astype(float)
+    ref = mitsuba_reference("cornell_box")[0].astype(float)
     pix = PixelIntegrand(scene)
     pixels = all_pixels(HEIGHT, WIDTH)
     lum_ref = ref.mean(-1)

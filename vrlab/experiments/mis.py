@@ -13,37 +13,29 @@ Questions answered (tables in ``mis_*.csv``, figures ``*.png``):
   light and MIS (power) sampling, with the per-pixel variance in each (plate, light) region
   (per-sample pixel values from ``vrlab.render.PixelIntegrand(scene, preset).values``).
 
-Run ``python experiments/mis.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.mis [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
 import dataclasses
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from vrlab._rng import spawn
+from vrlab.distributions import Mixture
+from vrlab.estimate import Moments
+from vrlab.estimators import HEURISTICS, MIS, MonteCarlo, OneSampleMIS
+from vrlab.integrands import Integrand, catalogue, mc_variance
+from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene
+from vrlab.render.direct import DirectLighting
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from vrlab._rng import spawn  # noqa: E402
-from vrlab.distributions import Mixture  # noqa: E402
-from vrlab.estimate import Moments  # noqa: E402
-from vrlab.estimators import HEURISTICS, MIS, MonteCarlo, OneSampleMIS  # noqa: E402
-from vrlab.integrands import Integrand, catalogue, mc_variance  # noqa: E402
-from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene  # noqa: E402
-from vrlab.render.direct import DirectLighting  # noqa: E402
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
-
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "mis"
+DEFAULT_OUT = Path("vrlab-out") / "mis"          # relative to the working folder
 STRATEGIES = ("bsdf", "light", "mis-power")      # renderer presets (vrlab.render.PRESETS)
 BLOCK_PIXELS = 4096                                # pixels per block of render_samples (memory bound)
 

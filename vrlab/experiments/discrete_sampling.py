@@ -9,34 +9,26 @@ Timings (build and per-draw) against NumPy ``Generator.choice(p=...)`` and SciPy
 weights exactly: its implied pmf (q_i + sum over columns aliased to i of (1 - q_j)) / n
 equals w / sum(w).
 
-Run ``python experiments/discrete_sampling.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.discrete_sampling [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
+from scipy import stats
+from scipy.stats.sampling import DiscreteAliasUrn
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-from scipy import stats  # noqa: E402
-from scipy.stats.sampling import DiscreteAliasUrn  # noqa: E402
+from vrlab import AliasTable, CDFTable
+from vrlab.bench.timing import race
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from vrlab import AliasTable, CDFTable  # noqa: E402
-from vrlab.bench.timing import race  # noqa: E402
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
-
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "discrete_sampling"
+DEFAULT_OUT = Path("vrlab-out") / "discrete_sampling"          # relative to the working folder
 EXAMPLE = np.array([1.0, 6.0, 2.0, 0.5, 3.0, 0.0, 1.5, 2.0])   # the small worked example
 
 

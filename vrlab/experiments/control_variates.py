@@ -19,33 +19,25 @@ The sweep uses f(u) = 1 + sqrt(12)(u1 - 1/2) and h_rho(u) = rho sqrt(12)(u1 - 1/
 + sqrt(1 - rho^2) sqrt(12)(u2 - 1/2) on [0, 1]^2: Var f = Var h = 1, corr = rho, int h = 0.
 Golden numbers: e^x on [0, 1] with control h = x gives beta* = 1.6903, 1 - rho^2 = 0.01628.
 
-Run ``python experiments/control_variates.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.control_variates [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from vrlab import Integrand, lab
+from vrlab._rng import spawn
+from vrlab.estimators import ControlVariate, MonteCarlo
+from vrlab.integrands import catalogue
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from vrlab import Integrand, lab  # noqa: E402
-from vrlab._rng import spawn  # noqa: E402
-from vrlab.estimators import ControlVariate, MonteCarlo  # noqa: E402
-from vrlab.integrands import catalogue  # noqa: E402
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
-
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "control_variates"
+DEFAULT_OUT = Path("vrlab-out") / "control_variates"          # relative to the working folder
 S12 = np.sqrt(12.0)
 THRESHOLDS = {"alpha1_equal_n": 0.5, "alpha1_equal_cost": 0.75, "optimal_equal_cost": float(1 / np.sqrt(2))}
 

@@ -12,38 +12,30 @@ Questions answered (tables in ``cosine_sampling_*.csv``, figures ``*.png``):
   cosine, light and MIS (power) sampling at equal spp (the renderer's presets, per-sample
   values from ``vrlab.render.PixelIntegrand``): per-pixel sample variance.
 
-Run ``python experiments/cosine_sampling.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.cosine_sampling [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
 import dataclasses
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from vrlab._rng import spawn
+from vrlab.distributions import CosineHemisphere, UniformHemisphere
+from vrlab.estimate import Moments
+from vrlab.estimators import MonteCarlo
+from vrlab.integrands import catalogue
+from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene
+from vrlab.testing import HemisphereChart, chi2_gof, sidak_threshold
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from vrlab._rng import spawn  # noqa: E402
-from vrlab.distributions import CosineHemisphere, UniformHemisphere  # noqa: E402
-from vrlab.estimate import Moments  # noqa: E402
-from vrlab.estimators import MonteCarlo  # noqa: E402
-from vrlab.integrands import catalogue  # noqa: E402
-from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene  # noqa: E402
-from vrlab.testing import HemisphereChart, chi2_gof, sidak_threshold  # noqa: E402
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
-
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "cosine_sampling"
+DEFAULT_OUT = Path("vrlab-out") / "cosine_sampling"          # relative to the working folder
 METHODS = ("inversion", "disk", "sphere-shift")
 ALPHA = 0.01   # family-wise level of the three chi-square tests
 RENDER_STRATEGIES = ("uniform", "cosine", "light", "mis-power")   # renderer presets

@@ -20,39 +20,31 @@ Questions answered (tables in ``light_surfaces_*.csv``, figures ``*.png``):
   spp (``vrlab.render.render`` with those presets; it returns an ``Estimate``), relative
   MSE against a higher-spp reference.
 
-Run ``python experiments/light_surfaces.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.light_surfaces [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
 import dataclasses
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from vrlab.distributions import (BoxSurface, CosineHemisphere, EllipsoidSurface,  # noqa: E402
+from vrlab.distributions import (BoxSurface, CosineHemisphere, EllipsoidSurface,
                                  SolidAngleFromArea, SphereSurface, to_world)
-from vrlab.render import builtin_scene_path, load_scene, render  # noqa: E402
-from vrlab.render.image import rel_mse  # noqa: E402
-from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, ParallelogramChart,  # noqa: E402
+from vrlab.render import builtin_scene_path, load_scene, render
+from vrlab.render.image import rel_mse
+from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, ParallelogramChart,
                            chi2_discrete, chi2_gof, sidak_threshold)
-from vrlab.testing.charts import Chart  # noqa: E402
-from vrlab.testing.chisquare import cell_integrals, histogram  # noqa: E402
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
+from vrlab.testing.charts import Chart
+from vrlab.testing.chisquare import cell_integrals, histogram
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "light_surfaces"
+DEFAULT_OUT = Path("vrlab-out") / "light_surfaces"          # relative to the working folder
 ALPHA = 0.01        # family-wise level of the chi-square tests of the correct densities
 N_CORRECT = 3       # box points, box faces, ellipsoid points
 REJECT = 1e-6       # a wrong density must give a p-value below this

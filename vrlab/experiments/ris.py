@@ -24,36 +24,28 @@ Questions answered (tables ``ris_*.csv``, figures ``ris_*.png``):
   target="unshadowed", m=M)``, with ``light_selection=``): relMSE against a 16x-spp
   reference (over the pixels that see no light) and render time.
 
-Run ``python experiments/ris.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.ris [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
 import dataclasses
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from vrlab._rng import spawn
+from vrlab.estimators import RIS
+from vrlab.integrands import catalogue, mc_variance
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.render import builtin_scene_path, load_scene, render
+from vrlab.render.direct import DirectLighting
 
-from vrlab._rng import spawn  # noqa: E402
-from vrlab.estimators import RIS  # noqa: E402
-from vrlab.integrands import catalogue, mc_variance  # noqa: E402
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
-from vrlab.render import builtin_scene_path, load_scene, render  # noqa: E402
-from vrlab.render.direct import DirectLighting  # noqa: E402
-
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "ris"
+DEFAULT_OUT = Path("vrlab-out") / "ris"          # relative to the working folder
 MS = (1, 2, 4, 8, 16, 32, 64)
 EPS = 1e-2                      # relMSE = (x - ref)^2 / (ref^2 + EPS)
 F_COST = 10.0                   # cost model: one f evaluation (a shadow ray) = 10 candidates

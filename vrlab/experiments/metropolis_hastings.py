@@ -11,32 +11,24 @@ never visited; the histogram's total-variation distance to the image stays at le
 mass outside the starting blob.  With large steps the histogram converges (TV -> 0, at
 about the i.i.d. rate divided by the chain's inefficiency).
 
-Run ``python experiments/metropolis_hastings.py [--full] [--out DIR]``.
+Run ``python -m vrlab.experiments.metropolis_hastings [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-try:
-    import vrlab  # noqa: F401
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import matplotlib
+import matplotlib.pyplot as plt
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from vrlab.distributions.tabulated import PiecewiseConstant2D
+from vrlab.estimators import MetropolisHastings
+from vrlab.estimators.metropolis import sample_histogram
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from vrlab.distributions.tabulated import PiecewiseConstant2D  # noqa: E402
-from vrlab.estimators import MetropolisHastings  # noqa: E402
-from vrlab.estimators.metropolis import sample_histogram  # noqa: E402
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure  # noqa: E402
-
-DEFAULT_OUT = Path(__file__).resolve().parent / "out" / "metropolis_hastings"
+DEFAULT_OUT = Path("vrlab-out") / "metropolis_hastings"          # relative to the working folder
 # (centre x, centre y, radius, brightness); blob 0 is where the chains start
 BLOBS = ((0.28, 0.30, 0.14, 1.0), (0.72, 0.68, 0.16, 0.6), (0.75, 0.22, 0.08, 1.5))
 START = (0.28, 0.30)

@@ -1,0 +1,1 @@
+"""The lecture notebooks (package data); ``vrlab notebooks FOLDER`` copies them out."""
