@@ -169,3 +169,18 @@ def test_user_heuristic_and_estimator_agree_with_mitsuba(name, which):
     assert len(r["zero_stderr_mismatches"]) == 0, msg
     assert r["max_abs_z"] < r["threshold"], msg
     assert abs(r["mean_diff_z"]) < mean_tol, msg
+
+
+def test_references_ship_with_the_package(raises_naming):
+    from vrlab.render import list_mitsuba_references, mitsuba_reference
+
+    assert list_mitsuba_references() == sorted(CASES)
+    for name in CASES:
+        mean, stderr = mitsuba_reference(name)
+        assert mean.shape == stderr.shape == (48, 64, 3) and mean.dtype == np.float32
+        assert np.array_equal(mean, np.load(DATA / f"{name}_mean.npy"))
+        assert np.all(np.isfinite(mean)) and np.all(stderr >= 0)
+    with raises_naming(ValueError, "name"):
+        mitsuba_reference("box_ellipsoid")          # a built-in scene Mitsuba cannot render
+    with raises_naming(TypeError, "name"):
+        mitsuba_reference(3)
