@@ -57,7 +57,7 @@ RENDER_USAGE = [
     (["--emitter-samples", "0", "--bsdf-samples", "0"], "--emitter-samples"),
     (["--compare", ""], "--compare"), (["--compare", "foo"], "--compare"), (["--compare", "bsdf,bsdf"], "--compare"),
     (["--compare", "bsdf,,light"], "--compare"), (["--compare", "bsdf", "--strategy", "light"], "--strategy"),
-    (["--compare", "bsdf", "--workers", "2"], "--workers"), (["--compare", "bsdf", "--stderr-out", "e.npy"],
+    (["--compare", "bsdf", "--checkpoint", "c.npz"], "--checkpoint"), (["--compare", "bsdf", "--stderr-out", "e.npy"],
                                                              "--stderr-out"),
     (["--equal-time"], "--equal-time"), (["-o", "img.txt"], "--output"), (["-o", "img"], "--output"),
     (["-o", ""], "--output"), (["--compare", "bsdf", "-o", "cmp.npy"], "--output"),

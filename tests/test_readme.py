@@ -1,12 +1,20 @@
-"""The README's code that plugs estimators into the renderer runs as printed (at a small size)."""
+"""The README's code that plugs estimators into the renderer runs as printed (at a small size),
+and every repository path that README.md and docs/design.md mention exists."""
 from __future__ import annotations
 
 import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+DESIGN = ROOT / "docs" / "design.md"
+#: first components of repository paths (``notebooks`` moved into ``vrlab/``: a stale mention fails)
+REPO_DIRS = ("vrlab", "tests", "experiments", "benchmarks", "docs", ".ci", "notebooks")
+#: suffixes that make a ``a/b.ext`` span a file path whatever its first component
+FILE_SUFFIXES = (".py", ".ipynb", ".md", ".xml", ".npy", ".npz", ".png", ".toml", ".csv", ".sqlite")
 
 
 def _section_code(title: str) -> str:
@@ -35,3 +43,46 @@ def test_plug_your_own_estimator_section_runs(monkeypatch, capsys):
         est = namespace[name]
         assert est.value.shape == (6, 8, 3) and np.all(np.isfinite(est.value)) and est.n == 16
     assert "LightThenBSDF" in capsys.readouterr().out
+
+
+def _mentioned_paths(doc: Path) -> list[tuple[str, Path]]:
+    """``(path, folder it is relative to)`` for every repository path ``doc`` mentions:
+    markdown link and ``href``/``src`` targets (relative to ``doc``'s folder; URLs and
+    ``#anchors`` left out, a ``#fragment`` dropped), and code spans without spaces that look
+    like repository paths (relative to the root): ``vrlab/...``-style paths, ``a/b.py``-style
+    files, or top-level ``NAME.md`` / ``NAME.toml``.  Fenced code blocks are left out: their
+    paths are commands' outputs."""
+    text = re.sub(r"^```.*?^```", "", doc.read_text(), flags=re.S | re.M)
+    found = []
+    for target in re.findall(r"\]\(\s*([^)\s]+)", text) + re.findall(r'(?:href|src)="([^"]+)"', text):
+        if target.startswith("#") or re.match(r"[A-Za-z][A-Za-z0-9+.-]*:", target):
+            continue
+        found.append((target.split("#")[0], doc.parent))
+    for span in re.findall(r"`([^`\s]+)`", text):
+        if any(c in span for c in "<>{}|"):
+            continue                                         # a placeholder, not a path
+        first, name = span.split("/")[0], span.rstrip("/").split("/")[-1]
+        if ("/" in span and (first in REPO_DIRS or name.endswith(FILE_SUFFIXES))) or \
+                re.fullmatch(r"[A-Za-z_]+\.(md|toml)", span):
+            found.append((span, ROOT))
+    return found
+
+
+@pytest.mark.parametrize("doc", [README, DESIGN], ids=lambda p: p.name)
+def test_every_mentioned_repository_path_exists(doc):
+    found = _mentioned_paths(doc)
+    assert len(found) >= 5, f"{doc.name}: the path finder found almost nothing: {found}"
+    missing = [path for path, base in found
+               if not (any(base.glob(path)) if "*" in path else (base / path).exists())]
+    assert not missing, f"{doc.relative_to(ROOT)} mentions paths that do not exist: {missing}"
+
+
+def test_the_path_finder_sees_links_spans_and_skips_the_rest(tmp_path):
+    doc = tmp_path / "x.md"
+    doc.write_text("See [a](a/b.md#sec), [web](https://x.org/y), [top](#top), <img src=\"c/d.png\">,\n"
+                   "`vrlab/render/`, `render/poisson.py`, `README.md`, `vrlab-out/NAME`, `vrlab.lab.run`,\n"
+                   "`notebooks/01.ipynb`, `python -m vrlab.experiments.mis`, `<scene>_mean.npy`.\n"
+                   "```bash\nvrlab render x -o out/img.png   # `docs/fenced.png`\n```\n")
+    assert _mentioned_paths(doc) == [("a/b.md", tmp_path), ("c/d.png", tmp_path), ("vrlab/render/", ROOT),
+                                     ("render/poisson.py", ROOT), ("README.md", ROOT),
+                                     ("notebooks/01.ipynb", ROOT)]

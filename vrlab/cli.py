@@ -245,7 +245,7 @@ def _run(argv: list[str] | None, state: dict) -> int:
         raise
     state["debug"] = bool(getattr(args, "debug", False))
     if args.command is None:
-        raise UsageError("give a COMMAND: demo, lab, render or bench (vrlab --help explains them)")
+        raise UsageError("give a COMMAND: demo, lab, render, bench or notebooks (vrlab --help explains them)")
     state["prog"] = f"vrlab {args.command}"
     with _quiet_workers(), warnings.catch_warnings():
         warnings.showwarning = _warning_printer(state["prog"], state["debug"])

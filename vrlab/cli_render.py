@@ -4,10 +4,11 @@ Checked before rendering (usage errors, exit status 2, unless noted): ``--spp``
 (1 .. 2**20), ``--width``/``--height`` (1 .. 16384), ``--seed`` (0 .. 2**128-1),
 ``--emitter-samples``/``--bsdf-samples`` (0 .. 1024, and what the strategy needs),
 ``--ris-candidates`` (1 .. 4096), ``--workers`` (1 .. 256), ``--exposure`` (finite,
-> 0), the ``--compare`` list, flags that do not apply together; ``-o``/``--stderr-out``:
-suffix, a folder that exists and is writable (else exit status 1); the scene (a file:
-read and parsed, else exit status 1; or a built-in name); ``--reference``: a readable
-``.npy`` of finite values whose shape matches the image (else exit status 1).
+> 0), the ``--compare`` flags (:mod:`vrlab.cli_compare`), flags that do not apply
+together; ``-o``/``--stderr-out``: suffix, a folder that exists and is writable (else
+exit status 1); the scene (a file: read and parsed, else exit status 1; or a built-in
+name); ``--reference``: a readable ``.npy`` (or ``.exr`` with OpenEXR) of finite values
+whose shape matches the image (else exit status 1).
 ``--export NAME [--to FOLDER]`` takes no other render flag and no scene; NAME must be a
 built-in scene; FOLDER (default ``.``) a folder or creatable, writable, without a file
 of that name already (else exit status 1).
@@ -16,12 +17,14 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib.util
 import json
 import os
 import sys
 from pathlib import Path
 
 from . import cli_args as A
+from . import cli_compare as C
 
 SPP_MAX = 2**20
 SIDE_MAX = 16384
@@ -33,11 +36,6 @@ PIXEL_SAMPLERS = ("independent", "stratified", "sobol", "halton")
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 DEFAULTS = {"strategy": "mis-power", "pixel_sampler": "independent", "light_selection": "uniform",
             "ris_candidates": "8"}
-# single-strategy settings that --compare does not take (it renders each strategy with the defaults)
-NOT_WITH_COMPARE = {"strategy": "--strategy", "pixel_sampler": "--pixel-sampler",
-                    "light_selection": "--light-selection", "emitter_samples": "--emitter-samples",
-                    "bsdf_samples": "--bsdf-samples", "ris_candidates": "--ris-candidates",
-                    "workers": "--workers", "stderr_out": "--stderr-out"}
 
 
 STRATEGY_HELP = {
@@ -106,14 +104,11 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
     rend.add_argument("-o", "--output", help="image file: .npy, .png or .exr (with --compare: the figure, "
                                              ".png, .pdf or .svg)")
     rend.add_argument("--stderr-out", help="per-pixel standard error image (.npy, .png or .exr; needs spp >= 2)")
-    rend.add_argument("--reference", help="reference .npy of the same size: print relMSE = "
-                                          "mean((img-ref)^2/(ref^2+0.01))")
+    rend.add_argument("--reference", help="reference .npy (or .exr) of the same size: print relMSE = "
+                                          "mean((img-ref)^2/(ref^2+0.01)); with --compare: the reference "
+                                          "of every panel")
     rend.add_argument("--exposure", default="1.0", help="exposure scale for .png, finite and > 0 (default: 1.0)")
-    rend.add_argument("--compare", metavar="S1,S2,...", nargs="?", const="bsdf,light,mis-power",
-                      help="render a grid of strategies at equal spp with relMSE under each panel "
-                           "(default: the Veach figure bsdf,light,mis-power); -o names the figure")
-    rend.add_argument("--equal-time", action="store_true",
-                      help="with --compare: give each strategy the time the last one needs for --spp")
+    C.add_arguments(rend)
     rend.add_argument("--gradient-domain", action="store_true",
                       help="render the image and its pixel differences with common random numbers and "
                            "reconstruct it (screened Poisson); -o OUT.EXT also writes OUT_primal, OUT_dx, OUT_dy "
@@ -188,16 +183,10 @@ def _samples_for(strategy: str, n_l: int, n_b: int, given: dict, flag: str = "--
 def _reference(path: Path | None, shape: tuple):
     if path is None:
         return None
-    import numpy as np
+    from .render.image import load_image
 
-    from . import checks
-
-    try:
-        ref = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError) as exc:
-        raise A.Failure(f"--reference: cannot read {str(path)!r} as a .npy array: {exc}") from exc
-    try:
-        ref = checks.finite_array(ref, "--reference", ndim=3, last=3)
+    try:                                    # a linear image (H, W, 3) of finite values
+        ref = load_image(path, "--reference")
     except (TypeError, ValueError) as exc:
         raise A.Failure(str(exc)) from exc
     if ref.shape != shape:
@@ -214,19 +203,12 @@ def check_render(args: argparse.Namespace) -> dict:
 
     from .render.presets import PRESETS
 
-    compare = args.compare is not None
-    if compare:
-        for key, flag in NOT_WITH_COMPARE.items():
-            if getattr(args, key) is not None:
-                raise A.UsageError(f"{flag} does not apply with --compare (it renders each strategy it is given "
-                                   "with the default settings)")
-    elif args.equal_time:
-        raise A.UsageError("--equal-time needs --compare")
+    p = C.check_flags(args, PRESETS, SPP_MAX)
+    compare = p["compare"] is not None
     for key, value in DEFAULTS.items():
         if getattr(args, key) is None:
             setattr(args, key, value)
-    p = dict(compare=A.names(args.compare, "--compare", PRESETS) if compare else None,
-             spp=A.integer(args.spp, "--spp", low=1, high=SPP_MAX),
+    p.update(spp=A.integer(args.spp, "--spp", low=1, high=SPP_MAX),
              width=A.integer(args.width, "--width", low=1, high=SIDE_MAX),
              height=A.integer(args.height, "--height", low=1, high=SIDE_MAX),
              seed=A.seed(args.seed),
@@ -244,9 +226,9 @@ def check_render(args: argparse.Namespace) -> dict:
     if p["scheduler"] is not None and p["workers"] not in (None, 1):
         raise A.UsageError("--scheduler and --workers do not go together: the scheduler's workers render the "
                            "units (leave out --workers)")
-    if compare and (p["checkpoint"] or p["scheduler"]):
-        raise A.UsageError("--checkpoint and --scheduler do not apply with --compare")
-    ref_path = A.input_file(args.reference, "--reference", (".npy",))
+    if (args.reference or "").lower().endswith(".exr") and importlib.util.find_spec("OpenEXR") is None:
+        raise A.UsageError("--reference: reading .exr needs the OpenEXR package (pip install OpenEXR); use a .npy")
+    p["reference_path"] = ref_path = A.input_file(args.reference, "--reference", (".npy", ".exr"))
     p["path"] = _scene_path(args.scene)
     scene = _load(p["path"])
     if p["width"] is not None or p["height"] is not None:
@@ -345,7 +327,7 @@ def run_render(args: argparse.Namespace) -> int:
 
     keep_freed_memory()     # this process is vrlab's own: reuse freed ray temporaries (vrlab._alloc)
     if p["compare"]:
-        return _compare(args, p)
+        return C.run_compare(args, p)
     import time
 
     import numpy as np
@@ -359,14 +341,6 @@ def run_render(args: argparse.Namespace) -> int:
         from .render.film import default_workers
         p["workers"] = default_workers()
     show = args.progress if args.progress is not None else sys.stderr.isatty()
-    bar: list = []
-
-    def progress(done, total):                  # the bar is made on the first report: it knows the total
-        if not bar:
-            from .lab.runner import ProgressBar
-            bar.append(ProgressBar(total, label="render"))
-        bar[0].update(done - bar[0].done)
-
     with contextlib.ExitStack() as stack:
         client = None
         if p["scheduler"] is not None:
@@ -376,7 +350,7 @@ def run_render(args: argparse.Namespace) -> int:
                          light_selection=args.light_selection, emitter_samples=p["emitter_samples"],
                          bsdf_samples=p["bsdf_samples"], ris_candidates=p["ris_candidates"],
                          workers=2 if client is not None else p["workers"], executor=client,
-                         progress=progress if show else None, spp_batch=p["spp_batch"],
+                         progress=C.progress_callback(show, "render"), spp_batch=p["spp_batch"],
                          checkpoint=p["checkpoint"])
         except ValueError as exc:
             if str(exc).startswith("checkpoint"):      # another render's file: choose another name
@@ -403,14 +377,3 @@ def run_render(args: argparse.Namespace) -> int:
     _emit(args, out, "  ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in out.items()))
     return 0
 
-
-def _compare(args: argparse.Namespace, p: dict) -> int:
-    from .render.compare import compare, compare_figure
-
-    res = compare(p["scene"], p["compare"], p["spp"], rng=p["seed"], reference=p["reference"],
-                  equal_time=args.equal_time)
-    out = {"scene": str(p["path"]), "spp": res["spp"], "rel_mse": res["rel_mse"], "seconds": res["seconds"]}
-    if p["output"] is not None:
-        out["figure"] = str(compare_figure(res, p["output"], exposure=p["exposure"]))
-    _emit(args, out, "\n".join(f"{k:12s} relMSE {v:.4g}  {res['seconds'][k]:.2f} s" for k, v in res["rel_mse"].items()))
-    return 0

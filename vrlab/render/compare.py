@@ -1,43 +1,88 @@
 """Strategy comparisons: the Veach figure (BSDF sampling | light sampling | MIS).
 
-``compare(scene, strategies, spp)`` renders the scene once per strategy with the same
-seed and reports each image's relMSE against a reference: the ``reference`` image if
-one is given, else a high-spp ``mis-power`` render (``ref_spp``), which is independent
-of the compared images (its own seed).  ``compare_figure`` draws the panels with the
-relMSE under each.  Equal spp by default; with ``equal_time=True`` each strategy first
-renders a pilot (spp/4 samples) to measure its cost per sample, then gets the spp that
-fit in the time the *last* strategy (MIS in the Veach order) needs for ``spp``: the
-comparison that counts, error at equal cost (Veach 1997, ch. 9).
+``compare(scene, strategies, spp)`` renders the scene once per strategy, all with the
+same seed and the same sampling settings (``points``, ``light_selection``,
+``emitter_samples``, ``bsdf_samples``, ``ris_candidates``, ``spp_batch``, ``workers``:
+those of :func:`vrlab.render.render`), and reports each image's relMSE against a
+reference: the ``reference`` image if one is given, else a ``ref_strategy`` render at
+``ref_spp`` (i.i.d. points, the scene's sample counts, the given light selection, its
+own seed ``[rng, 1]``: independent of the compared images).  ``compare_figure`` draws
+the panels with the relMSE under each.
 
-Checked before any rendering: ``strategies`` a non-empty list of distinct strategy
-names (the presets, :data:`vrlab.render.PRESETS`), ``spp``/``ref_spp`` integers >= 1,
-``rng`` an integer >= 0, ``reference`` a finite image of the scene's shape,
-``equal_time`` a bool; ``compare_figure`` checks the result dict, the path (suffix and
-folder) and ``exposure``.
+Equal spp by default.  With ``equal_time=True`` each strategy s gets
+spp_s = max(1, round(spp x c_last / c_s)), at most ``MAX_SPP``, where c is a fixed cost
+model of one pixel sample in traced-ray units (:func:`sample_cost`), so the *last*
+strategy (MIS in the Veach order) keeps ``spp`` and the others get its modelled cost:
+the comparison that counts, error at equal cost (Veach 1997, ch. 9).  No clock is read,
+so the same call gives the same spp and images every time::
+
+    c = CAMERA_COST + units x (rays + CANDIDATE_COST x m) + [control] (CONTROL_COST + CONTROL_COST_PER_LIGHT x lights)
+
+with ``units`` the estimator's units per shading point, ``rays`` its traced rays per
+unit (``evals_per_unit``; a one-sample mixture traces its direction once per technique
+to weigh it), m its RIS candidates (unshadowed: no ray) and, for a control variate, the
+closed-form integral over the scene's lights at each shading point.  The constants were
+fitted once to single-process timings of every preset on the built-in scenes; what the
+model leaves out (scene-dependent ray and light-sampling costs) shows in the measured
+seconds, which ``compare`` reports next to the spp.
+
+``progress(name, done, total)``, if given, is called as each render advances (``name``:
+the strategy, or ``"reference"``).  Checked before any rendering: ``strategies`` a
+non-empty list of distinct strategy names (the presets, :data:`vrlab.render.PRESETS`),
+``spp``/``ref_spp`` integers >= 1, ``rng`` an integer >= 0, ``reference`` a finite image
+of the scene's shape, ``equal_time`` a bool, ``progress`` callable, and every render's
+settings (as :func:`vrlab.render.render` checks them); ``compare_figure`` checks the
+result dict, the path (suffix and folder) and ``exposure``.
 """
 from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from .. import checks
-from .film import _as_scene, render
+from .film import MAX_SPP, _as_scene, default_workers, plan, render
 from .image import _image, rel_mse, srgb_encode
+from .pixels import PixelIntegrand
 from .presets import PRESETS
 from .scene import Scene
 
+__all__ = ["VEACH_STRATEGIES", "compare", "compare_figure", "sample_cost"]
+
 VEACH_STRATEGIES = ("bsdf", "light", "mis-power")
+#: the cost model of ``equal_time`` (see the module docstring), in traced rays per pixel sample
+CAMERA_COST = 1.0              # the camera ray and the pixel's bookkeeping
+CANDIDATE_COST = 0.5           # one RIS candidate: a light sample and its unshadowed target, no ray
+CONTROL_COST = 2.0             # a control variate's closed form at a shading point ...
+CONTROL_COST_PER_LIGHT = 1 / 16  # ... and per light of the scene
 
 
-def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int = 16, *, rng: int = 0,
-            reference: np.ndarray | None = None, ref_spp: int = 256, equal_time: bool = False) -> dict:
-    """Render ``scene`` with each strategy; ``{"images", "seconds", "rel_mse", "reference",
-    "spp"}`` where ``spp`` is an int (equal spp) or a dict per strategy (equal time).
-    ``scene`` may be a path or a built-in name (as for ``render``)."""
-    scene = _as_scene(scene)
+def _cost(integrand: PixelIntegrand) -> float:
+    from ..estimators.control import ControlVariate
+    from ..estimators.onesample import OneSampleMIS
+
+    est = integrand.estimator
+    rays = int(getattr(est, "evals_per_unit", 1))
+    if isinstance(est, OneSampleMIS):
+        rays = int(np.count_nonzero(est.probabilities))
+    cost = CAMERA_COST + integrand.units * (rays + CANDIDATE_COST * int(getattr(est, "m", 0)))
+    if isinstance(est, ControlVariate):
+        lights = integrand.lighting.lights
+        cost += CONTROL_COST + CONTROL_COST_PER_LIGHT * (0 if lights is None else len(lights.lights))
+    return float(cost)
+
+
+def sample_cost(scene: Scene | str, strategy: str = "mis-power", **settings: Any) -> float:
+    """The modelled cost of one pixel sample of ``strategy`` in traced rays (the module
+    docstring's formula); ``settings``: ``light_selection``, ``emitter_samples``,
+    ``bsdf_samples``, ``ris_candidates`` as for :func:`vrlab.render.render`."""
+    strategy = checks.choice(strategy, "strategy", PRESETS)
+    return _cost(PixelIntegrand(_as_scene(scene), strategy, **settings))
+
+
+def _strategies(strategies: Any) -> list[str]:
     if isinstance(strategies, str) or not isinstance(strategies, Sequence):
         raise TypeError(f"strategies must be a list of strategy names, got {type(strategies).__name__}")
     strategies = [checks.choice(s, f"strategies[{k}]", PRESETS) for k, s in enumerate(strategies)]
@@ -45,36 +90,73 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
         raise ValueError(f"strategies: need at least one of {', '.join(PRESETS)}")
     if len(set(strategies)) != len(strategies):
         raise ValueError(f"strategies: each strategy at most once, got {strategies}")
-    spp = checks.integer(spp, "spp", low=1)
-    ref_spp = checks.integer(ref_spp, "ref_spp", low=1)
+    return strategies
+
+
+def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int = 16, *, rng: int = 0,
+            reference: np.ndarray | None = None, ref_spp: int = 256, ref_strategy: str = "mis-power",
+            equal_time: bool = False, points: Any = None, light_selection: str = "uniform",
+            emitter_samples: int | None = None, bsdf_samples: int | None = None, ris_candidates: int = 8,
+            workers: int | None = 1, spp_batch: int | None = None,
+            progress: Callable[[str, int, int], None] | None = None) -> dict:
+    """Render ``scene`` with each strategy; ``{"images", "seconds", "rel_mse", "reference",
+    "spp", "cost", "reference_render", "settings"}``: ``spp`` an int (equal spp) or a dict
+    per strategy (equal time), ``cost`` the modelled cost per pixel sample of each strategy
+    (:func:`sample_cost`), ``reference_render`` None (``reference`` given) or the strategy,
+    spp, seed and seconds of the reference render, ``settings`` the sampling settings used.
+    ``scene`` may be a path or a built-in name (as for ``render``); ``workers=None``: the
+    CPUs available."""
+    scene = _as_scene(scene)
+    strategies = _strategies(strategies)
+    spp = checks.integer(spp, "spp", low=1, high=MAX_SPP)
+    ref_spp = checks.integer(ref_spp, "ref_spp", low=1, high=MAX_SPP)
+    ref_strategy = checks.choice(ref_strategy, "ref_strategy", PRESETS)
     rng = checks.integer(rng, "rng", low=0)
     equal_time = checks.flag(equal_time, "equal_time")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a callable progress(name, done, total) or None, "
+                        f"got {type(progress).__name__}")
     if reference is not None:
         reference = _image(reference, "reference", True)
         want = (scene.sensor.height, scene.sensor.width, 3)
         if reference.shape != want:
             raise ValueError(f"reference: shape {reference.shape} differs from the scene's image {want}")
-    if reference is None:
-        reference = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([rng, 1])).value
+    workers = default_workers() if workers is None else workers
+    sampling = dict(light_selection=light_selection, emitter_samples=emitter_samples, bsdf_samples=bsdf_samples,
+                    ris_candidates=ris_candidates)
+    common = dict(points=points, workers=workers, spp_batch=spp_batch, chunk_pixels=None, width=None, height=None)
+    cost = {}
+    for s in strategies:                       # every render's arguments checked before the first one runs
+        job, _, _ = plan(scene, spp, settings=dict(estimator=s, units=None, **sampling), rng=0, **common)
+        cost[s] = _cost(job.integrand)
     counts = {s: spp for s in strategies}
     if equal_time:
-        pilot = max(1, spp // 4)
-        cost = {}
-        for s in strategies:
-            t0 = time.perf_counter()
-            render(scene, pilot, s, rng=np.random.SeedSequence([rng, 2]))
-            cost[s] = (time.perf_counter() - t0) / pilot
-        budget = spp * cost[strategies[-1]]
-        counts = {s: max(1, int(round(budget / cost[s]))) for s in strategies}
-        counts[strategies[-1]] = spp
-    images, seconds, errors = {}, {}, {}
+        counts = {s: int(min(MAX_SPP, max(1, round(spp * cost[strategies[-1]] / cost[s])))) for s in strategies}
+    ref_seed = np.random.SeedSequence([rng, 1])
+    ref_settings = dict(light_selection=light_selection, workers=workers, spp_batch=spp_batch)
+    if reference is None:
+        plan(scene, ref_spp, settings=dict(estimator=ref_strategy, units=None, light_selection=light_selection),
+             rng=0, **{**common, "points": None})
+
+    def report(name):
+        return None if progress is None else (lambda done, total: progress(name, done, total))
+
+    images, seconds, errors, ref_info = {}, {}, {}, None
+    if reference is None:
+        t0 = time.perf_counter()
+        reference = render(scene, ref_spp, ref_strategy, rng=ref_seed, progress=report("reference"),
+                           **ref_settings).value
+        ref_info = {"strategy": ref_strategy, "spp": ref_spp, "seed": [rng, 1],
+                    "seconds": time.perf_counter() - t0}
     for s in strategies:
         t0 = time.perf_counter()
-        images[s] = render(scene, counts[s], s, rng=np.random.SeedSequence([rng, 0])).value
+        images[s] = render(scene, counts[s], s, rng=np.random.SeedSequence([rng, 0]), points=points,
+                           workers=workers, spp_batch=spp_batch, progress=report(s), **sampling).value
         seconds[s] = time.perf_counter() - t0
         errors[s] = rel_mse(images[s], reference)
+    settings = dict(points=points, workers=workers, spp_batch=spp_batch, seed=rng, **sampling)
     return {"images": images, "seconds": seconds, "rel_mse": errors, "reference": reference,
-            "spp": counts if equal_time else spp}
+            "spp": counts if equal_time else spp, "cost": cost, "reference_render": ref_info, "settings": settings}
 
 
 def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure: float = 1.0) -> Path:
@@ -107,7 +189,7 @@ def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure:
         each = f", {result['spp'][name]} spp" if isinstance(result["spp"], dict) else ""
         ax.set_xlabel(f"{name}\nrelMSE = {result['rel_mse'][name]:.3g}, {result['seconds'][name]:.1f} s{each}",
                       fontsize=9)
-    equal = "equal time" if isinstance(result["spp"], dict) else f"{result['spp']} spp per strategy"
+    equal = "equal modelled cost" if isinstance(result["spp"], dict) else f"{result['spp']} spp per strategy"
     fig.suptitle(title or equal, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

@@ -181,7 +181,7 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     otherwise).  ``rng`` seeds everything (see the module docstring); ``workers``
     processes render tiles in parallel with the same result (None: :func:`default_workers`);
     ``executor``: a ``concurrent.futures.Executor`` of the caller's (e.g. a process pool
-    with the spawn start method) to run the tiles on instead, in about 4 x ``workers`` tasks per batch,
+    with the spawn start method) to run the tiles on instead, in max(64, 4 x ``workers``) tasks per batch,
     also with the same result;
     ``progress(done_pixels, total)`` is called after each tile; ``light_selection``:
     ``"uniform"`` or ``"power"``.  ``spp_batch``: samples per pixel of one work unit
@@ -290,7 +290,9 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     # allocator tuning only in the local pool's processes, which vrlab starts and owns
     fn = _units_in_own_worker if executor is None and workers > 1 else _units
     # one task per tile in this process; else about 4 tasks per worker and batch (one pool for all batches)
-    groups = len(tiles) if workers == 1 and executor is None else min(len(tiles), TASKS_PER_WORKER * workers)
+    # a caller's executor (a Dask cluster) may have more workers than ``workers`` says: >= 64 tasks
+    groups = (len(tiles) if workers == 1 and executor is None else
+              min(len(tiles), TASKS_PER_WORKER * workers if executor is None else max(TASKS_PER_WORKER * workers, 64)))
     tasks = [(job, [(t, k) for t in tiles[i::groups]]) for k in range(start, job.n_batches) for i in range(groups)]
     new: dict = {}                          # batch -> {tile: statistics}, until the batch is merged
     k = start
