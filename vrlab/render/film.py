@@ -76,6 +76,8 @@ def _optional_int(value: Any, name: str, low: int, high: int | None = None) -> i
 
 def _concat(stats: list):
     """Per-block statistics (pixel axis 1 of their arrays) joined into one for the tile."""
+    if len(stats) == 1:                     # one block per tile (the default block size)
+        return stats[0]
     out = copy.copy(stats[0])
     for name, value in vars(out).items():
         if isinstance(value, np.ndarray) and value.ndim >= 2:
