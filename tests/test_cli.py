@@ -294,3 +294,48 @@ def test_render_cli_gradient_domain_progress(capsys):
     assert main(GD[:-1] + ["--progress"]) == 0
     captured = capsys.readouterr()
     assert "gradient-domain" in captured.err and "192/192" in captured.err and "spp=4" in captured.out
+
+
+# -- render: --exposure -------------------------------------------------------------------------
+def _white(path) -> float:
+    """Share of the pixels of a PNG that are pure white (all three channels at 255)."""
+    import matplotlib.image
+
+    return float((matplotlib.image.imread(path)[..., :3] == 1.0).all(-1).mean())
+
+
+def test_render_png_exposure_auto_by_default(tmp_path, capsys):
+    import numpy as np
+
+    from vrlab.render.image import auto_exposure
+
+    base = ["render", "many_lights", "--spp", "4", "--width", "80", "--height", "60", "--seed", "2",
+            "--no-progress", "--json"]
+    assert main(base + ["-o", str(tmp_path / "img.npy")]) == 0
+    assert "exposure" not in json.loads(capsys.readouterr().out)      # no PNG, no exposure used
+    linear = np.load(tmp_path / "img.npy")
+    assert main(base + ["-o", str(tmp_path / "auto.png")]) == 0     # the default is auto
+    auto = json.loads(capsys.readouterr().out)
+    assert auto["exposure"] == pytest.approx(auto_exposure(linear), rel=1e-12)
+    assert main(base + ["-o", str(tmp_path / "named.png"), "--exposure", "auto"]) == 0
+    assert json.loads(capsys.readouterr().out)["exposure"] == auto["exposure"]
+    assert main(base + ["-o", str(tmp_path / "one.png"), "--exposure", "1"]) == 0
+    assert json.loads(capsys.readouterr().out)["exposure"] == 1.0
+    # the lights seen directly clip, the lit floor does not: at most 3% white, against many more at 1
+    assert _white(tmp_path / "auto.png") <= 0.03
+    assert _white(tmp_path / "one.png") > 0.1
+    assert (tmp_path / "auto.png").read_bytes() == (tmp_path / "named.png").read_bytes()
+
+
+@pytest.mark.parametrize("value", ["0", "-2", "nan", "bright", ""])
+def test_render_bad_exposure_is_a_one_line_usage_error(value, capsys, tmp_path):
+    code = None
+    try:
+        code = main(["render", "furnace", "--width", "8", "--height", "6", "--exposure", value,
+                     "-o", str(tmp_path / "x.png")])
+    except SystemExit as exc:
+        code = exc.code
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err
+    assert "--exposure" in lines[0] and "auto" in lines[0] and not (tmp_path / "x.png").exists()

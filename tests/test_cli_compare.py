@@ -169,3 +169,20 @@ def test_every_compare_flag_has_help():
     flags = {s: a.help for a in render._actions for s in a.option_strings}
     for flag in ("--compare", "--equal-time", "--reference-spp", "--reference"):
         assert flags[flag] and len(flags[flag]) > 20
+
+
+def test_compare_figure_shares_one_auto_exposure_from_the_reference(tmp_path):
+    import matplotlib.image as mpimg
+    import numpy as np
+
+    from vrlab.render.compare import compare_figure
+
+    ref = np.full((24, 32, 3), 10.0)                  # bright: exposure 1 would clip every pixel
+    res = {"images": {"a": ref.copy(), "b": 0.5 * ref}, "seconds": {"a": 1.0, "b": 1.0},
+           "rel_mse": {"a": 0.0, "b": 0.2}, "reference": ref, "spp": 4}
+    auto = mpimg.imread(compare_figure(res, tmp_path / "auto.png"))[..., :3]
+    one = mpimg.imread(compare_figure(res, tmp_path / "one.png", exposure=1.0))[..., :3]
+    # the panels are grey, not white, and panel b is darker than panel a: one shared scale
+    grey = np.isclose(auto, auto[..., :1], atol=0.02).all(-1) & (auto.max(-1) < 0.98) & (auto.max(-1) > 0.2)
+    assert grey.sum() > 0.5 * 2 * 24 * 32
+    assert (one.max(-1) >= 0.99).mean() > (auto.max(-1) >= 0.99).mean()

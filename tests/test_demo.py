@@ -114,3 +114,104 @@ def test_a_failing_background_figure_is_reported_by_name(tmp_path):
     with pytest.raises(RuntimeError, match="broken.png") as info:
         painter.wait()
     assert "ok.png" not in str(info.value) and (tmp_path / "ok.png").exists()
+
+
+# -- figures ------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def warp_panels():
+    from vrlab import _demo_samplers as S
+
+    return S.warp_table(seed=4, n=6000)[1]
+
+
+def _plot_axes(fig):
+    """The axes of a figure other than colour bars (which carry one label, checked apart)."""
+    return [ax for ax in fig.axes if not hasattr(ax, "_colorbar")]
+
+
+def _assert_labelled(fig):
+    from vrlab.lab.plots import overlapping_tick_labels
+
+    for ax in _plot_axes(fig):
+        assert ax.get_xlabel().strip() and ax.get_ylabel().strip() and ax.get_title().strip(), ax.get_title()
+        assert "(" in ax.get_xlabel() and "(" in ax.get_ylabel(), (ax.get_xlabel(), ax.get_ylabel())    # units
+    for ax in fig.axes:
+        if hasattr(ax, "_colorbar"):
+            assert ax.get_ylabel().strip()
+    assert overlapping_tick_labels(fig) == []
+
+
+def test_warps_figure_fills_its_grid_and_shows_each_pdf(warp_panels):
+    from matplotlib.colors import to_hex
+
+    from vrlab import _demo_samplers as S
+
+    fig = S.warps_figure(warp_panels)
+    axes = _plot_axes(fig)
+    rows, cols = axes[0].get_subplotspec().get_gridspec().get_geometry()
+    assert len(axes) == rows * cols                     # no empty cells
+    assert fig.legends, "the figure has no legend"
+    _assert_labelled(fig)
+    expected = to_hex(S.EXPECTED)
+    images = [ax.images[0] for ax in axes if ax.images]
+    assert len(images) == 2 and images[0].get_clim() == images[1].get_clim()    # samples | pdf, one scale
+    for ax in axes:
+        if ax.images:
+            continue
+        # every histogram of samples has the density its pdf predicts beside it
+        assert ax.patches and any(to_hex(line.get_color()) == expected for line in ax.lines), ax.get_title()
+    titles = " ".join(ax.get_title() for ax in axes)
+    for name in ("disk", "triangle", "image luminance 2D: samples", "image luminance 2D: pdf"):
+        assert name in titles
+
+
+def test_chart_marginals_match_their_closed_forms():
+    from vrlab import _demo_samplers as S
+    from vrlab import distributions as D
+    from vrlab import testing as T
+
+    # uniform disk: s = r^2 is uniform, so the radius has density 2 r; the angle 1 / (2 pi) per radian
+    u, f = S._chart_marginal(D.Disk(), T.DiskChart(), 0)
+    np.testing.assert_allclose(f, 1.0, rtol=1e-9)
+    u, f = S._chart_marginal(D.Disk(), T.DiskChart(), 1)
+    np.testing.assert_allclose(f, 1.0, rtol=1e-9)
+    # uniform triangle: the barycentric weight b of a vertex has density 2 (1 - b)
+    tri = ((0, 0), (1, 0), (0.3, 0.9))
+    u, f = S._chart_marginal(D.Triangle(*tri), T.TriangleChart(*tri), 0)
+    np.testing.assert_allclose(f, 2 * (1 - u), rtol=1e-9)
+    # box light by area: each face's share of the atlas coordinate is its area over the total
+    half = (1.0, 0.5, 0.25)
+    u, f = S._chart_marginal(D.BoxSurface((0, 0, 0), half), T.box_surface_chart((0, 0, 0), half), 0)
+    areas = np.repeat([4 * half[1] * half[2], 4 * half[0] * half[2], 4 * half[0] * half[1]], 2)
+    share = [f[(u >= k / 6) & (u < (k + 1) / 6)].mean() / 6 for k in range(6)]   # f is constant per face
+    np.testing.assert_allclose(share, areas / areas.sum(), rtol=1e-9)
+
+
+def test_point_sets_figure_is_labelled():
+    from vrlab import _demo_samplers as S
+
+    _assert_labelled(S.point_sets_figure(seed=1))
+
+
+def test_veach_figure_shares_one_auto_exposure(monkeypatch, tmp_path):
+    import vrlab.render.compare as C
+    from vrlab.render.image import auto_exposure
+
+    seen = {}
+    real_compare = C.compare
+
+    def compare(*args, **kwargs):
+        seen["reference"] = kwargs["reference"]
+        return real_compare(*args, **kwargs)
+
+    def figure(result, path, *, title="", exposure=1.0):
+        seen.update(title=title, exposure=exposure, images=len(result["images"]))
+        return path
+
+    monkeypatch.setattr(C, "compare", compare)
+    monkeypatch.setattr(C, "compare_figure", figure)
+    demo.render_section(tmp_path, seed=3, quick=True)
+    assert seen["images"] == 3
+    assert seen["exposure"] == pytest.approx(auto_exposure(seen["reference"]), rel=1e-12)
+    assert seen["exposure"] != 1.0 and "exposure: auto, shared" in seen["title"]
+    assert f"{seen['exposure']:.3g}" in seen["title"]

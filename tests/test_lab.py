@@ -337,6 +337,102 @@ def test_plots_are_written(small_run, tmp_path):
         assert path.stat().st_size > 10_000
 
 
+#: many estimators on two integrands with different applicable sets, over less than a decade
+#: of n (where log axes used to label crowded minor ticks)
+MANY = ["mc", "is:linear", "is:brdf", "is:light", "mis-balance", "defensive", "antithetic", "cv", "jittered",
+        "lhs", "stratified"]
+
+
+@pytest.fixture(scope="module")
+def many_run():
+    return lab.run(MANY, ["exp", "glossy-light"], [16, 32, 64, 128], 4, rng=3, skip=True)
+
+
+def _panels(fig):
+    """Axes that hold curves or bars (colour bars and legends excluded)."""
+    return [ax for ax in fig.axes if ax.lines or ax.patches]
+
+
+def _colours_by_estimator(fig) -> dict:
+    """estimator -> set of line colours over every panel (label ``estimator, slope (theory)``)."""
+    from matplotlib.colors import to_hex
+
+    seen: dict = {}
+    for ax in _panels(fig):
+        for line in ax.lines:
+            seen.setdefault(line.get_label().split(",")[0], set()).add(to_hex(line.get_color()))
+    return seen
+
+
+def test_convergence_figure_small_multiples_keep_colours(many_run):
+    from matplotlib.colors import to_hex
+
+    fig = lab.plots.convergence_figure(many_run)
+    panels = _panels(fig)
+    assert len(panels) == len(fig.axes) >= 4             # small multiples, no empty cells
+    for ax in panels:
+        assert len(ax.lines) <= lab.plots.MAX_LINES, ax.get_title()
+        assert ax.get_xlabel() and ax.get_ylabel() and ax.get_title()
+        assert ax.get_legend() is not None
+        assert ax.lines[0].get_label().startswith("mc,")   # the reference in every panel, black
+        assert to_hex(ax.lines[0].get_color()) == "#000000"
+    colours = _colours_by_estimator(fig)
+    # every estimator that ran is drawn, each in one colour in every panel, no two alike
+    assert set(colours) == set(many_run["estimator"])
+    assert all(len(c) == 1 for c in colours.values()), colours
+    assert len({next(iter(c)) for c in colours.values()}) == len(colours)
+    # each integrand's estimators are all drawn (on its own panels)
+    for name, g in many_run.groupby("integrand"):
+        drawn = {line.get_label().split(",")[0] for ax in panels if ax.get_title().startswith(name + ":")
+                 for line in ax.lines}
+        assert drawn == set(g["estimator"]), name
+    assert lab.plots.overlapping_tick_labels(fig) == []
+
+
+def test_efficiency_figure_uses_the_convergence_colours(many_run):
+    from matplotlib.colors import to_hex
+
+    lines = {k: next(iter(v)) for k, v in _colours_by_estimator(lab.plots.convergence_figure(many_run)).items()}
+    fig = lab.plots.efficiency_figure(many_run)
+    for ax in _panels(fig):
+        assert ax.get_xlabel() and ax.get_ylabel() and ax.get_title()
+        names = {round(t.get_position()[1]): t.get_text() for t in ax.get_yticklabels()}
+        assert len(ax.patches) == len(names) > 0
+        for bar in ax.patches:
+            name = names[round(bar.get_y() + bar.get_height() / 2)]
+            assert to_hex(bar.get_facecolor()) == lines[name], name
+    assert lab.plots.overlapping_tick_labels(fig) == []
+
+
+def test_tidy_tick_labels_removes_overlaps():
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(2.5, 2), dpi=110)
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    ticks = np.arange(30)
+    ax.set_xticks(ticks, [f"label {k}" for k in ticks])
+    ax.set_yscale("log")
+    ax.set_ylim(0.8, 1.6)                                 # log axis under one decade: labelled minor ticks
+    ax.set_yticks(np.linspace(0.8, 1.6, 30), minor=True)
+    ax.set_yticklabels([f"{v:.3f}" for v in np.linspace(0.8, 1.6, 30)], minor=True)
+    assert len(lab.plots.overlapping_tick_labels(fig)) > 10
+    fig.tight_layout()
+    lab.plots.tidy_tick_labels(fig)
+    assert lab.plots.overlapping_tick_labels(fig) == []
+    kept = [t for t in ax.get_xticklabels() if t.get_text()]
+    assert 2 <= len(kept) < 30 and kept[0].get_text() == "label 0"
+
+
+def test_estimator_styles_follow_the_first_appearance():
+    styles = lab.plots.estimator_styles(["cv", "mc", "lhs", "cv"])
+    assert styles["mc"] == ("black", "o")
+    assert styles["cv"] == (lab.plots.PALETTE[0], lab.plots.MARKERS[1])
+    assert styles["lhs"] == (lab.plots.PALETTE[1], lab.plots.MARKERS[2])
+    assert lab.plots.estimator_styles(["a", "b"])["a"] == ("black", "o")     # no mc: the first
+
+
 # -- command line -----------------------------------------------------------------------------
 def test_cli_list(capsys):
     assert main(["lab", "--list"]) == 0
@@ -364,6 +460,25 @@ def test_cli_run_json_csv_plot(capsys, tmp_path):
     assert png.exists()
     same = lab.run(["mc", "jittered", "is:linear"], ["exp"], [64, 256], 4, rng=3)
     np.testing.assert_array_equal(runs["value"].to_numpy(), same["value"].to_numpy())
+
+
+def test_cli_plot_has_no_overlapping_ticks(capsys, tmp_path, monkeypatch):
+    figures = []
+    draw = lab.plots.convergence_figure
+
+    def keep(*args, **kwargs):
+        figures.append(draw(*args, **kwargs))
+        return figures[-1]
+
+    monkeypatch.setattr(lab.plots, "convergence_figure", keep)
+    png = tmp_path / "conv.png"
+    # three integrands over less than a decade of n: the case whose minor tick labels collided
+    assert main(["lab", "--integrand", "exp,sin,glossy-light", "--estimators", "mc,antithetic,mis-balance",
+                 "--n", "16,32,64,128", "--reps", "3", "--plot", str(png), "--no-progress"]) == 0
+    capsys.readouterr()
+    assert png.exists() and len(figures) == 1
+    assert lab.plots.overlapping_tick_labels(figures[0]) == []
+    assert all(len(ax.lines) <= lab.plots.MAX_LINES for ax in figures[0].axes)
 
 
 def test_cli_run_table(capsys):

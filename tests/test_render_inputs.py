@@ -524,6 +524,34 @@ def test_save_image_bad_inputs(tmp_path, raises_naming):
     assert save_image(tmp_path / "ok.png", img).exists()
 
 
+def test_save_image_png_exposure_auto_and_rounding(tmp_path, raises_naming):
+    import matplotlib.image
+
+    from vrlab.render.image import auto_exposure
+
+    rng = np.random.default_rng(2)
+    img = rng.pareto(1.5, (20, 30, 1)) * np.array([1.0, 0.8, 0.6])
+    auto = matplotlib.image.imread(save_image(tmp_path / "auto.png", img, "auto"))
+    fixed = matplotlib.image.imread(save_image(tmp_path / "fixed.png", img, auto_exposure(img)))
+    np.testing.assert_array_equal(auto, fixed)
+    # at most 3% of the pixels white (all three channels at 255), against many more at exposure 1
+    white = (auto[..., :3] == 1.0).all(-1).mean()
+    assert white <= 0.03 + 1 / 600
+    assert (matplotlib.image.imread(save_image(tmp_path / "one.png", img))[..., :3] == 1.0).all(-1).mean() > 0.1
+    # 8 bits by rounding: 1.0 is white (255, not the truncated 254), 0.2 -> round(255 srgb(0.2)) = 124
+    grey = np.broadcast_to(np.array([1.0, 0.2, 0.0]), (2, 2, 3))
+    px = matplotlib.image.imread(save_image(tmp_path / "grey.png", grey))[0, 0, :3] * 255
+    np.testing.assert_array_equal(px, [255, np.rint(255 * srgb_encode(0.2)), 0])
+    assert np.rint(255 * srgb_encode(0.2)) == 124 and np.floor(255 * srgb_encode(1.0)) == 254
+    for bad in ("Auto", "bright", ""):
+        with raises_naming(TypeError, "exposure"):
+            save_image(tmp_path / "x.png", img, bad)
+    # .npy ignores the exposure and keeps NaN
+    nan = img.copy()
+    nan[0, 0, 0] = NAN
+    assert np.isnan(np.load(save_image(tmp_path / "x.npy", nan, "auto"))[0, 0, 0])
+
+
 def test_load_image_bad_inputs(tmp_path, raises_naming):
     with raises_naming(ValueError, "path"):
         load_image(tmp_path / "missing.npy")

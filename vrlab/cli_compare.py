@@ -129,7 +129,7 @@ def run_compare(args: argparse.Namespace, p: dict) -> int:
            "rel_mse": res["rel_mse"], "seconds": res["seconds"], "cost_per_sample": res["cost"],
            "reference": reference, "settings": settings}
     if p["output"] is not None:
-        out["figure"] = str(compare_figure(res, p["output"], exposure=p["exposure"]))
+        out["figure"] = str(compare_figure(res, p["output"], exposure="auto" if p["exposure_auto"] else p["exposure"]))
     if args.json:
         print(json.dumps(out, indent=2))
         return 0

@@ -132,7 +132,7 @@ def run_gradient(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .render import render_gradient_domain
-    from .render.image import rel_mse, save_image
+    from .render.image import auto_exposure, rel_mse, save_image
 
     scene = p["scene"]
     if p["workers"] is None:
@@ -172,6 +172,9 @@ def run_gradient(args: argparse.Namespace) -> int:
                           **{norm: rel_mse(recon[norm], p["reference"]) for norm in ("l2", "l1")}}
     if p["output"] is not None:
         files, exposure = p["files"], p["exposure"]
+        if p.get("exposure_auto"):          # one scale for every image: from the reference, else the primal
+            exposure = auto_exposure(primal if p["reference"] is None else p["reference"])
+            out["exposure"] = exposure
         dx, dy = _magnitude(gd.dx.value, (h, w, 3)), _magnitude(gd.dy.value, (h, w, 3))
         out["output"] = str(save_image(p["output"], recon[p["norm"]], exposure))
         for key, img in (("primal_output", primal), ("dx_output", dx), ("dy_output", dy)):
@@ -183,7 +186,8 @@ def run_gradient(args: argparse.Namespace) -> int:
         if p["reference"] is not None:
             panels.append(("reference", p["reference"], None))
         kind = "common random numbers" if p["common"] else "independent neighbours"
-        title = f"{p['path'].stem}: gradient-domain, {args.strategy}, {p['spp']} spp, {kind}"
+        title = (f"{p['path'].stem}: gradient-domain, {args.strategy}, {p['spp']} spp, {kind} "
+                 f"(exposure: shared, x{exposure:.3g})")
         out["figure"] = str(panels_figure(panels, files["figure"], title=title, exposure=exposure))
     if p["stderr_out"] is not None:
         out["stderr_output"] = str(save_image(p["stderr_out"], gd.primal.stderr))

@@ -3,8 +3,8 @@
 Checked before rendering (usage errors, exit status 2, unless noted): ``--spp``
 (1 .. 2**20), ``--width``/``--height`` (1 .. 16384), ``--seed`` (0 .. 2**128-1),
 ``--emitter-samples``/``--bsdf-samples`` (0 .. 1024, and what the strategy needs),
-``--ris-candidates`` (1 .. 4096), ``--workers`` (1 .. 256), ``--exposure`` (finite,
-> 0), the ``--compare`` flags (:mod:`vrlab.cli_compare`), flags that do not apply
+``--ris-candidates`` (1 .. 4096), ``--workers`` (1 .. 256), ``--exposure`` (``auto``
+or finite > 0), the ``--compare`` flags (:mod:`vrlab.cli_compare`), flags that do not apply
 together; ``-o``/``--stderr-out``: suffix, a folder that exists and is writable (else
 exit status 1); the scene (a file: read and parsed, else exit status 1; or a built-in
 name); ``--reference``: a readable ``.npy`` (or ``.exr`` with OpenEXR) of finite values
@@ -107,7 +107,10 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
     rend.add_argument("--reference", help="reference .npy (or .exr) of the same size: print relMSE = "
                                           "mean((img-ref)^2/(ref^2+0.01)); with --compare: the reference "
                                           "of every panel")
-    rend.add_argument("--exposure", default="1.0", help="exposure scale for .png, finite and > 0 (default: 1.0)")
+    rend.add_argument("--exposure", default="auto",
+                      help="exposure scale of a .png: auto (mid-grey key 0.18 on the log-average luminance, at "
+                           "most 3%% of the pixels white; vrlab.render.image.auto_exposure) or a number > 0; "
+                           "--compare and --gradient-domain figures take 1.0 for auto (default: auto)")
     C.add_arguments(rend)
     rend.add_argument("--gradient-domain", action="store_true",
                       help="render the image and its pixel differences with common random numbers and "
@@ -216,7 +219,12 @@ def check_render(args: argparse.Namespace) -> dict:
              bsdf_samples=A.integer(args.bsdf_samples, "--bsdf-samples", low=0, high=SAMPLES_MAX),
              ris_candidates=A.integer(args.ris_candidates, "--ris-candidates", low=1, high=RIS_MAX),
              workers=A.workers(args.workers),
-             exposure=A.real(args.exposure, "--exposure", low=0, low_open=True))
+             exposure_auto=str(args.exposure).strip().lower() == "auto")
+    # a number for the figures of --compare / --gradient-domain (auto: 1.0 there)
+    try:
+        p["exposure"] = 1.0 if p["exposure_auto"] else A.real(args.exposure, "--exposure", low=0, low_open=True)
+    except A.UsageError:
+        raise A.UsageError(f"--exposure must be auto or a finite number > 0, got {args.exposure!r}") from None
     p["output"] = A.output_file(args.output, "-o/--output", FIGURE_SUFFIXES if compare else IMAGE_SUFFIXES)
     p["stderr_out"] = A.output_file(args.stderr_out, "--stderr-out", IMAGE_SUFFIXES)
     p["checkpoint"] = A.output_file(args.checkpoint, "--checkpoint", (".npz",))
@@ -333,7 +341,7 @@ def run_render(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .render import render
-    from .render.image import rel_mse, save_image
+    from .render.image import auto_exposure, rel_mse, save_image
 
     scene = p["scene"]
     t0 = time.perf_counter()
@@ -369,7 +377,9 @@ def run_render(args: argparse.Namespace) -> int:
            # spp = 1 has no standard error: null in JSON rather than NaN
            "mean_stderr": float(finite_err.mean()) if finite_err.size else None}
     if p["output"] is not None:
-        out["output"] = str(save_image(p["output"], img, p["exposure"]))
+        if p["output"].suffix.lower() == ".png":         # the exposure used, in the report
+            out["exposure"] = auto_exposure(img) if p["exposure_auto"] else p["exposure"]
+        out["output"] = str(save_image(p["output"], img, out.get("exposure", 1.0)))
     if p["stderr_out"] is not None:
         out["stderr_output"] = str(save_image(p["stderr_out"], err))
     if p["reference"] is not None:

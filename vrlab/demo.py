@@ -4,8 +4,8 @@ Five sections, in this order.  Each prints its header *before* its work starts; 
 steps (the warps, the lab sweep, the speed races of the full demo, the reference render)
 show a tqdm progress bar on stderr when stderr is a terminal, and stay quiet otherwise.
 
-1. Warps: ``warps.png`` (each warp's samples against its pdf, chi-square p-value in the
-   title) and ``warps_gof.csv`` (the goodness-of-fit table and each pdf's integral).
+1. Warps: ``warps.png`` (each warp's samples against the density its pdf predicts,
+   chi-square p-value in the title) and ``warps_gof.csv`` (the goodness-of-fit table and each pdf's integral).
 2. Point sets: ``point_sets.png`` (256 points of every point set) and ``discrepancy.csv``,
    the centred L2 discrepancy CD of each set vs n (Hickernell 1998).  SciPy's
    ``scipy.stats.qmc.discrepancy(method="CD")`` (:func:`vrlab.points.discrepancy`) returns
@@ -18,7 +18,15 @@ show a tqdm progress bar on stderr when stderr is a terminal, and stay quiet oth
    ``lab_runs.csv``, ``lab_summary.csv``, ``lab_slopes.csv``, ``lab_table.csv`` (the
    printed table with its trust flags), ``convergence.png`` and ``efficiency.png``.
 5. Renderer: Veach's glossy plates, BSDF sampling | light sampling | MIS (``veach_mis.png``,
-   ``veach_mis.csv``), relMSE against a higher-spp MIS reference that it renders first.
+   ``veach_mis.csv``), relMSE against a higher-spp MIS reference that it renders first; the
+   three panels share one exposure, ``auto_exposure`` of the reference
+   (:mod:`vrlab.render.image`).
+
+Figures follow the same rules: labelled axes with units, one colour per method in every
+panel (estimators: :func:`vrlab.lab.plots.estimator_styles`), at most six lines per
+convergence panel (small multiples, ``mc`` in each), every warp beside the density its
+pdf predicts (1D: the pdf; disk, triangle and light surfaces: marginals of their chart
+coordinates; the image pdf: a 2D histogram beside the pdf on one colour scale).
 
 Sizes (``quick`` / full): warps 2e4 / 2e5 samples; discrepancy up to n = 1024 / 4096;
 QMC races at d = 2, 8 / 2, 8, 32 (best of 2 / 3), discrete races in the full demo only;
@@ -226,7 +234,10 @@ def lab_section(out: Path, seed: int, quick: bool, painter: _Painter | None = No
     slopes.to_csv(out / "lab_slopes.csv", index=False)
 
     def convergence():
-        lab.convergence_plot(summary, out / "convergence.png", title="vrlab lab: RMSE vs n (dashed: theoretical slope)")
+        ref = lab.plots.reference_estimator(summary["estimator"])
+        lab.convergence_plot(summary, out / "convergence.png",
+                             title=f"vrlab lab: RMSE vs n over {reps} repetitions, log-log; {ref} (black) in "
+                                   "every panel; legend: estimator, fitted slope (theory)")
 
     if painter is not None:
         painter.draw("convergence.png", convergence)     # meanwhile: the table, efficiency.png, the render
@@ -260,6 +271,7 @@ def render_section(out: Path, seed: int, quick: bool) -> pd.DataFrame:
 
     from .render import builtin_scene_path, load_scene, render
     from .render.compare import compare, compare_figure
+    from .render.image import auto_exposure
 
     scene = load_scene(builtin_scene_path("veach_mis"))
     w, h = (64, 48) if quick else (128, 96)
@@ -270,8 +282,10 @@ def render_section(out: Path, seed: int, quick: bool) -> pd.DataFrame:
                        progress=lambda done, total: bar.update(max(0, done - bar.done))).value
     bar.close()
     res = compare(scene, spp=8 if quick else 16, rng=seed, reference=reference)
-    compare_figure(res, out / "veach_mis.png",
-                   title=f"Veach's glossy plates, {res['spp']} spp: BSDF sampling | light sampling | MIS (power)")
+    exposure = auto_exposure(reference)         # one exposure for the three panels, from the reference
+    compare_figure(res, out / "veach_mis.png", exposure=exposure,
+                   title=f"Veach's glossy plates, {res['spp']} spp per pixel: BSDF sampling | light sampling | "
+                         f"MIS (power)\nexposure: auto, shared (x{exposure:.3g}, from the {ref_spp}-spp reference)")
     df = pd.DataFrame({"strategy": list(res["rel_mse"]), "rel_mse": list(res["rel_mse"].values()),
                        "seconds": list(res["seconds"].values())})
     df.to_csv(out / "veach_mis.csv", index=False)

@@ -44,7 +44,7 @@ import numpy as np
 
 from .. import checks
 from .film import MAX_SPP, _as_scene, default_workers, plan, render
-from .image import _image, rel_mse, srgb_encode
+from .image import _image, auto_exposure, rel_mse, srgb_encode
 from .pixels import PixelIntegrand
 from .presets import PRESETS
 from .scene import Scene
@@ -159,9 +159,10 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
             "spp": counts if equal_time else spp, "cost": cost, "reference_render": ref_info, "settings": settings}
 
 
-def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure: float = 1.0) -> Path:
+def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure: float | str = "auto") -> Path:
     """Panels side by side with relMSE and time under each (matplotlib, Agg); ``path``'s
-    suffix picks the format (.png, .pdf, .svg, ...)."""
+    suffix picks the format (.png, .pdf, .svg, ...).  ``exposure``: one scale for every
+    panel, ``"auto"`` (default): :func:`~vrlab.render.image.auto_exposure` of the reference."""
     keys = ("images", "seconds", "rel_mse", "reference", "spp")
     if not isinstance(result, dict) or any(k not in result for k in keys) or not result["images"]:
         raise ValueError(f"result must be the dict returned by compare() (keys {', '.join(keys)})")
@@ -172,7 +173,8 @@ def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure:
         raise ValueError(f"path: unknown figure format {path.suffix!r}; use .png, .pdf or .svg")
     if not path.parent.is_dir():
         raise ValueError(f"path: the folder {str(path.parent)!r} does not exist")
-    exposure = checks.real(exposure, "exposure", low=0, low_open=True)
+    auto = isinstance(exposure, str) and exposure == "auto"
+    exposure = auto_exposure(result["reference"]) if auto else checks.real(exposure, "exposure", low=0, low_open=True)
     if not isinstance(title, str):
         raise TypeError(f"title must be a string, got {type(title).__name__}")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -190,7 +192,8 @@ def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure:
         ax.set_xlabel(f"{name}\nrelMSE = {result['rel_mse'][name]:.3g}, {result['seconds'][name]:.1f} s{each}",
                       fontsize=9)
     equal = "equal modelled cost" if isinstance(result["spp"], dict) else f"{result['spp']} spp per strategy"
-    fig.suptitle(title or equal, fontsize=10)
+    shared = f"exposure: {'auto, ' if auto else ''}shared, x{exposure:.3g}"
+    fig.suptitle(f"{title or equal} ({shared})", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return Path(path)

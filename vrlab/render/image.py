@@ -6,10 +6,11 @@
   + Y)) (Y = 0.2126 R + 0.7152 G + 0.0722 B, Rec. 709) to the mid-grey key 0.18 (Reinhard
   et al. 2002, "Photographic tone reproduction"), lowered where needed so that the
   brightest 3% of the pixels at most reach white: directly seen lights clip, the lit
-  scene does not (a fixed exposure of 1 left 26% of many_lights pure white).  Figures
+  scene does not.  Figures
   that compare images use one exposure for all of them.
 * ``.png``: clamp to [0, 1] after an exposure scale, then the sRGB transfer curve
-  (IEC 61966-2-1: 12.92 v for v <= 0.0031308, else 1.055 v^(1/2.4) - 0.055), 8 bits;
+  (IEC 61966-2-1: 12.92 v for v <= 0.0031308, else 1.055 v^(1/2.4) - 0.055), rounded to
+  8 bits (round(255 v));
   NaN or infinite pixels are an error (they have no colour).
 * ``.exr``: through the ``OpenEXR`` package when it is installed (not a dependency).
 * ``rel_mse(img, ref) = mean((img - ref)^2 / (ref^2 + 0.01))`` (relative MSE as used in
@@ -17,7 +18,12 @@
 
 Checked: the path's type, suffix and folder (``save_image``) or existence
 (``load_image``), the image's shape ``(H, W, 3)`` with H, W >= 1 and real values,
-``exposure`` finite and > 0; errors name the argument.
+``exposure`` finite and > 0 or ``"auto"``; errors name the argument.
+
+``save_image(path, img, exposure=...)`` keeps ``exposure=1.0`` as its default (a PNG
+shows the linear values unscaled, so e.g. standard-error images of several renders are
+comparable); ``exposure="auto"`` uses ``auto_exposure(img)``.  ``vrlab render -o x.png``
+defaults to ``--exposure auto`` and reports the exposure it used.
 """
 from __future__ import annotations
 
@@ -82,14 +88,21 @@ def rel_mse(img: np.ndarray, ref: np.ndarray) -> float:
     return float(np.mean((img - ref) ** 2 / (ref * ref + 0.01)))
 
 
-def save_image(path: str | Path, img: np.ndarray, exposure: float = 1.0) -> Path:
-    """Save a linear (H, W, 3) image as .npy, .png (tonemapped sRGB) or .exr; returns the path.
+def save_image(path: str | Path, img: np.ndarray, exposure: float | str = 1.0) -> Path:
+    """Save a linear (H, W, 3) image as .npy, .png (sRGB of clamp(exposure x img)) or .exr;
+    returns the path.  ``exposure``: a number > 0 (default 1.0) or ``"auto"``
+    (:func:`auto_exposure` of ``img``); used by .png only.
 
     ``ValueError`` for another suffix, a folder that does not exist, a wrong shape, NaN or
-    infinite pixels in a PNG, or ``exposure`` not finite and > 0."""
+    infinite pixels in a PNG, or ``exposure`` not finite and > 0 (``TypeError``: a string
+    other than ``"auto"``)."""
     path = checks.file_path(path, "path", SUFFIXES)
     img = _image(img, "img", False).astype(np.float32)
-    exposure = checks.real(exposure, "exposure", low=0, low_open=True)
+    if isinstance(exposure, str):
+        if exposure != "auto":
+            raise TypeError(f"exposure must be 'auto' or a number > 0, got {exposure!r}")
+    else:
+        exposure = checks.real(exposure, "exposure", low=0, low_open=True)
     suffix = path.suffix.lower()
     if suffix == ".npy":
         np.save(path, img)
@@ -101,8 +114,12 @@ def save_image(path: str | Path, img: np.ndarray, exposure: float = 1.0) -> Path
                              "non-finite values); a PNG cannot hold it, save as .npy")
         import matplotlib.image
 
+        if exposure == "auto":
+            exposure = auto_exposure(img)
         with np.errstate(over="ignore"):
-            matplotlib.image.imsave(path, srgb_encode(img.astype(float) * exposure))
+            encoded = srgb_encode(img.astype(float) * exposure)
+        # rounded to 8 bits (a plain cast would truncate: 1.055 - 0.055 = 0.99999... -> 254, never white)
+        matplotlib.image.imsave(path, np.rint(encoded * 255).astype(np.uint8))
     else:
         try:
             import OpenEXR  # type: ignore[import-not-found]
