@@ -50,61 +50,76 @@ GALLERY: list[Entry] = [
     Entry("importance_sampling", "importance_sampling_convergence.png", "01_importance_sampling",
           "Importance sampling",
           "RMSE against n for sin x on [0, π/2] and x²·1[x > ½]: a density shaped like the "
-          "integrand (p ∝ x; uniform on [½, 1]) lowers the whole line, the slope stays −½. "
-          "For sin the one-sample variance drops from 0.234 to 0.0168 (14×)."),
+          "integrand (p ∝ x; uniform on [½, 1]) lowers the whole line, the slope stays that of "
+          "Monte Carlo (fitted {slope_lo} to {slope_hi}; dashed: theory). For sin the one-sample "
+          "variance drops from {sin_uniform} to {sin_linear} ({sin_ratio}×)."),
     Entry("cosine_sampling", "cosine_sampling_renders.png", "02_cosine_sampling",
           "Cosine-weighted sampling",
-          "Cornell box at 16 and 64 spp with uniform-hemisphere, cosine, light and MIS (power) "
-          "sampling. Uniform and cosine directions rarely hit the small light, so most pixels "
-          "stay black. "
-          "On ∫cos θ dω, cosine sampling has zero variance; uniform sampling has π²/3 ≈ 3.29."),
+          "Cornell box at {spps} spp with uniform-hemisphere, cosine, light and MIS (power) "
+          "sampling, all at one automatic exposure. Uniform and cosine directions rarely hit the "
+          "small light, so most pixels stay black. On ∫cos θ dω, cosine sampling has zero "
+          "variance; uniform sampling measures {var_uniform} (closed form π²/3 = {var_uniform_theory})."),
     Entry("light_surfaces", "light_surfaces_direction_pdfs.png", "03_light_surfaces",
           "Light surfaces: area to solid angle",
           "Density of directions towards a box and an ellipsoid light, p_w = Σ_hits p_A d²/|cos θ|: "
           "a closed light is crossed twice, and only the sum over both hits integrates to 1 "
-          "(first hit alone: 0.37 for the box, 0.41 for the ellipsoid)."),
+          "(within {both_max_error}; first hit alone: {first_box} for the box, {first_ellipsoid} "
+          "for the ellipsoid)."),
     Entry("mis", "mis_veach.png", "04_multiple_importance_sampling",
           "Multiple importance sampling",
-          "Veach's glossy plates (4 plates × 4 spherical lights, 16 spp). BSDF sampling is noisy "
-          "for small lights on rough plates, light sampling for large lights on sharp plates; "
-          "MIS with the power heuristic is good in all 16 regions (right: region map)."),
-    Entry("antithetic_crn", "antithetic_crn_rmse.png", "05_antithetic_crn",
-          "Common random numbers",
-          "RMSE of the estimated difference ∫eˣ − ∫e^(1.1x) with common versus independent "
-          "uniforms (dotted: theory). Sharing the random numbers cuts the variance about 86× "
-          "(0.570 → 0.0066 per sample)."),
+          "Veach's glossy plates at {spp} spp, two evaluations per camera ray for every method: BSDF "
+          "sampling and light sampling (two samples each), and MIS (one of each) with the balance and "
+          "the power heuristic; bottom: the region key (plate 1 roughest … 4 sharpest, light A smallest "
+          "… D largest, α read from the scene) and the relMSE per region. Per region MIS's relMSE is at "
+          "most {balance_max}× (balance; worst: {balance_worst}) and {power_max}× (power; worst: "
+          "{power_worst}) that of the better single technique, and below both single techniques in "
+          "{balance_wins} (balance) and {power_wins} (power) of {regions} regions."),
+    Entry("antithetic_crn", "antithetic_crn_render.png", "05_antithetic_crn",
+          "Antithetic variates and common random numbers",
+          "Direct lighting of a floor under a square light, {spp} spp: antithetic cosine pairs (u, 1 − u: "
+          "the second direction mirrored about the normal) against two independent cosine samples per "
+          "ray. Variance factor 1 + ρ, measured (closed form): {floor} ({floor_theory}) over the floor, "
+          "{edge} ({edge_theory}) around the light's edge, {centre} ({centre_theory}) under its centre, "
+          "where both directions of a pair hit the light together. On ∫₀¹ eˣ the factor is {exp_factor} "
+          "(closed form {exp_theory}); common random numbers cut the variance of ∫eˣ − ∫e^(1.1x) "
+          "{crn_gain}×."),
     Entry("control_variates", "control_variates_sweep.png", "06_control_variates",
           "Control variates",
-          "Variance per sample against the correlation ρ of f and the control h (dots: measured, "
-          "lines: theory). α = 1 beats plain MC only for ρ > ½ (ρ > ¾ at equal cost); the "
-          "optimal α always helps: σ²(1 − ρ²)."),
+          "Variance per sample against the correlation ρ of f and the control h, at equal N and at "
+          "equal cost (dots: measured, lines: theory). α = 1 beats plain MC only for "
+          "ρ > {alpha1_equal_n} (theory {alpha1_equal_n_theory}), at equal cost for "
+          "ρ > {alpha1_equal_cost} (theory {alpha1_equal_cost_theory}); the optimal α always helps "
+          "at equal N, σ²(1 − ρ²), and at equal cost for ρ > {optimal_equal_cost} "
+          "(theory {optimal_equal_cost_theory})."),
     Entry("ris", "ris_many_lights.png", "07_resampled_importance_sampling",
           "Resampled importance sampling",
-          "128 sphere lights, 8 spp, one shadow ray per sample. Resampling M = 16 uniformly drawn "
-          "light candidates towards their unshadowed contribution cuts the relMSE from 1.92 "
-          "(light chosen uniformly) and 0.85 (by power) to 0.12; candidates drawn by power: 0.05."),
+          "{lights} sphere lights, {spp} spp, one shadow ray per sample. Resampling M = {m} uniformly "
+          "drawn light candidates towards their unshadowed contribution cuts the relMSE from "
+          "{uniform} (light chosen uniformly) and {power} (by power) to {ris}; candidates drawn by "
+          "power: {ris_power}."),
     Entry("sampling_patterns", "sampling_patterns_convergence.png", "08_sampling_patterns",
           "Sampling patterns",
-          "RMSE against n with fitted slopes (dashed: theory): Monte Carlo −0.49, jittered "
-          "−1.51 in 1D and −1.00 in 2D, LHS, and scrambled Halton and Sobol on a smooth 2D "
-          "integrand."),
+          "RMSE against n with fitted slopes (dashed: theory): Monte Carlo {mc_1d}, jittered "
+          "{jittered_1d} in 1D and {jittered_2d} in 2D, LHS {lhs_2d}, and scrambled Halton "
+          "{halton_2d} and Sobol {sobol_2d} on a smooth 2D integrand."),
     Entry("discrete_sampling", "discrete_sampling_timings.png", "09_discrete_sampling",
           "Discrete sampling",
-          "Draw and build cost against table size n = 2⁴ … 2²⁰. The alias table's draw cost "
-          "(O(1)) grows only a little; CDF binary search (O(log n)) and NumPy's "
-          "Generator.choice are more than 10× slower at n = 2²⁰. Timings depend on the machine."),
+          "Draw and build cost against table size n = {n_lo} … {n_hi}. The alias table's draw cost "
+          "(O(1)) grows only {alias_growth}× over that range; CDF binary search (O(log n)) and "
+          "NumPy's Generator.choice are {cdf_factor}× and {choice_factor}× slower at n = {n_hi}. "
+          "Timings depend on the machine."),
     Entry("metropolis_hastings", "metropolis_hastings_tv.png", "10_metropolis_hastings",
           "Metropolis–Hastings",
           "Total-variation distance of the MH histogram to the target image. With small steps "
-          "only, the chain never leaves its start blob, so TV stays at 0.56 (the mass outside "
-          "it). With 10% or 50% large steps it converges (0.026 and 0.015 after 8000 steps); "
-          "i.i.d. sampling is the ideal."),
+          "only, the chain never leaves its start blob, so TV stays at {tv_trapped} (the mass "
+          "outside it: {outside}). With {p_lo} or {p_hi} large steps it converges ({tv_lo} and "
+          "{tv_hi} after {steps} steps); i.i.d. sampling is the ideal ({tv_iid})."),
     Entry("gradient_domain", "gradient_domain_relmse.png", "11_gradient_domain",
           "Gradient-domain rendering",
-          "relMSE against a reference on the five built-in scenes at 64×48 (bars: {spp_hi} spp, mean of "
+          "relMSE against a reference on the {scenes} built-in scenes at {size} (bars: {spp_hi} spp, mean of "
           "{reps_hi} seeds): the plain render, the same at equal render time (a CRN gradient sample "
           "measured {ratio_min}–{ratio_max}× the cost of a plain one), and the screened-Poisson "
-          "reconstructions (α = 0.2). At equal time, L1 wins on {l1_wins_hi} at {spp_hi} spp and on "
+          "reconstructions (α = {alpha}). At equal time, L1 wins on {l1_wins_hi} at {spp_hi} spp and on "
           "{l1_wins_lo} at {spp_lo} spp; L2 wins on {l2_wins_hi} and is up to {l2_worst_factor_hi}× "
           "worse ({l2_worst_hi}), where small bright lights and highlights give outlier gradients that "
           "it spreads."),

@@ -10,7 +10,12 @@ Questions answered (tables in ``antithetic_crn_*.csv``, figures ``*.png``):
   the variance);
 * common random numbers for a difference of two integrals, int e^x - int e^(1.1 x):
   Var[f_a - f_b] = Var f_a + Var f_b - 2 Cov(f_a, f_b), measured with shared and with
-  independent uniforms.
+  independent uniforms;
+* the lecture's f(X), f(-X) and vrlab's u -> 1 - u: for X = F^-1(u) with a pdf symmetric
+  about m, F^-1(1 - u) = 2m - X (checked on warps with and without that symmetry);
+* antithetic direct lighting (:mod:`vrlab.experiments.antithetic_crn_render`): cosine pairs
+  against independent cosine samples at equal cost, the per-pixel factor 1 + rho next to
+  its closed form.
 
 Run ``python -m vrlab.experiments.antithetic_crn [--full] [--out DIR]``.
 """
@@ -25,12 +30,17 @@ import pandas as pd
 import matplotlib.pyplot as plt
 
 from vrlab._rng import spawn
+from vrlab.distributions import CosineHemisphere, TruncatedNormal
 from vrlab.estimators import Antithetic, MonteCarlo, crn_difference
+from vrlab.estimators.antithetic import reflect
+from vrlab.experiments import antithetic_crn_render as render_study
+from vrlab.experiments.antithetic_crn_render import COLORS
 from vrlab.integrands import Integrand, catalogue
 from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
 DEFAULT_OUT = Path("vrlab-out") / "antithetic_crn"          # relative to the working folder
 E = np.e
+EXP = "e^x (catalogue 'exp')"
 
 
 def _exp_theta(theta: float) -> Integrand:
@@ -46,7 +56,7 @@ def test_functions() -> dict:
     return {
         "x (linear)": (Integrand(lambda x: x[..., 0], [(0, 1)], exact=0.5, name="x"), 0.0),
         "x^2": (Integrand(lambda x: x[..., 0] ** 2, [(0, 1)], exact=1 / 3, name="x^2"), 1 / 8),
-        "e^x (catalogue 'exp')": (catalogue.get("exp"), 1 + rho_exp),
+        EXP: (catalogue.get("exp"), 1 + rho_exp),
         "sin(pi x)": (Integrand(lambda x: np.sin(np.pi * x[..., 0]), [(0, 1)], exact=2 / np.pi, name="sin(pi x)"), 2.0),
         "sin(2 pi x)^2 + x": (Integrand(lambda x: np.sin(2 * np.pi * x[..., 0]) ** 2 + x[..., 0], [(0, 1)],
                                         exact=1.0, name="mixed"), None),
@@ -99,32 +109,78 @@ def crn_table(ns: list[int], reps: int, theta: float = 1.1, seed: int = 2) -> tu
     return pd.DataFrame(rows), {k: float(v) for k, v in theory_out.items()}
 
 
+def reflection_table(n: int = 100_000, seed: int = 4) -> pd.DataFrame:
+    """vrlab's antithetic partner u -> 1 - u (``reflect``) against the point reflection
+    x -> 2m - x about the centre m = F^-1(1/2): the largest |x(1 - u) - (2m - x(u))| over ``n``
+    uniforms, for warps whose pdf is symmetric about m and for two that are not.  For the
+    direction warps m is the normal and the reflection acts on the tangent coordinates:
+    (x, y, z) -> (-x, -y, z)."""
+    u1 = np.random.default_rng(seed).random((n, 1))
+    u2 = np.random.default_rng(seed + 1).random((n, 2))
+    cases = [("truncated normal N(0.5, 0.15) on [0, 1]", TruncatedNormal(0.5, 0.15, 0, 1), u1, True),
+             ("truncated normal N(0.3, 0.15) on [0, 1]", TruncatedNormal(0.3, 0.15, 0, 1), u1, False),
+             ("cosine hemisphere, concentric disk (the renderer's)", CosineHemisphere("disk"), u2, True),
+             ("cosine hemisphere, inversion", CosineHemisphere("inversion"), u2, False)]
+    rows = []
+    for label, dist, u, symmetric in cases:
+        x, x_anti = np.asarray(dist.sample(u), float), np.asarray(dist.sample(reflect(u)), float)
+        if x.shape[-1] == 3:               # directions: mirror the tangent part about the normal
+            mirrored = x * np.array([-1.0, -1.0, 1.0])
+            centre = "normal (0, 0, 1)"
+        else:
+            m = float(np.asarray(dist.sample(np.full((1, 1), 0.5)), float).ravel()[0])
+            mirrored, centre = 2 * m - x, f"{m:.4f}"
+        rows.append({"warp": label, "pdf symmetric about centre": symmetric, "centre m": centre,
+                     "max |x(1-u) - (2m - x(u))|": float(np.max(np.abs(x_anti - mirrored)))})
+    return pd.DataFrame(rows)
+
+
 def plot_pairs(path: Path, seed: int = 3) -> Path:
+    """f(U) against f(1 - U) for a monotone and a symmetric f, and the one-sample values of a
+    difference with common and with independent uniforms (same bins)."""
     u = np.random.default_rng(seed).random(400)
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6))
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
     for ax, (label, g) in zip(axes, [("e^x", np.exp), ("sin(πx)", lambda x: np.sin(np.pi * x))]):
-        ax.scatter(g(u), g(1 - u), s=4)
-        ax.set_xlabel("f(U)"); ax.set_ylabel("f(1−U)")
-        ax.set_title(f"{label}: corr = {np.corrcoef(g(u), g(1 - u))[0, 1]:+.3f}", fontsize=9)
+        ax.scatter(g(u), g(1 - u), s=4, color=COLORS["antithetic"])
+        ax.set_xlabel("f(U) (dimensionless)"), ax.set_ylabel("f(1 − U) (dimensionless)")
+        ax.set_title(f"antithetic pairs, f = {label}: corr = {np.corrcoef(g(u), g(1 - u))[0, 1]:+.3f}", fontsize=9)
     ax = axes[2]
     a, b = np.exp(u), np.exp(1.1 * u)
     b_ind = np.exp(1.1 * np.random.default_rng(seed + 1).random(400))
-    ax.hist(a - b, bins=40, alpha=0.7, density=True, label="common U")
-    ax.hist(a - b_ind, bins=40, alpha=0.5, density=True, label="independent U")
-    ax.set_title("one-sample values of e^U − e^(1.1 U')", fontsize=9)
+    bins = np.histogram_bin_edges(np.concatenate([a - b, a - b_ind]), bins=40)
+    ax.hist(a - b_ind, bins=bins, alpha=0.55, density=True, color=COLORS["independent"], label="independent U, U'")
+    ax.hist(a - b, bins=bins, alpha=0.75, density=True, color=COLORS["common"], label="common U' = U")
+    ax.set_xlabel("one-sample value e^U − e^(1.1 U') (dimensionless)")
+    ax.set_ylabel("probability density (1 / unit)")
+    ax.set_title(f"CRN: {len(u)} one-sample differences, same {len(bins) - 1} bins", fontsize=9)
     ax.legend(fontsize=8)
     return save_figure(fig, path, dpi=110)
 
 
 def plot_crn(table: pd.DataFrame, path: Path) -> Path:
-    fig, ax = plt.subplots(figsize=(5.2, 3.8))
+    fig, ax = plt.subplots(figsize=(5.6, 4))
     for label, g in table.groupby("numbers"):
-        ax.loglog(g["n"], g["rmse"], "o-", label=label)
+        ax.loglog(g["n"], g["rmse"], "o-", color=COLORS[label], label=f"{label} uniforms")
         ax.loglog(g["n"], np.sqrt(g["pair_var_theory"] / (g["n"] // 2)), "k:", lw=0.8)
-    ax.set_xlabel("n (evaluations of both integrands)"); ax.set_ylabel("RMSE of the difference")
-    ax.set_title("CRN: int e^x − int e^(1.1x)  (dotted: theory)", fontsize=9)
+    ax.set_xlabel("n (evaluations of both integrands)"); ax.set_ylabel("RMSE of the difference (dimensionless)")
+    ax.set_title("CRN: ∫e^x − ∫e^(1.1x), common vs independent (dotted: theory)", fontsize=9)
     ax.legend()
     return save_figure(fig, path, dpi=110)
+
+
+def gallery_numbers(out: str | Path) -> dict:
+    """The gallery caption's numbers, read from the CSV files of :func:`main`."""
+    out = Path(out)
+    r = pd.read_csv(out / "antithetic_crn_render.csv").set_index("pixels")
+    a = pd.read_csv(out / "antithetic_crn_factors.csv").set_index("function")
+    c = pd.read_csv(out / "antithetic_crn_difference.csv").groupby("numbers")["pair_var_measured"].mean()
+    res = {"spp": int(r["spp"].iloc[0]), "share_below_1": f"{r.loc['floor', 'share_below_1']:.0%}",
+           "exp_factor": f"{a.loc[EXP, 'factor_measured']:.4f}", "exp_theory": f"{a.loc[EXP, 'factor_theory']:.4f}",
+           "crn_gain": f"{c['independent'] / c['common']:.0f}"}
+    for cls in ("floor", "centre", "edge"):
+        res[f"{cls}"] = f"{r.loc[cls, 'factor_mean']:.2f}"
+        res[f"{cls}_theory"] = f"{r.loc[cls, 'factor_theory']:.2f}"
+    return res
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
@@ -139,12 +195,20 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     pd.DataFrame([crn_theory]).to_csv(out / "antithetic_crn_theory.csv", index=False)
     plot_pairs(out / "antithetic_crn_pairs.png")
     plot_crn(crn, out / "antithetic_crn_rmse.png")
+    reflection = reflection_table()
+    reflection.to_csv(out / "antithetic_crn_reflection.csv", index=False)
+    size, spp = ((320, 240), 512) if full else ((160, 120), 128)
+    pixels, profile, maps = render_study.study(size, spp)
+    pixels.to_csv(out / "antithetic_crn_render.csv", index=False)
+    profile.to_csv(out / "antithetic_crn_render_profile.csv", index=False)
+    render_study.plot(pixels, profile, maps, out / "antithetic_crn_render.png")
     a = anti.set_index("function")
     c = crn.groupby("numbers")["pair_var_measured"].mean()
     return {
-        "antithetic": anti, "crn": crn, "crn_theory": crn_theory,
-        "exp_factor": float(a.loc["e^x (catalogue 'exp')", "factor_measured"]),
-        "exp_factor_se": float(a.loc["e^x (catalogue 'exp')", "factor_se"]),
+        "antithetic": anti, "crn": crn, "crn_theory": crn_theory, "reflection": reflection,
+        "render": pixels, "render_profile": profile,
+        "exp_factor": float(a.loc[EXP, "factor_measured"]),
+        "exp_factor_se": float(a.loc[EXP, "factor_se"]),
         "exp_factor_theory": float(catalogue.get("exp").theory["antithetic_factor"]),
         "sin_factor": float(a.loc["sin(pi x)", "factor_measured"]),
         "crn_ratio": float(c["independent"] / c["common"]),

@@ -26,16 +26,16 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
-
-
 import matplotlib.pyplot as plt
+import pandas as pd
 
 from vrlab import Integrand, lab
 from vrlab._rng import spawn
 from vrlab.estimators import ControlVariate, MonteCarlo
 from vrlab.integrands import catalogue
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.lab.experiment import experiment_cli, output_dir
+
+from ._figures import convergence_panel, save
 
 DEFAULT_OUT = Path("vrlab-out") / "control_variates"          # relative to the working folder
 S12 = np.sqrt(12.0)
@@ -108,24 +108,59 @@ def exp_golden(n: int, reps: int, seed: int) -> dict:
             "exact": float(f.exact), "n": n, "reps": reps}
 
 
-def plot_sweep(table: pd.DataFrame, path: Path) -> Path:
-    fig, ax = plt.subplots(figsize=(6.4, 4))
+COLOURS = {"plain": "black", "alpha1": "C0", "optimal": "C1"}
+LABELS = {"plain": "plain MC", "alpha1": "α = 1", "optimal": "optimal α"}
+CONVERGENCE = {"plain MC": "plain", "CV alpha=1": "alpha1", "CV optimal": "optimal"}   # estimator -> key
+
+
+def sweep_figure(table: pd.DataFrame, cross: dict | None = None):
+    """Per-sample variance against rho at equal N and at equal cost (h costs as much as f, so
+    plain MC gets 2N samples: its variance halves), theory lines and measured points (2 se);
+    arrows at the measured crossings (``crossings``) with the theory in brackets."""
+    fig, axes = plt.subplots(1, 2, figsize=(11.5, 4.3))
     rho = np.linspace(-1, 1, 401)
     th = theory_variances(rho)
-    for name, color in (("plain", "k"), ("alpha1", "C0"), ("optimal", "C1")):
-        t = table[table["estimator"] == name]
-        ax.plot(rho, th[name], color=color, lw=1, label=f"{name} (theory)")
-        ax.errorbar(t["rho"], t["var_measured"], 2 * t["var_se"], fmt="o", ms=3, color=color)
-    ax.axhline(0.5, color="k", ls=":", lw=1, label="plain MC with 2N samples")
-    for r, txt, y in ((0.5, "1/2", 3.6), (0.75, "3/4", 3.6), (1 / np.sqrt(2), "1/√2", 3.2)):
-        ax.axvline(r, color="0.6", lw=0.6)
-        ax.text(r, y, txt, fontsize=8, ha="center", backgroundcolor="w")
-    ax.set_xlabel("correlation ρ of f and h")
-    ax.set_ylabel("variance per sample (σ² = 1)")
-    ax.set_ylim(0, 4)
-    ax.legend(fontsize=8, loc="center left")
-    ax.set_title("control variates: α = 1 vs optimal α")
-    return save_figure(fig, path, dpi=120)
+    for ax, cost in zip(axes, (1.0, 2.0)):
+        for name, colour in COLOURS.items():
+            t = table[table["estimator"] == name]
+            scale = 1 / cost if name == "plain" else 1.0
+            label = LABELS[name] + (" with 2N samples" if name == "plain" and cost == 2 else "")
+            ax.plot(rho, th[name] * scale, color=colour, lw=1, label=label)
+            ax.errorbar(t["rho"], t["var_measured"] * scale, 2 * t["var_se"] * scale, fmt="o", ms=3, color=colour)
+        ax.set_xlabel("correlation ρ of f and h (dimensionless)")
+        ax.set_ylim(0, 4)
+        ax.legend(fontsize=8, loc="upper center", title="lines: theory, dots: measured ± 2 se", title_fontsize=7.5)
+    axes[0].set_ylabel("variance × N, relative to σ² = Var f")
+    axes[1].set_ylabel("variance × N at equal cost (σ² = 1)")
+    axes[0].set_title("equal N (h is free)", fontsize=10)
+    axes[1].set_title("equal cost (h costs as much as f)", fontsize=10)
+    cross = cross or {}
+    for ax, key, name, y, text_y in ((axes[0], "alpha1_equal_n", "α = 1", 1.0, 2.3),
+                                     (axes[1], "alpha1_equal_cost", "α = 1", 0.5, 2.7),
+                                     (axes[1], "optimal_equal_cost", "optimal α", 0.5, 1.9)):
+        r = cross.get(key, np.nan)
+        if np.isfinite(r):
+            ax.annotate(f"{name} wins for ρ > {r:.2f}\n(theory {THRESHOLDS[key]:.3g})", xy=(r, y),
+                        xytext=(0.3, text_y), fontsize=8, arrowprops={"arrowstyle": "->", "lw": 0.8})
+    fig.suptitle("control variates: α = 1 against the optimal α, variance per sample", fontsize=11)
+    return fig
+
+
+def convergence_figure(summary: pd.DataFrame, slopes: pd.DataFrame):
+    """RMSE vs n of plain MC and the two control variates on e^x (control h = x)."""
+    fig, ax = plt.subplots(figsize=(6, 4.4))
+    names = [e for e in CONVERGENCE if e in set(summary["estimator"])]
+    convergence_panel(ax, summary, slopes, summary["integrand"].iloc[0], names,
+                      {e: COLOURS[CONVERGENCE[e]] for e in names}, {e: LABELS[CONVERGENCE[e]] for e in names})
+    ax.set_title("e^x on [0, 1], control h = x: RMSE against n", fontsize=10)
+    return fig
+
+
+def gallery_numbers(out: str | Path) -> dict:
+    """The gallery caption's numbers, from ``control_variates_thresholds.csv``."""
+    t = pd.read_csv(Path(out) / "control_variates_thresholds.csv").set_index("comparison")
+    return {f"{k}{suffix}": f"{t.loc[k, col]:.2f}" for k in t.index
+            for suffix, col in (("", "rho_measured"), ("_theory", "rho_theory"))}
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
@@ -138,7 +173,7 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     cross = crossings(table)
     pd.DataFrame([{"comparison": k, "rho_measured": v, "rho_theory": THRESHOLDS[k]} for k, v in cross.items()]
                  ).to_csv(out / "control_variates_thresholds.csv", index=False)
-    plot_sweep(table, out / "control_variates_sweep.png")
+    save(sweep_figure(table, cross), out / "control_variates_sweep.png")
     golden = exp_golden(1000, 400 if full else 100, 11)
     pd.DataFrame([golden]).to_csv(out / "control_variates_exp.csv", index=False)
 
@@ -150,9 +185,10 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
                  [f], ns, 200 if full else 40, rng=12)
     summary = lab.summarize(df)
     summary.to_csv(out / "control_variates_convergence.csv", index=False)
-    lab.convergence_plot(summary, out / "control_variates_convergence.png", title="e^x, control h = x")
+    slopes = lab.fit_slopes(summary)
+    save(convergence_figure(summary, slopes), out / "control_variates_convergence.png")
     return {"sweep": table, "crossings": cross, "thresholds": dict(THRESHOLDS), "exp": golden,
-            "slopes": lab.fit_slopes(summary), "files": sorted(p.name for p in out.iterdir())}
+            "slopes": slopes, "files": sorted(p.name for p in out.iterdir())}
 
 
 if __name__ == "__main__":

@@ -21,10 +21,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
-
-
 import matplotlib.pyplot as plt
+import pandas as pd
 
 from vrlab._rng import spawn
 from vrlab.distributions import CosineHemisphere, UniformHemisphere
@@ -33,7 +31,9 @@ from vrlab.estimators import MonteCarlo
 from vrlab.integrands import catalogue
 from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene
 from vrlab.testing import HemisphereChart, chi2_gof, sidak_threshold
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.lab.experiment import experiment_cli, output_dir
+
+from ._figures import EXPOSURE_NOTE, exposure_of, save, show_image
 
 DEFAULT_OUT = Path("vrlab-out") / "cosine_sampling"          # relative to the working folder
 METHODS = ("inversion", "disk", "sphere-shift")
@@ -61,25 +61,39 @@ def gof_table(n: int, seed: int = 0) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def plot_scatter(path: Path, n: int = 1500, seed: int = 1) -> Path:
-    """Top view (x, y) and side view (x, z) of the same uniforms pushed through each method."""
+COLOURS = {"uniform hemisphere": "C7", "inversion": "C0", "disk": "C1", "sphere-shift": "C2"}
+
+
+def scatter_figure(gof: pd.DataFrame | None = None, n: int = 1500, seed: int = 1):
+    """Top view (x, y) of the same uniforms pushed through each method, coloured by u1, and
+    the density of cos(theta) against theory; with ``gof`` the chi-square p-values."""
     u = np.random.default_rng(seed).random((n, 2))
-    fig, axes = plt.subplots(2, 4, figsize=(13, 6.2))
-    dists = {"uniform hemisphere": UniformHemisphere(), **{f"cosine: {m}": CosineHemisphere(method=m) for m in METHODS}}
+    fig, axes = plt.subplots(2, 4, figsize=(13, 6.6), layout="constrained")
+    dists = {"uniform hemisphere": UniformHemisphere(), **{m: CosineHemisphere(method=m) for m in METHODS}}
+    pvals = {} if gof is None else gof.set_index("method")["pvalue"].to_dict()
     for j, (label, dist) in enumerate(dists.items()):
         w = dist.sample(u)
         ax = axes[0, j]
-        ax.scatter(w[:, 0], w[:, 1], s=2, c=u[:, 0], cmap="viridis")
+        sc = ax.scatter(w[:, 0], w[:, 1], s=2, c=u[:, 0], cmap="viridis", vmin=0, vmax=1)
         ax.add_patch(plt.Circle((0, 0), 1, fill=False, color="k", lw=0.6))
         ax.set_aspect("equal"); ax.set_xlim(-1.05, 1.05); ax.set_ylim(-1.05, 1.05)
-        ax.set_title(f"{label}\ntop view (x, y)", fontsize=9)
+        name = label if label.startswith("uniform") else f"cosine: {label}"
+        ax.set_title(f"{name}\ntop view of {n} directions", fontsize=9)
+        ax.set_xlabel("x = sin θ cos φ (dimensionless)", fontsize=8)
+        ax.set_ylabel("y = sin θ sin φ (dimensionless)", fontsize=8)
         ax = axes[1, j]
-        ax.hist(w[:, 2], bins=30, range=(0, 1), density=True, alpha=0.7)
+        ax.hist(w[:, 2], bins=30, range=(0, 1), density=True, color=COLOURS[label], alpha=0.8)
         z = np.linspace(0, 1, 50)
-        ax.plot(z, 2 * z if label.startswith("cosine") else np.ones_like(z), "k--", lw=1)
-        ax.set_title("density of cos θ (dashed: theory)", fontsize=9)
-    fig.suptitle("colour = first uniform u₁: the methods map the same u differently, the distribution is the same")
-    return save_figure(fig, path, dpi=110)
+        ax.plot(z, np.ones_like(z) if label.startswith("uniform") else 2 * z, "k--", lw=1)
+        p = pvals.get(label)
+        ax.set_title("density of cos θ (dashed: theory)" + ("" if p is None else f"\nχ² test on the hemisphere: p = {p:.2g}"),
+                     fontsize=9)
+        ax.set_xlabel("cos θ (dimensionless)", fontsize=8)
+        ax.set_ylabel("probability density of cos θ", fontsize=8)
+    bar = fig.colorbar(sc, ax=axes[0, :], fraction=0.02, pad=0.01)
+    bar.set_label("first uniform u₁ (dimensionless)", fontsize=8)
+    fig.suptitle("the same uniforms (colour = u₁) through each map: different places, the same cosine distribution")
+    return fig
 
 
 def cos_variance(n: int, reps: int, seed: int = 2) -> pd.DataFrame:
@@ -132,16 +146,31 @@ def render_study(size: tuple[int, int], spps: list[int], seed: int = 3):
     return table, images
 
 
-def plot_renders(images: dict, spps: list[int], path: Path) -> Path:
+def renders_figure(images: dict, spps: list[int], table: pd.DataFrame):
+    """The renders at every spp; one exposure for all, from MIS at the highest spp."""
     strategies = RENDER_STRATEGIES
-    fig, axes = plt.subplots(len(spps), 4, figsize=(12, 2.6 * len(spps)), squeeze=False)
+    t = table.set_index(["strategy", "spp"])
+    exposure = exposure_of(images[(strategies[-1], max(spps))])
+    fig, axes = plt.subplots(len(spps), len(strategies), figsize=(3.2 * len(strategies), 2.75 * len(spps)),
+                             squeeze=False, layout="constrained")
     for i, spp in enumerate(spps):
         for j, s in enumerate(strategies):
-            img = images[(s, spp)]
-            axes[i, j].imshow(np.clip(img / (1 + img), 0, 1) ** (1 / 2.2), interpolation="nearest")
-            axes[i, j].set_title(f"{s}, {spp} spp", fontsize=9)
-            axes[i, j].axis("off")
-    return save_figure(fig, path, dpi=110)
+            var = t.loc[(s, spp), "mean_pixel_variance"]
+            show_image(axes[i, j], images[(s, spp)], exposure,
+                       f"{s}, {spp} spp\nmean per-sample pixel variance {var:.3g}")
+    h, w = images[(strategies[0], spps[0])].shape[:2]
+    fig.suptitle(f"Cornell box, {w}×{h} pixels, equal spp ({EXPOSURE_NOTE}, from {strategies[-1]} at {max(spps)} spp)",
+                 fontsize=10)
+    return fig
+
+
+def gallery_numbers(out: str | Path) -> dict:
+    """The gallery caption's numbers, from ``cosine_sampling_renders.csv`` and ``_variance.csv``."""
+    r = pd.read_csv(Path(out) / "cosine_sampling_renders.csv")
+    v = pd.read_csv(Path(out) / "cosine_sampling_variance.csv").set_index("technique")
+    spps = sorted(int(k) for k in r["spp"].unique())
+    return {"spps": " and ".join(map(str, spps)), "var_uniform": f"{v.loc['uniform', 'var_measured']:.3g}",
+            "var_uniform_theory": f"{v.loc['uniform', 'var_theory']:.3g}"}
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
@@ -149,14 +178,14 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     out = output_dir(out)
     gof = gof_table(1_000_000 if full else 200_000)
     gof.to_csv(out / "cosine_sampling_gof.csv", index=False)
-    plot_scatter(out / "cosine_sampling_scatter.png")
+    save(scatter_figure(gof), out / "cosine_sampling_scatter.png")
     var = cos_variance(100_000 if full else 20_000, 50 if full else 20)
     var.to_csv(out / "cosine_sampling_variance.csv", index=False)
     spps = [64, 256, 1024] if full else [16, 64]
     size = (64, 48) if full else (32, 24)
     renders, images = render_study(size, spps)
     renders.to_csv(out / "cosine_sampling_renders.csv", index=False)
-    plot_renders(images, spps, out / "cosine_sampling_renders.png")
+    save(renders_figure(images, spps, renders), out / "cosine_sampling_renders.png")
     v = var.set_index("technique")
     return {
         "gof": gof, "variance": var, "renders": renders,

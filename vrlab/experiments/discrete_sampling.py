@@ -17,16 +17,16 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
-
-
 import matplotlib.pyplot as plt
+import pandas as pd
 from scipy import stats
 from scipy.stats.sampling import DiscreteAliasUrn
 
 from vrlab import AliasTable, CDFTable
 from vrlab.bench.timing import race
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.lab.experiment import experiment_cli, output_dir
+
+from ._figures import save
 
 DEFAULT_OUT = Path("vrlab-out") / "discrete_sampling"          # relative to the working folder
 EXAMPLE = np.array([1.0, 6.0, 2.0, 0.5, 3.0, 0.0, 1.5, 2.0])   # the small worked example
@@ -96,39 +96,64 @@ def example_chisquare(draws: int, seed: int, weights=EXAMPLE) -> dict:
             "hits_on_zero_weight": int(counts[~keep].sum())}
 
 
-def plot_example(table: pd.DataFrame, path: Path) -> Path:
+COLOURS = {"vrlab AliasTable": "C0", "vrlab CDFTable": "C1", "scipy DiscreteAliasUrn": "C2",
+           "numpy Generator.choice": "C3", "numpy cumsum": "C4"}
+SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
+
+
+def example_figure(table: pd.DataFrame):
     """Columns of height 1 after robbing: the lower part keeps the column's own index, the upper
-    part (1 - q) belongs to the alias."""
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
+    part (1 - q) belongs to the alias (each index in its own colour, a palette apart from the
+    method colours of the timings)."""
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     n = len(table)
-    colors = plt.cm.tab10(np.arange(n) % 10)
+    colors = plt.get_cmap("Set2")(np.arange(n) % 8)
     axes[0].bar(table["column"], table["n_p"], color=colors)
     axes[0].axhline(1, color="k", ls="--", lw=1)
-    axes[0].set_title("n · p_i: the rich (>1) and the poor (<1)")
+    axes[0].set_title("n · p_i: the rich (> 1) and the poor (< 1)", fontsize=10)
+    axes[0].set_ylabel("n · p_i (dimensionless)")
     axes[1].bar(table["column"], table["keep_q"], color=colors)
     axes[1].bar(table["column"], 1 - table["keep_q"], bottom=table["keep_q"],
                 color=[colors[a] for a in table["alias"]], hatch="//", edgecolor="w")
     for c, (q, a) in enumerate(zip(table["keep_q"], table["alias"])):
         if q < 1:
-            axes[1].text(c, q + (1 - q) / 2, str(a), ha="center", va="center", fontsize=8)
-    axes[1].set_title("alias table: keep q_j (solid), alias (hatched)")
-    for ax in axes:
-        ax.set_xlabel("index")
-    return save_figure(fig, path, dpi=120)
+            axes[1].text(c, q + (1 - q) / 2, f"→ {a}", ha="center", va="center", fontsize=8)
+    axes[1].set_title("alias table: keep q_j (solid), alias (hatched, → index)", fontsize=10)
+    axes[1].set_ylabel("share of column j (dimensionless)")
+    for ax, label in zip(axes, ("index i", "column j")):
+        ax.set_xlabel(label)
+        ax.set_xticks(table["column"])
+    return fig
 
 
-def plot_timings(df: pd.DataFrame, path: Path) -> Path:
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
-    for ax, task, ylabel in ((axes[0], "sample", "ns per draw"), (axes[1], "build", "ns per weight")):
+def timings_figure(df: pd.DataFrame):
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for ax, task, ylabel in ((axes[0], "sample", "time per draw (ns), uniforms included"),
+                             (axes[1], "build", "build time per weight (ns)")):
         part = df[df["task"] == task]
         for m, g in part.groupby("method", sort=False):
-            ax.loglog(g["n"], g["ns_per_item"], "o-", ms=3, label=m)
+            ax.loglog(g["n"], g["ns_per_item"], "o-", ms=3, color=COLOURS[m], label=m)
         ax.set_xscale("log", base=2)
         ax.set_xlabel("n (table size)")
         ax.set_ylabel(ylabel)
-        ax.set_title(f"{task} cost")
         ax.legend(fontsize=7)
-    return save_figure(fig, path, dpi=120)
+    axes[0].set_title("draw cost: alias O(1), CDF search O(log n)", fontsize=10)
+    axes[1].set_title("build cost (best of the repeats)", fontsize=10)
+    fig.suptitle("discrete sampling: timings on this machine", fontsize=11)
+    return fig
+
+
+def gallery_numbers(out: str | Path) -> dict:
+    """The gallery caption's numbers, from ``discrete_sampling_timings.csv``."""
+    t = pd.read_csv(Path(out) / "discrete_sampling_timings.csv")
+    s = t[t["task"] == "sample"].pivot(index="n", columns="method", values="ns_per_item")
+    top = s.index.max()
+    exp = lambda n: "2" + str(int(np.log2(n))).translate(SUPERSCRIPT)    # noqa: E731
+    alias = s.loc[top, "vrlab AliasTable"]
+    return {"n_lo": exp(s.index.min()), "n_hi": exp(top),
+            "cdf_factor": f"{s.loc[top, 'vrlab CDFTable'] / alias:.0f}",
+            "choice_factor": f"{s.loc[top, 'numpy Generator.choice'] / alias:.0f}",
+            "alias_growth": f"{alias / s.loc[s.index.min(), 'vrlab AliasTable']:.1f}"}
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
@@ -138,12 +163,12 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     draws, repeat = (10**6, 5) if full else (2**17, 2)
     t = timings(exponents, draws, repeat, 2026)
     t.to_csv(out / "discrete_sampling_timings.csv", index=False)
-    plot_timings(t, out / "discrete_sampling_timings.png")
+    save(timings_figure(t), out / "discrete_sampling_timings.png")
     pmf = pmf_check(exponents, 7)
     pmf.to_csv(out / "discrete_sampling_pmf_check.csv", index=False)
     ex = example_table()
     ex.to_csv(out / "discrete_sampling_example.csv", index=False)
-    plot_example(ex, out / "discrete_sampling_example.png")
+    save(example_figure(ex), out / "discrete_sampling_example.png")
     chi = example_chisquare(10**6 if full else 10**5, 8)
     pd.DataFrame([{k: v for k, v in chi.items() if k != "counts"}]).to_csv(
         out / "discrete_sampling_chisquare.csv", index=False)

@@ -35,13 +35,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-
-import matplotlib.pyplot as plt
-
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.lab.experiment import experiment_cli, output_dir
 from vrlab.render import (PixelIntegrand, builtin_scene_path, list_builtin_scenes, list_mitsuba_references,
                           load_scene, mitsuba_reference, render, render_gradient_domain, screened_poisson)
-from vrlab.render.image import rel_mse, srgb_encode
+from vrlab.render.image import rel_mse
+
+from . import _gradient_domain_figures as figs
+from ._figures import save
 
 DEFAULT_OUT = Path("vrlab-out") / "gradient_domain"          # relative to the working folder
 WIDTH, HEIGHT = 64, 48                      # the stored references' resolution
@@ -77,10 +77,6 @@ def all_pixels(h: int, w: int) -> np.ndarray:
     return np.stack([rows.ravel(), cols.ravel()], -1)
 
 
-def tonemap(img: np.ndarray) -> np.ndarray:
-    return srgb_encode(np.nan_to_num(np.asarray(img, float)))
-
-
 # --------------------------------------------------------------------------- 1. the variance formula
 def variance_check(res: int, spp: int, seed: int = 11) -> tuple[pd.DataFrame, dict]:
     """Per pixel (summed over RGB): the renderer's Var[a - b] against the formula on other samples.
@@ -114,32 +110,6 @@ def variance_check(res: int, spp: int, seed: int = 11) -> tuple[pd.DataFrame, di
     return table, maps
 
 
-def plot_variance(maps: dict, path: Path) -> Path:
-    fig, axes = plt.subplots(1, 2, figsize=(10.5, 4.2))
-    ax = axes[0]
-    for common, colour in ((False, "C1"), (True, "C0")):
-        f, m = maps["formula"][common], maps["measured"][common]
-        ok = (f > 0) & (m > 0)
-        ax.loglog(f[ok], m[ok], ".", ms=3, color=colour, alpha=0.6,
-                  label=("common u: Var a + Var b − 2 Cov" if common else "independent u: Var a + Var b"))
-    lo = min(v[v > 0].min() for d in (maps["formula"], maps["measured"]) for v in d.values())
-    hi = max(v.max() for d in (maps["formula"], maps["measured"]) for v in d.values())
-    ax.loglog([lo, hi], [lo, hi], "k:", lw=0.8)
-    ax.set_xlabel("formula, from PixelIntegrand samples"); ax.set_ylabel("measured: dx.stderr² · spp")
-    ax.set_title("per-pixel Var[I(x+1;u) − I(x;u)], Cornell box", fontsize=9)
-    ax.legend(fontsize=7)
-    f_ind, f_crn = maps["formula"][False], maps["formula"][True]
-    with np.errstate(divide="ignore", invalid="ignore"):     # no variance at all (black pixels): grey
-        gain = np.where(f_ind > 1e-9, np.log10(f_ind / np.maximum(f_crn, 1e-9 * f_ind)), np.nan)
-    axes[1].set_facecolor("0.8")
-    im = axes[1].imshow(gain.reshape(maps["shape"]), cmap="viridis", vmin=-1, vmax=3)
-    axes[1].set_title("log₁₀ variance gain of CRN: (Var a + Var b) / Var[a − b]\n"
-                      "(grey: no variance; inside the light the gain is ~10¹⁴)", fontsize=9)
-    axes[1].set_xticks([]); axes[1].set_yticks([])
-    fig.colorbar(im, ax=axes[1], fraction=0.04)
-    return save_figure(fig, path, dpi=110)
-
-
 # --------------------------------------------------------------------------- 2. CRN numbers in an image
 def crn_images(spp: int, reps: int, seed: int = 21) -> tuple[pd.DataFrame, dict]:
     """Cornell box at 64x48: every pixel with the same uniforms, or each pixel its own."""
@@ -164,25 +134,6 @@ def crn_images(spp: int, reps: int, seed: int = 21) -> tuple[pd.DataFrame, dict]
         relmse=("relmse", "mean"), relmse_sd=("relmse", "std"), neighbour_error_corr=("neighbour_error_corr", "mean"),
         dx_rmse=("dx_rmse", "mean"), reps=("rep", "count"))
     return table, {**first, "reference": ref}
-
-
-def plot_crn_images(images: dict, spp: int, path: Path) -> Path:
-    fig, axes = plt.subplots(2, 3, figsize=(10, 5.6))
-    ref = images["reference"]
-    for j, label in enumerate(("shared", "independent")):
-        axes[0, j].imshow(tonemap(images[label]))
-        axes[0, j].set_title(f"{spp} spp, {'ONE set of uniforms for all pixels' if label == 'shared' else 'own uniforms per pixel'}",
-                             fontsize=8)
-        axes[1, j].imshow((images[label] - ref).mean(-1), cmap="RdBu_r", vmin=-0.3, vmax=0.3)
-        axes[1, j].set_title("error (luminance), colour range ±0.3", fontsize=8)
-    axes[0, 2].imshow(tonemap(ref)); axes[0, 2].set_title("reference (Mitsuba 3)", fontsize=8)
-    for label, style in (("shared", "C0"), ("independent", "C1")):
-        axes[1, 2].plot(images[label][HEIGHT // 2, :, 0], color=style, lw=1, label=label)
-    axes[1, 2].plot(ref[HEIGHT // 2, :, 0], "k:", lw=1, label="reference")
-    axes[1, 2].set_title("red channel along the middle row", fontsize=8); axes[1, 2].legend(fontsize=7)
-    for ax in axes.ravel()[:5]:
-        ax.axis("off")
-    return save_figure(fig, path, dpi=110)
 
 
 # --------------------------------------------------------------------------- 4. relMSE on every scene
@@ -231,36 +182,6 @@ def relmse_study(names: list[str], spp: int, reps: int, groups: tuple[int, ...],
     for k in ("plain_equal_time", "l2", "l1"):
         summary[f"gain_{k}_vs_equal_time"] = summary["relmse_plain_equal_time"] / summary[f"relmse_{k}"]
     return summary, per_rep, kept
-
-
-def plot_relmse(summary: pd.DataFrame, path: Path) -> Path:
-    top = summary[summary["spp"] == summary["spp"].max()]
-    fig, ax = plt.subplots(figsize=(8.6, 4))
-    x = np.arange(len(top))
-    for j, (k, label) in enumerate(METHODS.items()):
-        ax.bar(x + (j - 1.5) * 0.2, top[f"relmse_{k}"], 0.2, yerr=top[f"relmse_{k}_se"], label=label,
-               color=f"C{j}", capsize=2)
-    ax.set_yscale("log")
-    ax.set_xticks(x, [f"{s}\n(equal time: {e} spp)" for s, e in zip(top["scene"], top["spp_equal_time"])], fontsize=8)
-    ax.set_ylabel("relMSE vs reference (mean over seeds)")
-    ax.set_title(f"gradient-domain rendering, 64×48, {int(top['spp'].iloc[0])} spp, "
-                 f"{int(top['reps'].iloc[0])} seeds", fontsize=9)
-    ax.legend(fontsize=7, ncol=2)
-    return save_figure(fig, path, dpi=110)
-
-
-def plot_gradients(kept: dict, path: Path, names=("cornell_box", "veach_mis")) -> Path:
-    fig, axes = plt.subplots(len(names), 4, figsize=(12, 2.6 * len(names)))
-    for row, name in zip(axes, names):
-        k = kept[name][0]
-        row[0].imshow(tonemap(k["images"]["primal"])); row[0].set_title(f"{name}: primal", fontsize=8)
-        for ax, key, title in ((row[1], "dx", "|dx| = |I(x+1,y) − I(x,y)|"), (row[2], "dy", "|dy| = |I(x,y+1) − I(x,y)|")):
-            ax.imshow(np.sqrt(np.abs(k[key]).mean(-1)), cmap="magma", vmax=1.0)
-            ax.set_title(title + " (square root)", fontsize=8)
-        row[3].imshow(tonemap(k["images"]["l1"])); row[3].set_title(f"L1 reconstruction (α = {ALPHA:g})", fontsize=8)
-        for ax in row:
-            ax.axis("off")
-    return save_figure(fig, path, dpi=110)
 
 
 # --------------------------------------------------------------------------- 5. where it loses
@@ -315,37 +236,6 @@ def alpha_sweep(kept: dict, names: tuple[str, ...], alphas: tuple[float, ...], r
     return pd.DataFrame(rows).groupby(["scene", "alpha"], as_index=False, sort=False).mean().drop(columns="rep")
 
 
-def plot_alpha(sweep: pd.DataFrame, path: Path) -> Path:
-    names = list(dict.fromkeys(sweep["scene"]))
-    fig, axes = plt.subplots(1, len(names), figsize=(4 * len(names), 3.6))
-    for ax, name in zip(np.atleast_1d(axes), names):
-        s = sweep[sweep["scene"] == name]
-        ax.loglog(s["alpha"], s["relmse_l2"], "o-", label="L2")
-        ax.loglog(s["alpha"], s["relmse_l1"], "s-", label="L1")
-        ax.axhline(s["relmse_primal"].iloc[0], color="k", ls=":", lw=1, label="primal (equal spp)")
-        ax.axhline(s["relmse_plain_equal_time"].iloc[0], color="C3", ls="--", lw=1, label="plain (equal time)")
-        ax.set_xlabel("α"); ax.set_title(name, fontsize=9)
-    np.atleast_1d(axes)[0].set_ylabel("relMSE"); np.atleast_1d(axes)[0].legend(fontsize=7)
-    return save_figure(fig, path, dpi=110)
-
-
-def plot_losses(kept: dict, names: tuple[str, ...], path: Path) -> Path:
-    """Reference, equal-time plain, L2, L1, and log10 of L1's per-pixel error over the plain one."""
-    fig, axes = plt.subplots(len(names), 5, figsize=(15, 2.6 * len(names)))
-    for row, name in zip(axes, names):
-        k, maps = kept[name][0], kept[name + "/maps"]
-        for ax, img, title in ((row[0], k["ref"], "reference"), (row[1], k["images"]["plain_equal_time"], "plain, equal time"),
-                               (row[2], k["images"]["l2"], "L2"), (row[3], k["images"]["l1"], "L1")):
-            ax.imshow(tonemap(img)); ax.set_title(f"{name}: {title}" if title == "reference" else title, fontsize=8)
-        ratio = np.log10((maps["l1"] + 1e-4) / (maps["plain_equal_time"] + 1e-4))   # both tiny: 0
-        im = row[4].imshow(ratio, cmap="RdBu_r", vmin=-2, vmax=2)
-        row[4].set_title("log₁₀ relMSE(L1) / relMSE(plain, equal time)\nred: gradient-domain loses", fontsize=8)
-        fig.colorbar(im, ax=row[4], fraction=0.04)
-        for ax in row:
-            ax.axis("off")
-    return save_figure(fig, path, dpi=110)
-
-
 # --------------------------------------------------------------------------- 6. solve time
 def tiled_input(primal: np.ndarray, dx: np.ndarray, dy: np.ndarray, n: int):
     """An n x n x 3 test input: the small render repeated; across the seams the differences
@@ -382,7 +272,8 @@ def gallery_numbers(out: str | Path) -> dict:
     """The gallery caption's numbers, read from ``gradient_domain_relmse.csv`` (lowest and
     highest spp level)."""
     s = pd.read_csv(Path(out) / "gradient_domain_relmse.csv")
-    res = {"ratio_min": f"{s['time_ratio'].min():.1f}", "ratio_max": f"{s['time_ratio'].max():.1f}"}
+    res = {"ratio_min": f"{s['time_ratio'].min():.1f}", "ratio_max": f"{s['time_ratio'].max():.1f}",
+           "scenes": s["scene"].nunique(), "size": f"{WIDTH}×{HEIGHT}", "alpha": f"{ALPHA:g}"}
     for tag, spp in (("lo", s["spp"].min()), ("hi", s["spp"].max())):
         top = s[s["spp"] == spp].set_index("scene")
         res.update({f"spp_{tag}": int(spp), f"reps_{tag}": int(top["reps"].min())})
@@ -400,26 +291,26 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     out = output_dir(out)
     var_t, var_maps = variance_check(32 if full else 24, 1024 if full else 128)
     var_t.to_csv(out / "gradient_domain_variance.csv", index=False)
-    plot_variance(var_maps, out / "gradient_domain_variance.png")
+    save(figs.variance_figure(var_maps), out / "gradient_domain_variance.png")
     crn_spp = 4
     crn_t, crn_imgs = crn_images(crn_spp, 32 if full else 6)
     crn_t.to_csv(out / "gradient_domain_crn_image.csv", index=False)
-    plot_crn_images(crn_imgs, crn_spp, out / "gradient_domain_crn_image.png")
+    save(figs.crn_figure(crn_imgs, crn_spp), out / "gradient_domain_crn_image.png")
 
     names = list_builtin_scenes()
     spp, reps, groups = (8, 48, (1, 4, 16)) if full else (4, 6, (1, 3))
     summary, per_rep, kept = relmse_study(names, spp, reps, groups, ref_spp=4096 if full else 256)
     summary.to_csv(out / "gradient_domain_relmse.csv", index=False)
     per_rep.to_csv(out / "gradient_domain_relmse_seeds.csv", index=False)
-    plot_relmse(summary, out / "gradient_domain_relmse.png")
-    plot_gradients(kept, out / "gradient_domain_gradients.png")
+    save(figs.relmse_figure(summary, METHODS, (WIDTH, HEIGHT)), out / "gradient_domain_relmse.png")
+    save(figs.gradients_figure(kept, ("cornell_box", "veach_mis"), ALPHA), out / "gradient_domain_gradients.png")
 
     sweep = alpha_sweep(kept, SWEEP_SCENES, ALPHAS, reps=4 if full else 1)
     sweep.to_csv(out / "gradient_domain_alpha.csv", index=False)
-    plot_alpha(sweep, out / "gradient_domain_alpha.png")
+    save(figs.alpha_figure(sweep), out / "gradient_domain_alpha.png")
     reg = region_table(kept, names)
     reg.to_csv(out / "gradient_domain_regions.csv", index=False)
-    plot_losses(kept, SWEEP_SCENES, out / "gradient_domain_where_it_loses.png")
+    save(figs.losses_figure(kept, SWEEP_SCENES), out / "gradient_domain_where_it_loses.png")
 
     # L1 at 1024^2 takes minutes per call (see BENCHMARKS.md), so only in the full run
     sizes = {"l2": (1024,), "l1": (1024,)} if full else {"l2": (1024,)}

@@ -16,17 +16,17 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
-
-
 import matplotlib.pyplot as plt
+import pandas as pd
 
 from vrlab import lab
 from vrlab._rng import spawn
 from vrlab.estimators import MonteCarlo
 from vrlab.integrands import catalogue
 from vrlab.integrands.theory import mc_variance
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.lab.experiment import experiment_cli, output_dir
+
+from ._figures import convergence_panel, save
 
 DEFAULT_OUT = Path("vrlab-out") / "importance_sampling"          # relative to the working folder
 
@@ -77,24 +77,61 @@ def support_difference(table: pd.DataFrame) -> dict:
             "diff_theory": (1.0 - 0.5) * f2}
 
 
-def plot_densities(path: Path) -> Path:
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
+COLOURS = {"f": "black", "uniform": "C0", "half": "C1", "ideal": "C2", "linear": "C3"}   # per technique
+NAMES = {"uniform": "uniform", "half": "uniform on [½, 1]", "ideal": "p* = f / ∫f", "linear": "p ∝ x"}
+
+
+def densities_figure(table: pd.DataFrame | None = None):
+    """f and the densities of each technique; with ``table`` (``one_sample_variances`` rows)
+    the measured one-sample variance of each in the legend."""
+    var = {} if table is None else table.set_index(["integrand", "technique"])["var_measured"].to_dict()
+
+    def label(integrand, technique, text):
+        v = var.get((integrand, technique))
+        return text if v is None else f"{text}: Var = {v:.3g}" if v > 1e-20 else f"{text}: Var = 0 (rounding)"
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     x = np.linspace(0, 1, 400)
     ax = axes[0]
-    ax.plot(x, np.where(x > 0.5, x * x, 0), "k", lw=2, label="f = x² 1[x>1/2]")
-    ax.plot(x, np.ones_like(x), label="p_A uniform [0,1]")
-    ax.plot(x, np.where(x > 0.5, 2.0, 0), label="p_B uniform [1/2,1]")
-    ax.plot(x, StepX2Ideal().pdf(x[:, None]), "--", label="p* = f / (7/24)")
-    ax.set_title("step-x2 and its densities")
-    ax.legend(fontsize=8)
+    ax.plot(x, np.where(x > 0.5, x * x, 0), color=COLOURS["f"], lw=2, label="f = x² 1[x > ½]")
+    ax.plot(x, np.ones_like(x), color=COLOURS["uniform"], label=label("step-x2", "uniform", "p_A uniform on [0, 1]"))
+    ax.plot(x, np.where(x > 0.5, 2.0, 0), color=COLOURS["half"], label=label("step-x2", "half", "p_B uniform on [½, 1]"))
+    ax.plot(x, StepX2Ideal().pdf(x[:, None]), "--", color=COLOURS["ideal"], label=label("step-x2", "ideal", NAMES["ideal"]))
+    ax.set_title("step-x2: the integrand and three densities", fontsize=10)
     ax = axes[1]
     x = np.linspace(0, np.pi / 2, 400)
-    ax.plot(x, np.sin(x), "k", lw=2, label="f = sin x")
-    ax.plot(x, np.full_like(x, 2 / np.pi), label="p1 = 2/π")
-    ax.plot(x, 8 * x / np.pi**2, label="p2 = 8x/π²")
-    ax.set_title("sin on [0, π/2]")
-    ax.legend(fontsize=8)
-    return save_figure(fig, path, dpi=120)
+    ax.plot(x, np.sin(x), color=COLOURS["f"], lw=2, label="f = sin x")
+    ax.plot(x, np.full_like(x, 2 / np.pi), color=COLOURS["uniform"], label=label("sin", "uniform", "p₁ = 2/π (uniform)"))
+    ax.plot(x, 8 * x / np.pi**2, color=COLOURS["linear"], label=label("sin", "linear", "p₂ = 8x/π² (p ∝ x)"))
+    ax.set_title("sin on [0, π/2]: uniform against p ∝ x", fontsize=10)
+    for ax in axes:
+        ax.set_xlabel("x (dimensionless)")
+        ax.set_ylabel("f(x), p(x) (dimensionless)")
+        ax.legend(fontsize=7.5, title="one-sample variance Var[f/p]" if var else None, title_fontsize=7.5)
+    return fig
+
+
+def convergence_figure(summary: pd.DataFrame, slopes: pd.DataFrame):
+    """RMSE vs n per integrand; estimators are named ``"<integrand> <technique>"``."""
+    integrands = list(dict.fromkeys(summary["integrand"]))
+    fig, axes = plt.subplots(1, len(integrands), figsize=(5 * len(integrands), 4), squeeze=False)
+    for ax, name in zip(axes[0], integrands):
+        ests = list(dict.fromkeys(summary.loc[summary["integrand"] == name, "estimator"]))
+        tech = {e: e.split()[-1] for e in ests}
+        convergence_panel(ax, summary, slopes, name, ests, {e: COLOURS[t] for e, t in tech.items()},
+                          {e: NAMES[t] for e, t in tech.items()})
+        ax.set_title(f"{name}: RMSE against n", fontsize=10)
+    fig.suptitle("importance sampling lowers the line; the slope stays that of Monte Carlo", fontsize=11)
+    return fig
+
+
+def gallery_numbers(out: str | Path) -> dict:
+    """The gallery caption's numbers, from ``importance_sampling_variances.csv`` and ``_slopes.csv``."""
+    v = pd.read_csv(Path(out) / "importance_sampling_variances.csv").set_index(["integrand", "technique"])
+    s = pd.read_csv(Path(out) / "importance_sampling_slopes.csv")["slope"]
+    uni, lin = v.loc[("sin", "uniform"), "var_measured"], v.loc[("sin", "linear"), "var_measured"]
+    return {"sin_uniform": f"{uni:.3g}", "sin_linear": f"{lin:.3g}", "sin_ratio": f"{uni / lin:.0f}",
+            "slope_lo": f"{s.min():.2f}", "slope_hi": f"{s.max():.2f}"}
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
@@ -124,8 +161,8 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     summary.to_csv(out / "importance_sampling_convergence.csv", index=False)
     slopes = lab.fit_slopes(summary)
     slopes.to_csv(out / "importance_sampling_slopes.csv", index=False)
-    lab.convergence_plot(summary, out / "importance_sampling_convergence.png", title="importance sampling")
-    plot_densities(out / "importance_sampling_densities.png")
+    save(convergence_figure(summary, slopes), out / "importance_sampling_convergence.png")
+    save(densities_figure(table), out / "importance_sampling_densities.png")
 
     v = table.set_index(["integrand", "technique"])
     return {

@@ -31,9 +31,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-
-import matplotlib.pyplot as plt
-
 from vrlab.distributions import (BoxSurface, CosineHemisphere, EllipsoidSurface,
                                  SolidAngleFromArea, SphereSurface, to_world)
 from vrlab.render import builtin_scene_path, load_scene, render
@@ -42,7 +39,10 @@ from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, ParallelogramCh
                            chi2_discrete, chi2_gof, sidak_threshold)
 from vrlab.testing.charts import Chart
 from vrlab.testing.chisquare import cell_integrals, histogram
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.lab.experiment import experiment_cli, output_dir
+
+from . import _light_surfaces_figures as figs
+from ._figures import save
 
 DEFAULT_OUT = Path("vrlab-out") / "light_surfaces"          # relative to the working folder
 ALPHA = 0.01        # family-wise level of the chi-square tests of the correct densities
@@ -141,34 +141,19 @@ def area_gof(lights: dict, n: int, seed: int = 0) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def plot_area_samples(lights: dict, path: Path, n: int = 4000, n_map: int = 200_000, seed: int = 4) -> Path:
-    """Box samples coloured by face; ellipsoid samples coloured by A p_A (1 = uniform by area);
-    observed / expected counts per chart cell for the correct and the 'uniform' density."""
+def area_sample_data(lights: dict, n: int = 4000, n_map: int = 200_000, seed: int = 4) -> dict:
+    """What ``area_samples_figure`` draws: ``n`` box and ellipsoid points (box faces,
+    A p_A of the ellipsoid points) and, from ``n_map`` ellipsoid points, observed / expected
+    counts per chart cell under the Jacobian pdf and under the 'uniform' pdf 1/A."""
     box, ell = lights["box"], lights["ellipsoid"]
     u = np.random.default_rng(seed).random((n, 2))
-    fig = plt.figure(figsize=(15, 3.9))
-    ax = fig.add_subplot(1, 4, 1, projection="3d")
-    x = box.sample(u)
-    ax.scatter(x[:, 0], x[:, 2], x[:, 1], s=1.5, c=box.face(x), cmap="tab10", vmin=0, vmax=9)
-    counts = np.bincount(box.face(x), minlength=6)
-    ax.set_title("box light: colour = face\nper face: " + " ".join(map(str, counts)), fontsize=8)
-    ax = fig.add_subplot(1, 4, 2, projection="3d")
-    y = ell.sample(u)
-    sc = ax.scatter(y[:, 0], y[:, 2], y[:, 1], s=1.5, c=ell.area * ell.pdf(y), cmap="coolwarm")
-    fig.colorbar(sc, ax=ax, shrink=0.6, label="A · p_A")
-    ax.set_title("ellipsoid light: mapped sphere points\ndenser where A·p_A > 1 (ends of the long axis)", fontsize=8)
+    x, y = box.sample(u), ell.sample(u)
     chart, bins = EllipsoidChart(ell.center, ell.M), (20, 20)
     counts, _ = histogram(chart.to_param(ell.sample(np.random.default_rng(seed + 1).random((n_map, 2)))), bins)
-    for k, (label, pdf) in enumerate([("Jacobian pdf", ell.pdf),
-                                       ("'uniform' pdf 1/A", lambda x: np.full(np.shape(x)[:-1], 1 / ell.area))]):
-        expected = n_map * cell_integrals(pdf, chart, bins)
-        ax = fig.add_subplot(1, 4, 3 + k)
-        im = ax.imshow(counts / expected, origin="lower", extent=(0, 1, 0, 1), vmin=0.6, vmax=1.4, cmap="coolwarm")
-        ax.set_title(f"observed / expected per cell\n{label}", fontsize=8)
-        ax.set_xlabel("φ / 2π")
-        ax.set_ylabel("(1 - z_s) / 2")
-        fig.colorbar(im, ax=ax, shrink=0.8)
-    return save_figure(fig, path, dpi=110)
+    uniform = lambda x: np.full(np.shape(x)[:-1], 1 / ell.area)     # noqa: E731
+    return {"box_points": x, "box_faces": box.face(x), "ell_points": y, "ell_area_pdf": ell.area * ell.pdf(y),
+            "ratio": {k: counts / (n_map * cell_integrals(pdf, chart, bins))
+                      for k, pdf in (("Jacobian", ell.pdf), ("uniform", uniform))}}
 
 
 # --------------------------------------------------------------------------- 3: area -> solid angle
@@ -263,32 +248,23 @@ def normalisation_table(lights: dict, m: int) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def plot_direction_pdfs(lights: dict, path: Path, m: int = 160) -> Path:
-    """p_w on an aimed cap around each light: first hit, second hit, both."""
-    fig, axes = plt.subplots(2, 3, figsize=(11, 7))
-    for i, name in enumerate(("box", "ellipsoid")):
+def direction_pdf_maps(lights: dict, m: int = 160) -> dict:
+    """p_w on a square window of the tangent plane of an aimed cap around each light, as
+    seen from its floor point: {light: (first hit, second hit, both hits, half width R)}."""
+    out = {}
+    for name in ("box", "ellipsoid"):
         surf, ref = lights[name], REFS[name]
         axis, z_min = aimed_cap(surf, ref, margin=1.15)
         g = (np.arange(m) + 0.5) / m
         s = np.stack(np.meshgrid(g, g, indexing="ij"), -1)
-        # a square window in the tangent plane of the cap: x, y in [-R, R]
         R = np.sqrt(1 - z_min**2)
         xy = (2 * s - 1) * R
         local = np.concatenate([xy, np.sqrt(np.clip(1 - np.sum(xy**2, -1, keepdims=True), 0, None))], -1)
         w = to_world(local, axis)
         both = SolidAngleFromArea(surf, ref).pdf(w)
         first = SolidAngleFromArea(FirstHitOnly(surf), ref).pdf(w)
-        vmax = np.quantile(both[both > 0], 0.98)
-        for j, (title, z) in enumerate([("first hit only", first), ("second hit (the far side)", both - first),
-                                        ("both hits: the sampling density", both)]):
-            ax = axes[i, j]
-            im = ax.imshow(z.T, origin="lower", extent=(-R, R, -R, R), vmin=0, vmax=vmax, cmap="magma")
-            ax.set_title(f"{name}: {title}", fontsize=9)
-            ax.set_xticks([])
-            ax.set_yticks([])
-            fig.colorbar(im, ax=ax, shrink=0.8)
-    fig.suptitle("solid-angle density of directions from a floor point, p_w = Σ_hits p_A d² / |cos θ_l|")
-    return save_figure(fig, path, dpi=110)
+        out[name] = (first, both - first, both, R)
+    return out
 
 
 # --------------------------------------------------------------------------- 4: irradiance
@@ -363,27 +339,11 @@ def render_study(size: tuple[int, int], spp: int, ref_spp: int, seed: int = 7):
     return table, images, reference
 
 
-def _tonemap(img):
-    img = np.nan_to_num(np.asarray(img, float))
-    return np.clip(img / (1 + img), 0, 1) ** (1 / 2.2)
-
-
-def plot_renders(images: dict, reference: np.ndarray, table: pd.DataFrame, path: Path) -> Path:
-    t = table.set_index("strategy")
-    fig, axes = plt.subplots(2, len(images) + 1, figsize=(3.1 * (len(images) + 1), 5.2))
-    axes[0, 0].imshow(_tonemap(reference), interpolation="nearest")
-    axes[0, 0].set_title(f"reference, {int(t.iloc[-1]['spp'])} spp", fontsize=9)
-    axes[1, 0].axis("off")
-    for j, (s, img) in enumerate(images.items(), start=1):
-        axes[0, j].imshow(_tonemap(img), interpolation="nearest")
-        axes[0, j].set_title(f"{s}, {int(t.loc[s, 'spp'])} spp\nrelMSE = {t.loc[s, 'rel_mse']:.3g}", fontsize=9)
-        err = np.mean((img - reference) ** 2 / (reference**2 + 0.01), -1)   # per-pixel relative MSE
-        axes[1, j].imshow(np.log10(err + 1e-6), vmin=-4, vmax=0, cmap="viridis", interpolation="nearest")
-        axes[1, j].set_title("log10 per-pixel rel. squared error", fontsize=8)
-    for ax in axes.ravel():
-        ax.set_xticks([])
-        ax.set_yticks([])
-    return save_figure(fig, path, dpi=110)
+def gallery_numbers(out: str | Path) -> dict:
+    """The gallery caption's numbers, from ``light_surfaces_normalisation.csv``."""
+    n = pd.read_csv(Path(out) / "light_surfaces_normalisation.csv").set_index("light")
+    return {f"first_{k}": f"{n.loc[k, 'mass_first_hit_only']:.2f}" for k in ("box", "ellipsoid")} | {
+        "both_max_error": f"{(n['mass_both_hits'] - 1).abs().max():.0e}"}
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
@@ -392,16 +352,16 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     lights = scene_lights()
     gof = area_gof(lights, 1_000_000 if full else 200_000)
     gof.to_csv(out / "light_surfaces_gof.csv", index=False)
-    plot_area_samples(lights, out / "light_surfaces_area_samples.png")
+    save(figs.area_samples_figure(area_sample_data(lights), gof), out / "light_surfaces_area_samples.png")
     norm = normalisation_table(lights, 256 if full else 64)
     norm.to_csv(out / "light_surfaces_normalisation.csv", index=False)
-    plot_direction_pdfs(lights, out / "light_surfaces_direction_pdfs.png")
+    save(figs.direction_pdfs_figure(direction_pdf_maps(lights), norm), out / "light_surfaces_direction_pdfs.png")
     irr = irradiance_table(lights, 1_000_000 if full else 100_000)
     irr.to_csv(out / "light_surfaces_irradiance.csv", index=False)
     size, spp, ref_spp = ((128, 96), 16, 512) if full else ((64, 48), 8, 96)
     renders, images, reference = render_study(size, spp, ref_spp)
     renders.to_csv(out / "light_surfaces_renders.csv", index=False)
-    plot_renders(images, reference, renders, out / "light_surfaces_renders.png")
+    save(figs.renders_figure(images, reference, renders), out / "light_surfaces_renders.png")
     return {
         "gof": gof, "normalisation": norm, "irradiance": irr, "renders": renders,
         "level": sidak_threshold(ALPHA, N_CORRECT),

@@ -33,22 +33,23 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
-
-
 import matplotlib.pyplot as plt
+import pandas as pd
 
 from vrlab._rng import spawn
 from vrlab.estimators import RIS
 from vrlab.integrands import catalogue, mc_variance
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.lab.experiment import experiment_cli, output_dir
 from vrlab.render import builtin_scene_path, load_scene, render
 from vrlab.render.direct import DirectLighting
+
+from ._figures import EXPOSURE_NOTE, exposure_of, save, show_image
 
 DEFAULT_OUT = Path("vrlab-out") / "ris"          # relative to the working folder
 MS = (1, 2, 4, 8, 16, 32, 64)
 EPS = 1e-2                      # relMSE = (x - ref)^2 / (ref^2 + EPS)
 F_COST = 10.0                   # cost model: one f evaluation (a shadow ray) = 10 candidates
+REF_M = 16                      # candidates of the many-lights reference (power-drawn)
 
 
 # --------------------------------------------------------------------------- 1D toy
@@ -139,57 +140,63 @@ def selection_histograms(ms=(1, 4, 64), n: int = 50_000, seed: int = 3) -> dict:
     return out
 
 
-def plot_variance(table: pd.DataFrame, lim: dict, hists: dict, path: Path) -> Path:
+COLOURS = {"close": "C0", "proportional": "C1", "light, uniform": "C7", "light, power": "C5",
+           "RIS, uniform candidates": "C2", "RIS, power candidates": "C3"}
+
+
+def variance_figure(table: pd.DataFrame, lim: dict, hists: dict):
+    """Variance against M with its limits, efficiency against M, and the kept sample's density."""
     f, source, target = toy()
-    fig, axes = plt.subplots(1, 3, figsize=(14, 3.9))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.3))
     ax = axes[0]
     ms = np.array(sorted(table["M"].unique()), float)
     mm = np.geomspace(ms[0], ms[-1], 100)
-    for case, color, label in (("close", "C0", "p̂ = wider Gaussian (close to f)"),
-                               ("proportional", "C1", "p̂ = f")):
+    for case, label in (("close", "p̂ = wider Gaussian (close to f)"), ("proportional", "p̂ = f")):
         t = table[table["case"] == case]
-        ax.errorbar(t["M"], t["var_measured"], 2 * t["var_se"], fmt="o", ms=4, color=color, label=label)
-    ax.plot(mm, lim["var_m1"] / mm, color="C1", lw=1, ls="--", label="Var_p[f/p] / M")
+        ax.errorbar(t["M"], t["var_measured"], 2 * t["var_se"], fmt="o", ms=4, color=COLOURS[case], label=label)
+    ax.plot(mm, lim["var_m1"] / mm, color=COLOURS["proportional"], lw=1, ls="--", label="Var_p[f/p] / M")
     ax.plot(mm, lim["var_inf"] + (lim["var_m1"] - lim["var_inf"]) / mm, color="0.5", lw=0.8,
             label="V∞ + (V₁ − V∞)/M (interpolation)")
     ax.axhline(lim["var_m1"], color="k", lw=0.8, ls=":", label="M = 1: Var_p[f/p] (plain MC)")
-    ax.axhline(lim["var_inf"], color="C0", lw=0.8, ls="-.", label="M → ∞: IS with p̂/∫p̂")
+    ax.axhline(lim["var_inf"], color=COLOURS["close"], lw=0.8, ls="-.", label="M → ∞: IS with p̂/∫p̂")
     ax.set_xscale("log", base=2)
     ax.set_yscale("log")
     ax.set_xlabel("candidates M")
-    ax.set_ylabel("variance per output sample")
-    ax.set_title("RIS variance, gauss-bump, uniform source")
+    ax.set_ylabel("variance per output sample (dimensionless)")
+    ax.set_title("RIS variance, gauss-bump, uniform source (± 2 se)", fontsize=10)
     ax.legend(fontsize=7)
 
     ax = axes[1]
     t = table[table["case"] == "close"]
     tp = table[table["case"] == "proportional"]
-    ax.plot(t["M"], t["efficiency"] / t["efficiency"].iloc[0], "o-", color="C0",
-            label="p̂ close, measured time (f cheap)")
-    ax.plot(t["M"], t["efficiency_model"] / t["efficiency_model"].iloc[0], "o--", color="C2",
-            label=f"p̂ close, cost {F_COST:g} + M (f = {F_COST:g} candidates)")
-    ax.plot(tp["M"], tp["efficiency_model"] / tp["efficiency_model"].iloc[0], "s:", color="C1",
+    c = COLOURS["close"]
+    best = {col: int(t.loc[t[col].idxmax(), "M"]) for col in ("efficiency", "efficiency_model")}
+    ax.plot(t["M"], t["efficiency"] / t["efficiency"].iloc[0], "o-", color=c,
+            label=f"p̂ close, measured time (f cheap): best M = {best['efficiency']}")
+    ax.plot(t["M"], t["efficiency_model"] / t["efficiency_model"].iloc[0], "o--", color=c,
+            label=f"p̂ close, cost {F_COST:g} + M: best M = {best['efficiency_model']}")
+    ax.plot(tp["M"], tp["efficiency_model"] / tp["efficiency_model"].iloc[0], "s:", color=COLOURS["proportional"],
             label=f"p̂ = f, cost {F_COST:g} + M")
-    for col, color in (("efficiency", "C0"), ("efficiency_model", "C2")):
-        best = int(t.loc[t[col].idxmax(), "M"])
-        ax.axvline(best, color=color, lw=0.6)
     ax.set_xscale("log", base=2)
     ax.set_xlabel("candidates M")
     ax.set_ylabel("efficiency 1/(Var × cost), relative to M = 1")
-    ax.set_title("candidates cost time: an optimum M")
+    ax.set_title(f"candidates cost time (cost model: f = {F_COST:g} candidates)", fontsize=10)
     ax.legend(fontsize=7)
 
     ax = axes[2]
     x = np.linspace(0, 1, 400)[:, None]
-    for m, y in hists.items():
-        ax.hist(y, bins=80, range=(0.2, 0.8), density=True, histtype="step", label=f"kept Y, M = {m}")
+    shades = plt.get_cmap("Purples")(np.linspace(0.55, 1.0, len(hists)))
+    for (m, y), shade in zip(hists.items(), shades):
+        ax.hist(y, bins=80, range=(0.2, 0.8), density=True, histtype="step", color=shade,
+                label=f"kept Y, M = {m} ({len(y)} samples)")
     ax.plot(x[:, 0], target.pdf(x), "k", lw=1, label="p̂ / ∫p̂")
     ax.plot(x[:, 0], f(x) / f.exact, "k:", lw=1, label="f / ∫f")
     ax.set_xlim(0.2, 0.8)
-    ax.set_xlabel("x")
-    ax.set_title("the kept sample's density tends to p̂/∫p̂")
+    ax.set_xlabel("x (dimensionless)")
+    ax.set_ylabel("probability density (dimensionless)")
+    ax.set_title("the kept sample's density tends to p̂/∫p̂", fontsize=10)
     ax.legend(fontsize=7)
-    return save_figure(fig, path, dpi=110)
+    return fig
 
 
 # --------------------------------------------------------------------------- many lights
@@ -250,7 +257,7 @@ def many_lights(size, spp: int, ref_spp: int, ms, seed: int = 7, power_candidate
     scene = small_scene(size)
     mask = light_free_mask(scene)
     t0 = time.perf_counter()
-    ref_est = render(scene, ref_spp, "ris", rng=[seed, 0], light_selection="power", ris_candidates=16)
+    ref_est = render(scene, ref_spp, "ris", rng=[seed, 0], light_selection="power", ris_candidates=REF_M)
     ref_sec = time.perf_counter() - t0
     ref, ref_err = ref_est.value.astype(float), ref_est.stderr.astype(float)
     rows, images = [], {}
@@ -268,58 +275,65 @@ def many_lights(size, spp: int, ref_spp: int, ms, seed: int = 7, power_candidate
                      "mean": float(img.mean()), "ref_mean": float(ref.mean())})
     t = pd.DataFrame(rows)
     t["pixels"] = int(mask.sum())
+    t["lights"] = sum(s.emitter is not None for s in scene.shapes)
     t.attrs.update(ref_spp=ref_spp, ref_seconds=ref_sec, ref_relmse_from_stderr=float(
         np.mean((ref_err ** 2 / (ref ** 2 + EPS))[mask])))
     return t, images, ref
 
 
-def _tonemap(img, scale: float = 1.0):
-    img = np.maximum(img * scale, 0)
-    return np.clip(img / (1 + img), 0, 1) ** (1 / 2.2)
-
-
-def plot_images(table: pd.DataFrame, images: dict, ref: np.ndarray, path: Path) -> Path:
+def images_figure(table: pd.DataFrame, images: dict, ref: np.ndarray):
+    """Every method's render and the reference at one exposure (from the reference)."""
     n = len(images) + 1
     cols = 4
     rows = -(-n // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(3.2 * cols, 2.95 * rows))
+    fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 3.0 * rows), layout="constrained")
     axes = axes.ravel()
-    scale = 0.6 / float(np.median(ref))           # the floor's typical radiance -> 0.4 before gamma
-    axes[0].imshow(_tonemap(ref, scale), interpolation="nearest")
-    axes[0].set_title(f"reference ({table.attrs.get('ref_spp')} spp, RIS power M=16)", fontsize=8)
+    exposure = exposure_of(ref)
+    t = table.set_index("method")
+    show_image(axes[0], ref, exposure, f"reference ({table.attrs.get('ref_spp')} spp, RIS M={REF_M}, power)", 8)
     for ax, (label, img) in zip(axes[1:], images.items()):
-        r = table.set_index("method").loc[label]
-        ax.imshow(_tonemap(img, scale), interpolation="nearest")
-        ax.set_title(f"{label}, {int(r['spp'])} spp", fontsize=8)
+        r = t.loc[label]
+        show_image(ax, img, exposure, f"{label}, {int(r['spp'])} spp", 8)
         ax.set_xlabel(f"relMSE {r['relmse']:.3g}, {r['seconds']:.2f} s", fontsize=8)
-    for ax in axes:
-        ax.set_xticks([])
-        ax.set_yticks([])
     for ax in axes[n:]:
-        ax.axis("off")
-    fig.suptitle("many_lights: 128 sphere lights, one shadow ray per sample "
-                 f"(relMSE over the {int(table['pixels'].iloc[0])} pixels that see no light)", fontsize=10)
-    return save_figure(fig, path, dpi=110)
+        fig.delaxes(ax)
+    fig.suptitle(f"many_lights: {int(table['lights'].iloc[0])} sphere lights, one shadow ray per sample; relMSE over "
+                 f"the {int(table['pixels'].iloc[0])} pixels that see no light ({EXPOSURE_NOTE})", fontsize=10)
+    return fig
 
 
-def plot_efficiency(table: pd.DataFrame, path: Path) -> Path:
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+def efficiency_figure(table: pd.DataFrame):
+    """relMSE and relMSE x time against M, with one-sample light selection as lines."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    t = table.set_index("method")
     ris = table[(table["strategy"] == "ris") & (table["light_selection"] == "uniform")]
+    pw = table[(table["strategy"] == "ris") & (table["light_selection"] == "power")]
     for ax, col, ylabel in ((axes[0], "relmse", "relMSE (equal spp)"),
-                            (axes[1], "relmse_x_seconds", "relMSE × render time [s] (lower = better)")):
-        ax.plot(ris["M"], ris[col], "o-", color="C2", label="RIS, uniform candidates")
-        for label, color, ls in (("light, uniform", "C0", "--"), ("light, power", "C1", ":")):
-            ax.axhline(float(table.set_index("method").loc[label, col]), color=color, ls=ls, label=label)
-        pw = table[(table["strategy"] == "ris") & (table["light_selection"] == "power")]
-        ax.plot(pw["M"], pw[col], "s", color="C3", label="RIS, power candidates")
+                            (axes[1], "relmse_x_seconds", "relMSE × render time (s), lower = better")):
+        ax.plot(ris["M"], ris[col], "o-", color=COLOURS["RIS, uniform candidates"], label="RIS, uniform candidates")
+        for label, ls in (("light, uniform", "--"), ("light, power", ":")):
+            ax.axhline(float(t.loc[label, col]), color=COLOURS[label], ls=ls, label=label)
+        ax.plot(pw["M"], pw[col], "s", color=COLOURS["RIS, power candidates"], label="RIS, power candidates")
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
         ax.set_xlabel("candidates M")
         ax.set_ylabel(ylabel)
         ax.legend(fontsize=7)
-    axes[0].set_title("many_lights: error at equal samples")
-    axes[1].set_title("many_lights: error × time")
-    return save_figure(fig, path, dpi=110)
+    spp = int(table["spp"].iloc[0])
+    axes[0].set_title(f"many_lights: error at equal samples ({spp} spp)", fontsize=10)
+    axes[1].set_title("many_lights: error × time", fontsize=10)
+    return fig
+
+
+def gallery_numbers(out: str | Path) -> dict:
+    """The gallery caption's numbers, from ``ris_many_lights.csv``."""
+    t = pd.read_csv(Path(out) / "ris_many_lights.csv")
+    power = t[(t["strategy"] == "ris") & (t["light_selection"] == "power")].iloc[0]
+    m = int(power["M"])
+    by = t.set_index("method")["relmse"]
+    return {"lights": int(t["lights"].iloc[0]), "spp": int(t["spp"].iloc[0]), "m": m,
+            "uniform": f"{by['light, uniform']:.2g}", "power": f"{by['light, power']:.2g}",
+            "ris": f"{by[f'RIS M={m}']:.2g}", "ris_power": f"{power['relmse']:.2g}"}
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
@@ -329,13 +343,13 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     n, reps = (50_000, 40) if full else (10_000, 20)
     table = variance_sweep(MS, n, reps)
     table.to_csv(out / "ris_variance.csv", index=False)
-    plot_variance(table, lim, selection_histograms(), out / "ris_variance.png")
+    save(variance_figure(table, lim, selection_histograms()), out / "ris_variance.png")
 
     size, spp, ref_spp = ((160, 120), 8, 512) if full else ((80, 60), 8, 128)
     lights, images, ref = many_lights(size, spp, ref_spp, (1, 4, 16, 32))
     lights.to_csv(out / "ris_many_lights.csv", index=False)
-    plot_images(lights, images, ref, out / "ris_many_lights.png")
-    plot_efficiency(lights, out / "ris_many_lights_efficiency.png")
+    save(images_figure(lights, images, ref), out / "ris_many_lights.png")
+    save(efficiency_figure(lights), out / "ris_many_lights_efficiency.png")
 
     close = table[table["case"] == "close"].set_index("M")
     prop = table[table["case"] == "proportional"].set_index("M")

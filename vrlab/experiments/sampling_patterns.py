@@ -35,16 +35,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-
-import matplotlib.pyplot as plt
-
 from vrlab import lab
 from vrlab import points as P
 from vrlab._rng import spawn
 from vrlab.estimators import MonteCarlo
 from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene, render
 from vrlab.render.image import rel_mse
-from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.lab.experiment import experiment_cli, output_dir
+
+from . import _sampling_patterns_figures as figs
+from ._figures import save
 
 DEFAULT_OUT = Path("vrlab-out") / "sampling_patterns"          # relative to the working folder
 
@@ -61,22 +61,14 @@ def patterns(seed: int = 0) -> dict:
     }
 
 
-def plot_patterns(path: Path, n: int = 64) -> Path:
-    fig, axes = plt.subplots(2, 4, figsize=(13, 6.6))
-    axes = axes.ravel()
-    for ax, (name, make) in zip(axes, patterns().items()):
-        x = make().random(n)
-        ax.scatter(x[:, 0], x[:, 1], s=8)
-        ax.set_title(f"{name}, n = {n}", fontsize=9)
-    # Hammersley prefix vs Halton prefix: 64 points taken from 256-point constructions
-    for ax, (name, x) in zip(axes[6:], [("first 64 of a 256-point Hammersley set", P.Hammersley(2, n=256).random(64)),
-                                        ("first 64 of the Halton sequence", P.Halton(2).random(64))]):
-        ax.scatter(x[:, 0], x[:, 1], s=8, c="C3")
-        ax.set_title(name, fontsize=9)
-    for ax in axes:
-        ax.set_xlim(0, 1); ax.set_ylim(0, 1); ax.set_aspect("equal")
-        ax.set_xticks([0, 0.5, 1]); ax.set_yticks([0, 0.5, 1]); ax.grid(lw=0.3)
-    return save_figure(fig, path, dpi=110)
+def pattern_points(n: int = 64) -> dict:
+    """Panel title -> (pattern, points): ``n`` points of every pattern, then the first ``n``
+    of a 4n-point Hammersley set and of the Halton sequence."""
+    out = {f"{name}, n = {n}": (name, make().random(n)) for name, make in patterns().items()}
+    out[f"first {n} of a {4 * n}-point Hammersley set"] = ("Hammersley prefix (n of 4n)",
+                                                          P.Hammersley(2, n=4 * n).random(n))
+    out[f"first {n} of the Halton sequence"] = ("Halton", P.Halton(2).random(n))
+    return out
 
 
 def discrepancy_table(ns: list[int], reps: int = 4) -> pd.DataFrame:
@@ -92,18 +84,6 @@ def discrepancy_table(ns: list[int], reps: int = 4) -> pd.DataFrame:
         rows.append({"pattern": "Hammersley prefix (n of 4n)", "n": n,
                      "discrepancy": P.discrepancy(P.Hammersley(2, n=4 * n).random(n))})
     return pd.DataFrame(rows)
-
-
-def plot_discrepancy(table: pd.DataFrame, path: Path) -> Path:
-    fig, ax = plt.subplots(figsize=(6, 4.2))
-    for name, g in table.groupby("pattern", sort=False):
-        ax.loglog(g["n"], g["discrepancy"], "o-", ms=3, label=name)
-    n = np.array(sorted(table["n"].unique()), float)
-    ax.loglog(n, 0.5 * table["discrepancy"].max() * (n / n[0]) ** -0.5, "k:", lw=0.8, label="∝ n^−1/2")
-    ax.loglog(n, 0.5 * table["discrepancy"].max() * (n / n[0]) ** -1.0, "k--", lw=0.8, label="∝ n^−1")
-    ax.set_xlabel("n"); ax.set_ylabel("centred L2 discrepancy")
-    ax.legend(fontsize=7)
-    return save_figure(fig, path, dpi=110)
 
 
 def convergence(ns: list[int], reps: int):
@@ -259,36 +239,21 @@ def render_points(size, spp: int, reps: int, strategy: str = "light", seed: int 
     return pd.DataFrame(rows)
 
 
-def plot_strata(images: dict, spps: list[int], is_edge: np.ndarray, path: Path) -> Path:
-    fig, axes = plt.subplots(1, 2 * len(spps) + 1, figsize=(3.2 * (2 * len(spps) + 1), 3))
-    k = 0
-    for spp in spps:
-        for stratified in (False, True):
-            img = images[(spp, stratified)]
-            axes[k].imshow(np.clip(img / (1 + img), 0, 1) ** (1 / 2.2), cmap="gray", interpolation="nearest")
-            axes[k].set_title(f"{spp} spp, {'4 strata' if stratified else 'random'}", fontsize=9)
-            axes[k].axis("off")
-            k += 1
-    axes[k].imshow(is_edge, cmap="gray", interpolation="nearest")
-    axes[k].set_title("edge pixels", fontsize=9)
-    axes[k].axis("off")
-    return save_figure(fig, path, dpi=110)
-
-
 REPORT_IS = {"cornell_box": ("uniform", "cosine"), "box_ellipsoid": ("uniform", "bsdf")}
 
 
 def report_importance(size, spps: list[int], ref_spp: int, seed: int = 6):
     """The report's cos- and BRDF-weighted importance sampling against uniform hemisphere
-    sampling: relMSE against an independent ``mis-power`` reference, the per-sample pixel
+    sampling (returns the table, the images and the references): relMSE against an independent ``mis-power`` reference, the per-sample pixel
     variance (green channel, from the standard errors) and the pooled z of the image mean,
     z = (mean(img) - mean(ref)) / sqrt(sum se^2 + sum se_ref^2) / npix (unbiasedness)."""
-    rows, images = [], {}
+    rows, images, refs = [], {}, {}
     for name, strategies in REPORT_IS.items():
         scene = load_scene(builtin_scene_path(name))
         scene.sensor = dataclasses.replace(scene.sensor, width=size[0], height=size[1])
         ref = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([seed, 0]), workers=1)
         ref, ref_se = ref.value, ref.stderr
+        refs[name] = ref
         for spp in spps:
             for k, strategy in enumerate(strategies):
                 est = render(scene, spp, strategy, rng=np.random.SeedSequence([seed, 1 + k, spp]), workers=1)
@@ -301,45 +266,40 @@ def report_importance(size, spps: list[int], ref_spp: int, seed: int = 6):
     t = pd.DataFrame(rows)
     base = t[t.strategy == "uniform"].set_index(["scene", "spp"])["pixel_variance"]
     t["variance_vs_uniform"] = t.pixel_variance / [base[(r.scene, r.spp)] for r in t.itertuples()]
-    return t, images
+    return t, images, refs
 
 
-def plot_report_importance(images: dict, table: pd.DataFrame, path: Path) -> Path:
-    keys = list(images)
-    fig, axes = plt.subplots(2, len(keys) // 2, figsize=(2.8 * len(keys) // 2, 5.2), squeeze=False)
-    for k, key in enumerate(keys):
-        ax = axes.flat[k]
-        img = images[key]
-        ax.imshow(np.clip(img / (1 + img), 0, 1) ** (1 / 2.2), interpolation="nearest")
-        row = table[(table.scene == key[0]) & (table.strategy == key[1]) & (table.spp == key[2])].iloc[0]
-        ax.set_title(f"{key[0]}: {key[1]}, {key[2]} spp\nrelMSE {row.rel_mse:.3g}", fontsize=8)
-        ax.axis("off")
-    return save_figure(fig, path, dpi=110)
+def gallery_numbers(out: str | Path) -> dict:
+    """The gallery caption's numbers, from ``sampling_patterns_slopes.csv``."""
+    s = pd.read_csv(Path(out) / "sampling_patterns_slopes.csv").set_index(["estimator", "integrand"])["slope"]
+    return {"mc_1d": f"{s[('MC', 'exp')]:.2f}", "jittered_1d": f"{s[('jittered', 'exp')]:.2f}",
+            "jittered_2d": f"{s[('jittered', 'smooth-2d')]:.2f}", "sobol_2d": f"{s[('Sobol (scrambled)', 'smooth-2d')]:.2f}",
+            "halton_2d": f"{s[('Halton (scrambled)', 'smooth-2d')]:.2f}", "lhs_2d": f"{s[('LHS', 'smooth-2d')]:.2f}"}
 
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run every experiment, write CSV + PNG into ``out``, return the key numbers."""
     out = output_dir(out)
-    plot_patterns(out / "sampling_patterns_points.png")
+    save(figs.patterns_figure(pattern_points()), out / "sampling_patterns_points.png")
     disc = discrepancy_table([2**k for k in range(4, 13 if full else 11)])
     disc.to_csv(out / "sampling_patterns_discrepancy.csv", index=False)
-    plot_discrepancy(disc, out / "sampling_patterns_discrepancy.png")
+    save(figs.discrepancy_figure(disc), out / "sampling_patterns_discrepancy.png")
     summary, slopes = convergence([2**k for k in range(4, 16 if full else 13)], 100 if full else 40)
     summary.to_csv(out / "sampling_patterns_convergence.csv", index=False)
     slopes.to_csv(out / "sampling_patterns_slopes.csv", index=False)
-    lab.convergence_plot(summary, out / "sampling_patterns_convergence.png", title="sampling patterns")
+    save(figs.convergence_figure(summary, slopes), out / "sampling_patterns_convergence.png")
     edge_t = edge_table([4, 5, 8, 100, 1000], 20_000 if full else 4000)
     edge_t.to_csv(out / "sampling_patterns_pixel_edge.csv", index=False)
     spps = [5, 1000] if full else [5, 20]
     render_t, images, is_edge = render_strata((32, 24) if full else (24, 18), spps, 16)
     render_t.to_csv(out / "sampling_patterns_pixel_render.csv", index=False)
-    plot_strata(images, spps, is_edge, out / "sampling_patterns_pixel_render.png")
+    save(figs.strata_figure(images, spps, is_edge, render_t), out / "sampling_patterns_pixel_render.png")
     points_t = render_points((32, 24) if full else (24, 18), 64 if full else 16, 16)
     points_t.to_csv(out / "sampling_patterns_pixel_points.csv", index=False)
-    report_t, report_images = report_importance((48, 36) if full else (24, 18), [10, 1000] if full else [10, 100],
+    report_t, report_images, report_refs = report_importance((48, 36) if full else (24, 18), [10, 1000] if full else [10, 100],
                                                 4000 if full else 400)
     report_t.to_csv(out / "sampling_patterns_report_is.csv", index=False)
-    plot_report_importance(report_images, report_t, out / "sampling_patterns_report_is.png")
+    save(figs.report_figure(report_images, report_refs, report_t), out / "sampling_patterns_report_is.png")
     s = slopes.set_index(["estimator", "integrand"])
     return {
         "discrepancy": disc, "summary": summary, "slopes": slopes, "edge": edge_t, "render": render_t,

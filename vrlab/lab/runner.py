@@ -28,6 +28,7 @@ or infinite stops the run with a ``ValueError`` naming the estimator and integra
 from __future__ import annotations
 
 import copy
+import functools
 import numbers
 import pickle
 import zlib
@@ -135,9 +136,21 @@ def stable_index(text: str) -> int:
 
 
 # -- the work ------------------------------------------------------------------------------------
+def _unit_points(points, seed: np.random.SeedSequence):
+    """The points of one unit: a randomised vrlab point set is re-randomised from the unit's
+    seed (same class and settings: ``replicate``), so repetitions are independent and the
+    numbers reproducible; any other engine instance is copied as it is (a deterministic set,
+    or a SciPy engine, whose randomisation is fixed by the seed it was built with)."""
+    from ..points import PointSet
+
+    if isinstance(points, PointSet) and points.randomized:
+        return points.replicate(1, rng=seed.spawn(1)[0])[0]
+    return copy.deepcopy(points) if hasattr(points, "random") else points
+
+
 def _one(estimator, integrand, points, n: int, seed: np.random.SeedSequence, chunk: int | None,
          label: str = "?"):
-    pts = copy.deepcopy(points) if hasattr(points, "random") else points
+    pts = _unit_points(points, seed)
     kw = {} if chunk is None else {"chunk": chunk}
     try:
         est = estimator.estimate(integrand, n, rng=np.random.default_rng(seed), points=pts, **kw)
@@ -154,22 +167,26 @@ def _one(estimator, integrand, points, n: int, seed: np.random.SeedSequence, chu
     return float(value), float(stderr), float(est.seconds), int(est.n_evals), int(est.n)
 
 
-_WORKER_CACHE: dict = {}
+def _build(est_spec, int_spec) -> tuple:
+    """(estimator, points, integrand) built from a recipe and an integrand spec."""
+    integrand = _integrand(int_spec)
+    return (*_instantiate(est_spec, integrand), integrand)
+
+
+@functools.lru_cache(maxsize=64)
+def _build_named(est_spec: str, int_spec: str) -> tuple:
+    """:func:`_build` for recipe and catalogue names, memoised (a pure function of the names):
+    a worker builds each pair once, not once per block."""
+    return _build(est_spec, int_spec)
 
 
 def _run_block(task) -> list[tuple]:
     """Run repetitions ``reps`` of one (job, n): used both in-process and in workers."""
     job, (entropy, spawn_key, pool_size), key, n, reps, chunk = task
-    if isinstance(job, tuple):        # in a worker: rebuild from specs (cached per process)
+    if isinstance(job, tuple):        # in a worker: rebuild from specs
         label, est_spec, int_spec = job
-        ck = (label, est_spec, int_spec) if isinstance(est_spec, str) and isinstance(int_spec, str) else None
-        if ck is not None and ck in _WORKER_CACHE:
-            estimator, points, integrand = _WORKER_CACHE[ck]
-        else:
-            integrand = _integrand(int_spec)
-            estimator, points = _instantiate(est_spec, integrand)
-            if ck is not None:
-                _WORKER_CACHE[ck] = (estimator, points, integrand)
+        named = isinstance(est_spec, str) and isinstance(int_spec, str)
+        estimator, points, integrand = (_build_named if named else _build)(est_spec, int_spec)
     else:
         label = job.label
         estimator, points, integrand = job.estimator, job.points, job.integrand
