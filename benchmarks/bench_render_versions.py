@@ -12,11 +12,17 @@ configuration is reported, with the median, and the ratio new/old of both.
     python benchmarks/bench_render_versions.py --old 64b32d5 --new HEAD [--rounds 3 --spp 16]
 
 (``--new WORKTREE`` measures the files of this checkout as they are.)
+
+``--instructions`` counts instead of timing: each configuration runs once per revision under
+``valgrind --tool=callgrind --trace-children=yes`` and the instructions executed by the
+process and its forked workers are summed.  Unlike times, the counts do not depend on what
+else the machine runs (the 2-core test machine is shared); about 50x slower than a render.
 """
 from __future__ import annotations
 
 import argparse
 import compileall
+import re
 import io
 import resource
 import shutil
@@ -69,6 +75,31 @@ def run(src: Path, scene: str, w: int, h: int, spp: int, est: str, workers: int)
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
+def instructions(src: Path, scene: str, w: int, h: int, spp: int, est: str, workers: int) -> int:
+    """Instructions executed by one render: the process and its worker processes, summed."""
+    code = CODE.format(src=str(src), scene=scene, spp=spp, est=est, workers=workers, w=w, h=h)
+    with tempfile.TemporaryDirectory() as tmp:
+        p = subprocess.run(["valgrind", "--tool=callgrind", "--trace-children=yes",
+                            f"--callgrind-out-file={tmp}/cg.%p", sys.executable, "-c", code],
+                           capture_output=True, text=True, cwd=tmp)
+    if p.returncode:
+        raise RuntimeError(p.stderr[-2000:])
+    return sum(int(n.replace(",", "")) for n in re.findall(r"I\s+refs:\s+([\d,]+)", p.stderr))
+
+
+def count_main(args, srcs) -> None:
+    print(f"vrlab {args.new} against {args.old}: {args.estimator}, {args.spp} spp, {args.workers} workers; "
+          "instructions of the process and its workers (callgrind)\n")
+    print("| scene | size | old (10^9) | new (10^9) | new/old |")
+    print("|---|---|---|---|---|")
+    for sc in args.scenes:
+        for k in args.scales:
+            w, h = sizes(sc)
+            o, n = (instructions(srcs[v], sc, k * w, k * h, args.spp, args.estimator, args.workers)
+                    for v in ("old", "new"))
+            print(f"| {sc} | {k * w}x{k * h} | {o / 1e9:.3f} | {n / 1e9:.3f} | {n / o:.3f} |", flush=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--old", default="64b32d5")
@@ -79,9 +110,13 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--scenes", nargs="*", default=list(SCENES))
     ap.add_argument("--scales", nargs="*", type=int, default=[1, 2])
+    ap.add_argument("--instructions", action="store_true", help="count instructions with callgrind instead")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         srcs = {"old": export(args.old, Path(tmp) / "old"), "new": export(args.new, Path(tmp) / "new")}
+        if args.instructions:
+            count_main(args, srcs)
+            return 0
         configs = [(sc, k) for sc in args.scenes for k in args.scales]
         times: dict = {}
         for r in range(args.rounds):

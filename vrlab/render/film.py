@@ -145,11 +145,13 @@ class _Job:
         return np.moveaxis(np.asarray(value), 0, -1), np.moveaxis(np.asarray(stderr), 0, -1)
 
 
-def _units(job: _Job, units: list[tuple[int, int]]) -> list:
+def _units(job: _Job | bytes, units: list[tuple[int, int]]) -> list:
+    if isinstance(job, bytes):              # pickled once by execute() for all of its tasks
+        job = pickle.loads(job)
     return [job.unit(t, k) for t, k in units]
 
 
-def _units_in_own_worker(job: _Job, units: list[tuple[int, int]]) -> list:
+def _units_in_own_worker(job: _Job | bytes, units: list[tuple[int, int]]) -> list:
     keep_freed_memory()     # vrlab's own worker processes: reuse freed ray temporaries (vrlab._alloc)
     return _units(job, units)
 
@@ -273,9 +275,10 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     executor = check_executor(executor)
     path = None if checkpoint is None else check_path(checkpoint)
     workers = min(workers, job.n_tiles)
+    payload: _Job | bytes = job
     if workers > 1 or executor is not None:
         try:
-            pickle.dumps(job)
+            payload = pickle.dumps(job)     # sent as bytes: pickled once, not once per task
         except (pickle.PicklingError, AttributeError, TypeError) as exc:
             raise TypeError(f"estimator: {job.integrand.estimator!r} cannot be sent to worker processes ({exc}); "
                             "define functions it uses (e.g. a heuristic) at module level, or use workers=1") from None
@@ -295,7 +298,7 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     # a caller's executor (a Dask cluster) may have more workers than ``workers`` says: >= 64 tasks
     groups = (len(tiles) if workers == 1 and executor is None else
               min(len(tiles), TASKS_PER_WORKER * workers if executor is None else max(TASKS_PER_WORKER * workers, 64)))
-    tasks = [(job, [(t, k) for t in tiles[i::groups]]) for k in range(start, job.n_batches) for i in range(groups)]
+    tasks = [(payload, [(t, k) for t in tiles[i::groups]]) for k in range(start, job.n_batches) for i in range(groups)]
     new: dict = {}                          # batch -> {tile: statistics}, until the batch is merged
     k = start
     for _, res in run_units(fn, tasks, workers=workers, executor=executor):
