@@ -207,10 +207,11 @@ def test_pixel_samples_leave_no_cyclic_garbage(est):
     try:
         gc.set_debug(gc.DEBUG_SAVEALL)
         pix.outputs(pixels, u)
-        found = gc.collect()
-        kinds = sorted({type(o).__name__ for o in gc.garbage})
+        gc.collect()
+        # vrlab objects only: threads left by other tests (Dask, tqdm) may make garbage meanwhile
+        ours = sorted({type(o).__name__ for o in gc.garbage if type(o).__module__.startswith("vrlab")})
     finally:
         gc.set_debug(0)
         gc.garbage.clear()
         gc.enable()
-    assert found == 0, f"cyclic garbage after a block: {kinds}"
+    assert not ours, f"vrlab objects in reference cycles after a block: {ours}"
