@@ -23,6 +23,7 @@ from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, ParallelogramCh
                            assert_gof, box_surface_chart, chi2_gof, integrate)
 from vrlab.testing.charts import Chart
 from vrlab.testing.chisquare import cell_integrals, histogram, pooled_chi2
+from vrlab.experiments.light_surfaces import FirstHitOnly   # the one-hit bug the lecture warns about
 
 
 def _rotation(axis, angle):
@@ -149,20 +150,6 @@ class _EllipsoidViewChart(Chart):
     def jacobian(self, s):
         norm = np.linalg.norm(self._wp(s) @ self.M.T, axis=-1)
         return 4 * np.pi * self.omc * (1.0 - s[..., 0]) * self.det / norm**3
-
-
-class _FirstHitOnly:
-    """A surface proxy whose ``intersect`` reports only the nearest hit (a common bug)."""
-
-    def __init__(self, surface):
-        self.s = surface
-        self.dim_u = surface.dim_u
-
-    def __getattr__(self, name):
-        return getattr(self.s, name)
-
-    def intersect(self, origin, direction, t_min=None):
-        return self.s.intersect(origin, direction, t_min)[..., :1]
 
 
 class _WrongEllipsoid(EllipsoidSurface):
@@ -410,22 +397,22 @@ def test_two_hits_are_needed():
     s = sphere()
     D = np.linalg.norm(REF)
     chart = _EllipsoidViewChart(s.center, 2.0 * np.eye(3), REF)
-    one = SolidAngleFromArea(_FirstHitOnly(s), REF)
+    one = SolidAngleFromArea(FirstHitOnly(s), REF)
     both = s.solid_angle_from(REF)
     assert integrate(one.pdf, chart, 32) == pytest.approx(0.5 * (1 - 2.0 / D), abs=1e-9)
     assert integrate(both.pdf, chart, 32) == pytest.approx(1.0, abs=1e-9)
     e = ellipsoid()
     echart = _EllipsoidViewChart(e.center, M_ELL, REF)
-    first = integrate(SolidAngleFromArea(_FirstHitOnly(e), REF).pdf, echart, 32)
+    first = integrate(SolidAngleFromArea(FirstHitOnly(e), REF).pdf, echart, 32)
     assert 0.3 < first < 0.5
     for surf, ch in [(s, chart), (e, echart)]:
-        res = chi2_gof(SolidAngleFromArea(_FirstHitOnly(surf), REF), ch, (16, 16), n=100_000, rng=4)
+        res = chi2_gof(SolidAngleFromArea(FirstHitOnly(surf), REF), ch, (16, 16), n=100_000, rng=4)
         with pytest.raises(AssertionError):
             assert_gof(res)
     # the box too: first-hit-only integrates well below 1
     b = box()
     axis, z_min = _aimed(b, REF)
-    bo = _InFrame(SolidAngleFromArea(_FirstHitOnly(b), REF), axis)
+    bo = _InFrame(SolidAngleFromArea(FirstHitOnly(b), REF), axis)
     assert float(cell_integrals(bo.pdf, CapChart(z_min, 1), (64, 64), 4).sum()) < 0.6
 
 
@@ -513,7 +500,7 @@ def test_one_hit_irradiance_is_biased():
     n_ref = -REF / np.linalg.norm(REF)
     D = np.linalg.norm(REF)
     exact = np.pi * (2.0 / D) ** 2
-    d = SolidAngleFromArea(_FirstHitOnly(s), REF)
+    d = SolidAngleFromArea(FirstHitOnly(s), REF)
     u = as_generator(52).random((200_000, 2))
     w = d.sample(u)
     p = d.pdf(w)
