@@ -5,7 +5,7 @@ solid-angle pdfs have silhouettes (discontinuities for polygons, integrable 1/sq
 singularities for smooth closed shapes), where per-cell Gauss quadrature is poor, so:
 * rectangle and box directions use an aimed ``CapChart`` with expected counts from a
   refined quadrature (``_chi2_refined``: cells split ``sub`` x ``sub``);
-* ellipsoid/sphere directions use ``_EllipsoidViewChart``, which maps the silhouette
+* ellipsoid/sphere directions use ``vrlab.testing.EllipsoidViewChart``, which maps the silhouette
   of the ellipsoid onto the chart's edge and cancels the singularity, so
   ``pdf * jacobian`` is smooth.
 """
@@ -21,7 +21,7 @@ from vrlab.distributions.quadrics import EllipsoidSurface, SphereSurface
 from vrlab.distributions.surfaces import BoxSurface, RectangleSurface, Surface
 from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, ParallelogramChart, SphereChart,
                            assert_gof, box_surface_chart, chi2_gof, integrate)
-from vrlab.testing.charts import Chart
+from vrlab.testing.ellipsoid_view import EllipsoidViewChart
 from vrlab.testing.chisquare import cell_integrals, histogram, pooled_chi2
 from vrlab.experiments.light_surfaces import FirstHitOnly   # the one-hit bug the lecture warns about
 
@@ -104,52 +104,6 @@ def _chi2_refined(dist, chart, bins, *, sub=8, n=100_000, rng=0, quad=4, name="r
         res.outside += outside
         res.pvalue = 0.0
     return res, x
-
-
-class _EllipsoidViewChart(Chart):
-    """Directions from ``ref`` that hit the ellipsoid c + M S^2 (covers exactly that set).
-
-    Ray ref + t w meets the ellipsoid iff ref' + t M^-1 w meets the unit sphere,
-    ref' = M^-1 (ref - c).  So w = normalize(M w') for w' in the cone the unit sphere
-    subtends from ref' (axis a, 1 - cos_max = omc), with dw = |det M| / |M w'|^3 dw'.
-    Parameters: 1 - w'.a = omc s (2 - s), phi = 2 pi t; the silhouette is s = 1 and the
-    Jacobian 4 pi omc (1 - s) cancels the 1/sqrt singularity of the solid-angle pdf there.
-    """
-
-    p, dim_x = 2, 3
-
-    def __init__(self, center, M, ref):
-        self.M = np.asarray(M, float)
-        self.Minv = np.linalg.inv(self.M)
-        self.det = abs(np.linalg.det(self.M))
-        o = (np.asarray(ref, float) - center) @ self.Minv.T
-        d = np.linalg.norm(o)
-        assert d > 1, "ref must be outside the ellipsoid"
-        self.axis = -o / d
-        self.omc = 1.0 - np.sqrt(1.0 - 1.0 / d**2)
-
-    def _wp(self, s):
-        omz = self.omc * s[..., 0] * (2.0 - s[..., 0])
-        sin = np.sqrt(omz * (2.0 - omz))
-        phi = 2 * np.pi * s[..., 1]
-        return to_world(np.stack([sin * np.cos(phi), sin * np.sin(phi), 1.0 - omz], -1), self.axis)
-
-    def from_param(self, s):
-        w = self._wp(s) @ self.M.T
-        return w / np.linalg.norm(w, axis=-1, keepdims=True)
-
-    def to_param(self, w):
-        wp = np.asarray(w, float) @ self.Minv.T
-        wp = wp / np.linalg.norm(wp, axis=-1, keepdims=True)
-        local = to_local(wp, self.axis)
-        omz = 0.5 * np.sum((wp - self.axis) ** 2, -1)
-        s = 1.0 - np.sqrt(np.clip(1.0 - omz / self.omc, 0.0, None))
-        t = np.mod(np.arctan2(local[..., 1], local[..., 0]) / (2 * np.pi), 1.0)
-        return np.stack([s, t], -1)
-
-    def jacobian(self, s):
-        norm = np.linalg.norm(self._wp(s) @ self.M.T, axis=-1)
-        return 4 * np.pi * self.omc * (1.0 - s[..., 0]) * self.det / norm**3
 
 
 class _WrongEllipsoid(EllipsoidSurface):
@@ -354,11 +308,11 @@ def test_ellipsoid_and_sphere_directions_chi_square():
     for k, (make, M) in enumerate([(ellipsoid, M_ELL), (sphere, 2.0 * np.eye(3))]):
         s = make()
         d = s.solid_angle_from(REF)
-        chart = _EllipsoidViewChart(s.center, M, REF)
+        chart = EllipsoidViewChart(s.center, M, REF)
         results.append(chi2_gof(d, chart, (16, 16), n=100_000, rng=30 + k, name=make.__name__))
         # also seen from another side, closer
         ref2 = s.center + np.array([-1.0, 2.5, -2.0]) * 1.3
-        chart2 = _EllipsoidViewChart(s.center, M, ref2)
+        chart2 = EllipsoidViewChart(s.center, M, ref2)
         results.append(chi2_gof(s.solid_angle_from(ref2), chart2, (16, 16), n=100_000, rng=40 + k,
                                 name=make.__name__ + " near"))
     assert_gof(results, alpha=0.01)
@@ -376,7 +330,7 @@ def test_solid_angle_pdf_integrates_to_one(make):
     assert total == pytest.approx(1.0, abs=2e-2 if smooth else 3e-3)
     if smooth:
         M = M_ELL if isinstance(s, EllipsoidSurface) else 2.0 * np.eye(3)
-        view = _EllipsoidViewChart(s.center, M, REF)
+        view = EllipsoidViewChart(s.center, M, REF)
         assert integrate(d.pdf, view, 32) == pytest.approx(1.0, abs=1e-9)
         # the view chart covers the directions that hit the shape: its solid angle is right
         hits = lambda w: np.isfinite(s.intersect(REF, to_world(w, axis))[..., 0])  # noqa: E731
@@ -396,13 +350,13 @@ def test_two_hits_are_needed():
     # (1 - r/D)/2, the second hit the rest; a one-hit pdf fails chi-square
     s = sphere()
     D = np.linalg.norm(REF)
-    chart = _EllipsoidViewChart(s.center, 2.0 * np.eye(3), REF)
+    chart = EllipsoidViewChart(s.center, 2.0 * np.eye(3), REF)
     one = SolidAngleFromArea(FirstHitOnly(s), REF)
     both = s.solid_angle_from(REF)
     assert integrate(one.pdf, chart, 32) == pytest.approx(0.5 * (1 - 2.0 / D), abs=1e-9)
     assert integrate(both.pdf, chart, 32) == pytest.approx(1.0, abs=1e-9)
     e = ellipsoid()
-    echart = _EllipsoidViewChart(e.center, M_ELL, REF)
+    echart = EllipsoidViewChart(e.center, M_ELL, REF)
     first = integrate(SolidAngleFromArea(FirstHitOnly(e), REF).pdf, echart, 32)
     assert 0.3 < first < 0.5
     for surf, ch in [(s, chart), (e, echart)]:

@@ -35,9 +35,8 @@ from vrlab.distributions import (BoxSurface, CosineHemisphere, EllipsoidSurface,
                                  SolidAngleFromArea, SphereSurface, to_world)
 from vrlab.render import builtin_scene_path, load_scene, render
 from vrlab.render.image import rel_mse
-from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, ParallelogramChart,
+from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, EllipsoidViewChart, ParallelogramChart,
                            chi2_discrete, chi2_gof, sidak_threshold)
-from vrlab.testing.charts import Chart
 from vrlab.testing.chisquare import cell_integrals, histogram
 from vrlab.lab.experiment import experiment_cli, output_dir
 
@@ -171,41 +170,6 @@ class FirstHitOnly:
         return self.s.intersect(origin, direction, t_min)[..., :1]
 
 
-class EllipsoidView(Chart):
-    """The directions from ``ref`` that hit the ellipsoid c + M S^2, parameterised by [0, 1)^2.
-
-    A ray ref + t w meets the ellipsoid iff ref' + t w' meets the unit sphere, with
-    ref' = M^-1 (ref - c) and w' = M^-1 w.  The unit sphere subtends a cone about
-    a = -ref'/|ref'| with 1 - cos = omc; w' = cone(1 - w'.a = omc s (2 - s), phi = 2 pi t),
-    w = M w' / |M w'|.  Solid angle: dw = |det M| / |M w'|^3 dw' and dw' = 4 pi omc (1 - s) ds dt,
-    so the silhouette sits at s = 1 and the factor (1 - s) cancels the 1/sqrt singularity
-    of p_w there: Gauss quadrature of p_w * jacobian is then accurate to ~1e-10.
-    """
-
-    p, dim_x = 2, 3
-
-    def __init__(self, ell: EllipsoidSurface, ref: np.ndarray):
-        self.M, self.det = ell.M, ell.abs_det
-        o = np.linalg.solve(ell.M, np.asarray(ref, float) - ell.center)
-        d = np.linalg.norm(o)
-        self.axis = -o / d
-        self.omc = 1.0 - np.sqrt(1.0 - 1.0 / d**2)
-
-    def _wp(self, s):
-        omz = self.omc * s[..., 0] * (2.0 - s[..., 0])
-        sin = np.sqrt(omz * (2.0 - omz))
-        phi = 2 * np.pi * s[..., 1]
-        return to_world(np.stack([sin * np.cos(phi), sin * np.sin(phi), 1.0 - omz], -1), self.axis)
-
-    def from_param(self, s):
-        w = self._wp(s) @ self.M.T
-        return w / np.linalg.norm(w, axis=-1, keepdims=True)
-
-    def jacobian(self, s):
-        norm = np.linalg.norm(self._wp(s) @ self.M.T, axis=-1)
-        return 4 * np.pi * self.omc * (1.0 - s[..., 0]) * self.det / norm**3
-
-
 def in_frame(pdf, axis):
     """A direction density viewed in the frame whose +z is ``axis`` (for an aimed cap chart)."""
     return lambda w: pdf(to_world(w, axis))
@@ -224,7 +188,7 @@ def direction_mass(surface, ref, pdf, m: int) -> float:
     if isinstance(surface, SphereSurface):
         surface = EllipsoidSurface(surface.center, surface.radius * np.eye(3))
     if isinstance(surface, EllipsoidSurface):
-        return float(cell_integrals(pdf, EllipsoidView(surface, ref), (32, 32), 8).sum())
+        return float(cell_integrals(pdf, EllipsoidViewChart(surface.center, surface.M, ref), (32, 32), 8).sum())
     axis, z_min = aimed_cap(surface, ref)       # box: jumps at the outline, refined quadrature
     return float(cell_integrals(in_frame(pdf, axis), CapChart(z_min, 1), (m, m), 4, sub=2).sum())
 

@@ -2,11 +2,12 @@
 from .charts import (AtlasChart, BoxChart, CapChart, Chart, DiskChart, EllipsoidChart, HalfLineChart,
                      HemisphereChart, IntervalChart, ParallelogramChart, SphereChart, TriangleChart,
                      box_surface_chart)
+from .ellipsoid_view import EllipsoidViewChart
 from .chisquare import (GofResult, assert_gof, cell_integrals, chi2_discrete, chi2_gof, histogram,
                         integrate, pooled_chi2, sidak_threshold)
 
 __all__ = [
-    "AtlasChart", "BoxChart", "CapChart", "Chart", "DiskChart", "EllipsoidChart", "HalfLineChart",
+    "AtlasChart", "BoxChart", "EllipsoidViewChart", "CapChart", "Chart", "DiskChart", "EllipsoidChart", "HalfLineChart",
     "HemisphereChart", "IntervalChart", "ParallelogramChart", "SphereChart", "TriangleChart",
     "box_surface_chart",
     "GofResult", "assert_gof", "cell_integrals", "chi2_discrete", "chi2_gof", "histogram", "integrate",
