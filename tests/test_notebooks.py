@@ -92,3 +92,5 @@ def test_vrlab_notebooks_command_copies_them_and_refuses_to_overwrite(tmp_path, 
     (tmp_path / "file").write_text("x")
     code, out, err = run_cli(capsys, ["notebooks", str(tmp_path / "file")])
     assert code == 1 and "folder" in err and "Traceback" not in err
+    code, out, err = run_cli(capsys, ["notebooks", str(tmp_path / "file" / "below")])   # a file as parent
+    assert code == 1 and err.count("\n") == 1 and "folder" in err and "Traceback" not in err

@@ -48,9 +48,12 @@ def export_notebooks(folder, *, overwrite: bool = False) -> list:
     if taken and not overwrite:
         raise FileExistsError(f"folder: {str(folder)!r} already has {', '.join(taken[:3])}"
                               f"{' ...' if len(taken) > 3 else ''}; choose another folder or overwrite")
-    folder.mkdir(parents=True, exist_ok=True)
     source = resources.files("vrlab.notebooks")
-    for n in names:
-        with resources.as_file(source / n) as path:
-            shutil.copyfile(path, folder / n)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        for n in names:
+            with resources.as_file(source / n) as path:
+                shutil.copyfile(path, folder / n)
+    except OSError as exc:
+        raise ValueError(f"folder: cannot write the notebooks to {str(folder)!r} ({exc.strerror or exc})") from None
     return [folder / n for n in names]
