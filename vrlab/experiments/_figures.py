@@ -12,17 +12,14 @@
   n, log-log, one line per estimator in its colour (a dict per module, the same in every
   panel and figure); the legend gives the fitted slope (the theoretical one in brackets),
   the dashed line of the same colour is the theoretical slope through the first point.
-* ``save(fig, path)``: lay the figure out (its own layout engine if it has one), write it
-  and close it.
+Figures are written by :func:`vrlab.lab.experiment.save_figure`.
 """
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
 EXPOSURE_NOTE = "exposure: auto, shared"
-DPI = 110
 
 
 def exposure_of(reference: np.ndarray) -> float:
@@ -100,14 +97,3 @@ def convergence_panel(ax, summary, slopes, integrand: str, estimators, colours: 
     ax.set_ylabel("RMSE (units of the integral)")
     ax.grid(True, which="major", alpha=0.3)
     ax.legend(fontsize=7, title="fitted slope (theory, dashed)", title_fontsize=7)
-
-
-def save(fig, path: str | Path, dpi: float = DPI) -> Path:
-    """Lay out (``tight_layout`` unless the figure has a layout engine), write, close."""
-    import matplotlib.pyplot as plt
-
-    if fig.get_layout_engine() is None:
-        fig.tight_layout()
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-    return Path(path)

@@ -33,9 +33,9 @@ from vrlab import Integrand, lab
 from vrlab._rng import spawn
 from vrlab.estimators import ControlVariate, MonteCarlo
 from vrlab.integrands import catalogue
-from vrlab.lab.experiment import experiment_cli, output_dir
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from ._figures import convergence_panel, save
+from ._figures import convergence_panel
 
 DEFAULT_OUT = Path("vrlab-out") / "control_variates"          # relative to the working folder
 S12 = np.sqrt(12.0)
@@ -173,7 +173,7 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     cross = crossings(table)
     pd.DataFrame([{"comparison": k, "rho_measured": v, "rho_theory": THRESHOLDS[k]} for k, v in cross.items()]
                  ).to_csv(out / "control_variates_thresholds.csv", index=False)
-    save(sweep_figure(table, cross), out / "control_variates_sweep.png")
+    save_figure(sweep_figure(table, cross), out / "control_variates_sweep.png")
     golden = exp_golden(1000, 400 if full else 100, 11)
     pd.DataFrame([golden]).to_csv(out / "control_variates_exp.csv", index=False)
 
@@ -186,7 +186,7 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     summary = lab.summarize(df)
     summary.to_csv(out / "control_variates_convergence.csv", index=False)
     slopes = lab.fit_slopes(summary)
-    save(convergence_figure(summary, slopes), out / "control_variates_convergence.png")
+    save_figure(convergence_figure(summary, slopes), out / "control_variates_convergence.png")
     return {"sweep": table, "crossings": cross, "thresholds": dict(THRESHOLDS), "exp": golden,
             "slopes": slopes, "files": sorted(p.name for p in out.iterdir())}
 

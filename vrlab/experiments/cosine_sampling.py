@@ -31,9 +31,9 @@ from vrlab.estimators import MonteCarlo
 from vrlab.integrands import catalogue
 from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene
 from vrlab.testing import HemisphereChart, chi2_gof, sidak_threshold
-from vrlab.lab.experiment import experiment_cli, output_dir
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from ._figures import EXPOSURE_NOTE, exposure_of, save, show_image
+from ._figures import EXPOSURE_NOTE, exposure_of, show_image
 
 DEFAULT_OUT = Path("vrlab-out") / "cosine_sampling"          # relative to the working folder
 METHODS = ("inversion", "disk", "sphere-shift")
@@ -178,14 +178,14 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     out = output_dir(out)
     gof = gof_table(1_000_000 if full else 200_000)
     gof.to_csv(out / "cosine_sampling_gof.csv", index=False)
-    save(scatter_figure(gof), out / "cosine_sampling_scatter.png")
+    save_figure(scatter_figure(gof), out / "cosine_sampling_scatter.png")
     var = cos_variance(100_000 if full else 20_000, 50 if full else 20)
     var.to_csv(out / "cosine_sampling_variance.csv", index=False)
     spps = [64, 256, 1024] if full else [16, 64]
     size = (64, 48) if full else (32, 24)
     renders, images = render_study(size, spps)
     renders.to_csv(out / "cosine_sampling_renders.csv", index=False)
-    save(renders_figure(images, spps, renders), out / "cosine_sampling_renders.png")
+    save_figure(renders_figure(images, spps, renders), out / "cosine_sampling_renders.png")
     v = var.set_index("technique")
     return {
         "gof": gof, "variance": var, "renders": renders,

@@ -24,9 +24,8 @@ from scipy.stats.sampling import DiscreteAliasUrn
 
 from vrlab import AliasTable, CDFTable
 from vrlab.bench.timing import race
-from vrlab.lab.experiment import experiment_cli, output_dir
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from ._figures import save
 
 DEFAULT_OUT = Path("vrlab-out") / "discrete_sampling"          # relative to the working folder
 EXAMPLE = np.array([1.0, 6.0, 2.0, 0.5, 3.0, 0.0, 1.5, 2.0])   # the small worked example
@@ -163,12 +162,12 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     draws, repeat = (10**6, 5) if full else (2**17, 2)
     t = timings(exponents, draws, repeat, 2026)
     t.to_csv(out / "discrete_sampling_timings.csv", index=False)
-    save(timings_figure(t), out / "discrete_sampling_timings.png")
+    save_figure(timings_figure(t), out / "discrete_sampling_timings.png")
     pmf = pmf_check(exponents, 7)
     pmf.to_csv(out / "discrete_sampling_pmf_check.csv", index=False)
     ex = example_table()
     ex.to_csv(out / "discrete_sampling_example.csv", index=False)
-    save(example_figure(ex), out / "discrete_sampling_example.png")
+    save_figure(example_figure(ex), out / "discrete_sampling_example.png")
     chi = example_chisquare(10**6 if full else 10**5, 8)
     pd.DataFrame([{k: v for k, v in chi.items() if k != "counts"}]).to_csv(
         out / "discrete_sampling_chisquare.csv", index=False)

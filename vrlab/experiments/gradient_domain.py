@@ -35,13 +35,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from vrlab.lab.experiment import experiment_cli, output_dir
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 from vrlab.render import (PixelIntegrand, builtin_scene_path, list_builtin_scenes, list_mitsuba_references,
                           load_scene, mitsuba_reference, render, render_gradient_domain, screened_poisson)
 from vrlab.render.image import rel_mse
 
 from . import _gradient_domain_figures as figs
-from ._figures import save
 
 DEFAULT_OUT = Path("vrlab-out") / "gradient_domain"          # relative to the working folder
 WIDTH, HEIGHT = 64, 48                      # the stored references' resolution
@@ -291,26 +290,26 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     out = output_dir(out)
     var_t, var_maps = variance_check(32 if full else 24, 1024 if full else 128)
     var_t.to_csv(out / "gradient_domain_variance.csv", index=False)
-    save(figs.variance_figure(var_maps), out / "gradient_domain_variance.png")
+    save_figure(figs.variance_figure(var_maps), out / "gradient_domain_variance.png")
     crn_spp = 4
     crn_t, crn_imgs = crn_images(crn_spp, 32 if full else 6)
     crn_t.to_csv(out / "gradient_domain_crn_image.csv", index=False)
-    save(figs.crn_figure(crn_imgs, crn_spp), out / "gradient_domain_crn_image.png")
+    save_figure(figs.crn_figure(crn_imgs, crn_spp), out / "gradient_domain_crn_image.png")
 
     names = list_builtin_scenes()
     spp, reps, groups = (8, 48, (1, 4, 16)) if full else (4, 6, (1, 3))
     summary, per_rep, kept = relmse_study(names, spp, reps, groups, ref_spp=4096 if full else 256)
     summary.to_csv(out / "gradient_domain_relmse.csv", index=False)
     per_rep.to_csv(out / "gradient_domain_relmse_seeds.csv", index=False)
-    save(figs.relmse_figure(summary, METHODS, (WIDTH, HEIGHT)), out / "gradient_domain_relmse.png")
-    save(figs.gradients_figure(kept, ("cornell_box", "veach_mis"), ALPHA), out / "gradient_domain_gradients.png")
+    save_figure(figs.relmse_figure(summary, METHODS, (WIDTH, HEIGHT)), out / "gradient_domain_relmse.png")
+    save_figure(figs.gradients_figure(kept, ("cornell_box", "veach_mis"), ALPHA), out / "gradient_domain_gradients.png")
 
     sweep = alpha_sweep(kept, SWEEP_SCENES, ALPHAS, reps=4 if full else 1)
     sweep.to_csv(out / "gradient_domain_alpha.csv", index=False)
-    save(figs.alpha_figure(sweep), out / "gradient_domain_alpha.png")
+    save_figure(figs.alpha_figure(sweep), out / "gradient_domain_alpha.png")
     reg = region_table(kept, names)
     reg.to_csv(out / "gradient_domain_regions.csv", index=False)
-    save(figs.losses_figure(kept, SWEEP_SCENES), out / "gradient_domain_where_it_loses.png")
+    save_figure(figs.losses_figure(kept, SWEEP_SCENES), out / "gradient_domain_where_it_loses.png")
 
     # L1 at 1024^2 takes minutes per call (see BENCHMARKS.md), so only in the full run
     sizes = {"l2": (1024,), "l1": (1024,)} if full else {"l2": (1024,)}

@@ -24,9 +24,9 @@ from vrlab._rng import spawn
 from vrlab.estimators import MonteCarlo
 from vrlab.integrands import catalogue
 from vrlab.integrands.theory import mc_variance
-from vrlab.lab.experiment import experiment_cli, output_dir
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from ._figures import convergence_panel, save
+from ._figures import convergence_panel
 
 DEFAULT_OUT = Path("vrlab-out") / "importance_sampling"          # relative to the working folder
 
@@ -161,8 +161,8 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     summary.to_csv(out / "importance_sampling_convergence.csv", index=False)
     slopes = lab.fit_slopes(summary)
     slopes.to_csv(out / "importance_sampling_slopes.csv", index=False)
-    save(convergence_figure(summary, slopes), out / "importance_sampling_convergence.png")
-    save(densities_figure(table), out / "importance_sampling_densities.png")
+    save_figure(convergence_figure(summary, slopes), out / "importance_sampling_convergence.png")
+    save_figure(densities_figure(table), out / "importance_sampling_densities.png")
 
     v = table.set_index(["integrand", "technique"])
     return {

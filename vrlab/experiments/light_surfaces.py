@@ -38,10 +38,9 @@ from vrlab.render.image import rel_mse
 from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, EllipsoidViewChart, ParallelogramChart,
                            chi2_discrete, chi2_gof, sidak_threshold)
 from vrlab.testing.chisquare import cell_integrals, histogram
-from vrlab.lab.experiment import experiment_cli, output_dir
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
 from . import _light_surfaces_figures as figs
-from ._figures import save
 
 DEFAULT_OUT = Path("vrlab-out") / "light_surfaces"          # relative to the working folder
 ALPHA = 0.01        # family-wise level of the chi-square tests of the correct densities
@@ -316,16 +315,16 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     lights = scene_lights()
     gof = area_gof(lights, 1_000_000 if full else 200_000)
     gof.to_csv(out / "light_surfaces_gof.csv", index=False)
-    save(figs.area_samples_figure(area_sample_data(lights), gof), out / "light_surfaces_area_samples.png")
+    save_figure(figs.area_samples_figure(area_sample_data(lights), gof), out / "light_surfaces_area_samples.png")
     norm = normalisation_table(lights, 256 if full else 64)
     norm.to_csv(out / "light_surfaces_normalisation.csv", index=False)
-    save(figs.direction_pdfs_figure(direction_pdf_maps(lights), norm), out / "light_surfaces_direction_pdfs.png")
+    save_figure(figs.direction_pdfs_figure(direction_pdf_maps(lights), norm), out / "light_surfaces_direction_pdfs.png")
     irr = irradiance_table(lights, 1_000_000 if full else 100_000)
     irr.to_csv(out / "light_surfaces_irradiance.csv", index=False)
     size, spp, ref_spp = ((128, 96), 16, 512) if full else ((64, 48), 8, 96)
     renders, images, reference = render_study(size, spp, ref_spp)
     renders.to_csv(out / "light_surfaces_renders.csv", index=False)
-    save(figs.renders_figure(images, reference, renders), out / "light_surfaces_renders.png")
+    save_figure(figs.renders_figure(images, reference, renders), out / "light_surfaces_renders.png")
     return {
         "gof": gof, "normalisation": norm, "irradiance": irr, "renders": renders,
         "level": sidak_threshold(ALPHA, N_CORRECT),

@@ -24,9 +24,8 @@ import pandas as pd
 from vrlab.distributions.tabulated import PiecewiseConstant2D
 from vrlab.estimators import MetropolisHastings
 from vrlab.estimators.metropolis import sample_histogram
-from vrlab.lab.experiment import experiment_cli, output_dir
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
-from ._figures import save
 
 DEFAULT_OUT = Path("vrlab-out") / "metropolis_hastings"          # relative to the working folder
 # (centre x, centre y, radius, brightness); blob 0 is where the chains start
@@ -174,8 +173,8 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     res = run_configs(n_steps, n_chains, seed=5)
     res["tv"].to_csv(out / "metropolis_hastings_tv.csv", index=False)
     res["summary"].to_csv(out / "metropolis_hastings_summary.csv", index=False)
-    save(histograms_figure(res), out / "metropolis_hastings_histograms.png")
-    save(tv_figure(res), out / "metropolis_hastings_tv.png")
+    save_figure(histograms_figure(res), out / "metropolis_hastings_histograms.png")
+    save_figure(tv_figure(res), out / "metropolis_hastings_tv.png")
     return {"tv": res["tv"], "summary": res["summary"], "blob_mass": res["blob_mass"],
             "n_steps": n_steps, "n_chains": n_chains, "files": sorted(p.name for p in out.iterdir())}
 

@@ -39,11 +39,11 @@ import pandas as pd
 from vrlab._rng import spawn
 from vrlab.estimators import RIS
 from vrlab.integrands import catalogue, mc_variance
-from vrlab.lab.experiment import experiment_cli, output_dir
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 from vrlab.render import builtin_scene_path, load_scene, render
 from vrlab.render.direct import DirectLighting
 
-from ._figures import EXPOSURE_NOTE, exposure_of, save, show_image
+from ._figures import EXPOSURE_NOTE, exposure_of, show_image
 
 DEFAULT_OUT = Path("vrlab-out") / "ris"          # relative to the working folder
 MS = (1, 2, 4, 8, 16, 32, 64)
@@ -343,13 +343,13 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     n, reps = (50_000, 40) if full else (10_000, 20)
     table = variance_sweep(MS, n, reps)
     table.to_csv(out / "ris_variance.csv", index=False)
-    save(variance_figure(table, lim, selection_histograms()), out / "ris_variance.png")
+    save_figure(variance_figure(table, lim, selection_histograms()), out / "ris_variance.png")
 
     size, spp, ref_spp = ((160, 120), 8, 512) if full else ((80, 60), 8, 128)
     lights, images, ref = many_lights(size, spp, ref_spp, (1, 4, 16, 32))
     lights.to_csv(out / "ris_many_lights.csv", index=False)
-    save(images_figure(lights, images, ref), out / "ris_many_lights.png")
-    save(efficiency_figure(lights), out / "ris_many_lights_efficiency.png")
+    save_figure(images_figure(lights, images, ref), out / "ris_many_lights.png")
+    save_figure(efficiency_figure(lights), out / "ris_many_lights_efficiency.png")
 
     close = table[table["case"] == "close"].set_index("M")
     prop = table[table["case"] == "proportional"].set_index("M")

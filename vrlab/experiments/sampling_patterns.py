@@ -41,10 +41,9 @@ from vrlab._rng import spawn
 from vrlab.estimators import MonteCarlo
 from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene, render
 from vrlab.render.image import rel_mse
-from vrlab.lab.experiment import experiment_cli, output_dir
+from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 
 from . import _sampling_patterns_figures as figs
-from ._figures import save
 
 DEFAULT_OUT = Path("vrlab-out") / "sampling_patterns"          # relative to the working folder
 
@@ -280,26 +279,26 @@ def gallery_numbers(out: str | Path) -> dict:
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Run every experiment, write CSV + PNG into ``out``, return the key numbers."""
     out = output_dir(out)
-    save(figs.patterns_figure(pattern_points()), out / "sampling_patterns_points.png")
+    save_figure(figs.patterns_figure(pattern_points()), out / "sampling_patterns_points.png")
     disc = discrepancy_table([2**k for k in range(4, 13 if full else 11)])
     disc.to_csv(out / "sampling_patterns_discrepancy.csv", index=False)
-    save(figs.discrepancy_figure(disc), out / "sampling_patterns_discrepancy.png")
+    save_figure(figs.discrepancy_figure(disc), out / "sampling_patterns_discrepancy.png")
     summary, slopes = convergence([2**k for k in range(4, 16 if full else 13)], 100 if full else 40)
     summary.to_csv(out / "sampling_patterns_convergence.csv", index=False)
     slopes.to_csv(out / "sampling_patterns_slopes.csv", index=False)
-    save(figs.convergence_figure(summary, slopes), out / "sampling_patterns_convergence.png")
+    save_figure(figs.convergence_figure(summary, slopes), out / "sampling_patterns_convergence.png")
     edge_t = edge_table([4, 5, 8, 100, 1000], 20_000 if full else 4000)
     edge_t.to_csv(out / "sampling_patterns_pixel_edge.csv", index=False)
     spps = [5, 1000] if full else [5, 20]
     render_t, images, is_edge = render_strata((32, 24) if full else (24, 18), spps, 16)
     render_t.to_csv(out / "sampling_patterns_pixel_render.csv", index=False)
-    save(figs.strata_figure(images, spps, is_edge, render_t), out / "sampling_patterns_pixel_render.png")
+    save_figure(figs.strata_figure(images, spps, is_edge, render_t), out / "sampling_patterns_pixel_render.png")
     points_t = render_points((32, 24) if full else (24, 18), 64 if full else 16, 16)
     points_t.to_csv(out / "sampling_patterns_pixel_points.csv", index=False)
     report_t, report_images, report_refs = report_importance((48, 36) if full else (24, 18), [10, 1000] if full else [10, 100],
                                                 4000 if full else 400)
     report_t.to_csv(out / "sampling_patterns_report_is.csv", index=False)
-    save(figs.report_figure(report_images, report_refs, report_t), out / "sampling_patterns_report_is.png")
+    save_figure(figs.report_figure(report_images, report_refs, report_t), out / "sampling_patterns_report_is.png")
     s = slopes.set_index(["estimator", "integrand"])
     return {
         "discrepancy": disc, "summary": summary, "slopes": slopes, "edge": edge_t, "render": render_t,

@@ -39,7 +39,8 @@ def output_dir(out: str | Path) -> Path:
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
-    """Lay out, write and close a matplotlib figure; returns ``Path(path)``."""
+    """Lay out (``tight_layout``, unless the figure has a layout engine), write and close a
+    matplotlib figure; returns ``Path(path)``."""
     import matplotlib.pyplot as plt
 
     if not (callable(getattr(fig, "savefig", None)) and callable(getattr(fig, "tight_layout", None))):
@@ -47,7 +48,8 @@ def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
     path = out_path(path)
     dpi = checks.real(dpi, "dpi", low=0.0, high=1200.0, low_open=True)
 
-    fig.tight_layout()
+    if fig.get_layout_engine() is None:      # a figure with its own layout engine keeps it
+        fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return Path(path)
