@@ -102,36 +102,13 @@ def _magnitude(diff, shape: tuple):
     return out
 
 
-def panels_figure(panels: list[tuple[str, object, float | None]], path: Path, *, title: str,
-                  exposure: float) -> Path:
-    """Images side by side (matplotlib, Agg), as :func:`vrlab.render.compare.compare_figure`
-    draws them: ``(label, linear image, relMSE or None)`` each, tone mapped with ``exposure``."""
-    import numpy as np
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    from .render.image import srgb_encode
-
-    h, w, _ = np.shape(panels[0][1])
-    fig = Figure(figsize=(3.2 * len(panels), 3.2 * h / w + 1.2))
-    FigureCanvasAgg(fig)
-    for k, (label, img, err) in enumerate(panels):
-        ax = fig.add_subplot(1, len(panels), k + 1)
-        ax.imshow(srgb_encode(np.nan_to_num(np.asarray(img, float)) * exposure))
-        ax.set_xticks([]), ax.set_yticks([])
-        ax.set_xlabel(label if err is None else f"{label}\nrelMSE = {err:.3g}", fontsize=9)
-    fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    return path
-
-
 def run_gradient(args: argparse.Namespace) -> int:
     """``vrlab render ... --gradient-domain``: check, render, reconstruct, write, report."""
     p = check_gradient(args)
     import numpy as np
 
     from .render import render_gradient_domain
+    from .render.compare import panels_figure
     from .render.image import auto_exposure, rel_mse, save_image
 
     scene = p["scene"]
@@ -188,6 +165,7 @@ def run_gradient(args: argparse.Namespace) -> int:
         kind = "common random numbers" if p["common"] else "independent neighbours"
         title = (f"{p['path'].stem}: gradient-domain, {args.strategy}, {p['spp']} spp, {kind} "
                  f"(exposure: shared, x{exposure:.3g})")
+        panels = [(label if err is None else f"{label}\nrelMSE = {err:.3g}", img) for label, img, err in panels]
         out["figure"] = str(panels_figure(panels, files["figure"], title=title, exposure=exposure))
     if p["stderr_out"] is not None:
         out["stderr_output"] = str(save_image(p["stderr_out"], gd.primal.stderr))

@@ -49,7 +49,7 @@ from .pixels import PixelIntegrand
 from .presets import PRESETS
 from .scene import Scene
 
-__all__ = ["VEACH_STRATEGIES", "compare", "compare_figure", "sample_cost"]
+__all__ = ["VEACH_STRATEGIES", "compare", "compare_figure", "panels_figure", "sample_cost"]
 
 VEACH_STRATEGIES = ("bsdf", "light", "mis-power")
 #: the cost model of ``equal_time`` (see the module docstring), in traced rays per pixel sample
@@ -177,23 +177,33 @@ def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure:
     exposure = auto_exposure(result["reference"]) if auto else checks.real(exposure, "exposure", low=0, low_open=True)
     if not isinstance(title, str):
         raise TypeError(f"title must be a string, got {type(title).__name__}")
+    names = list(result["images"])
+    panels = []
+    for name in names:
+        each = f", {result['spp'][name]} spp" if isinstance(result["spp"], dict) else ""
+        panels.append((f"{name}\nrelMSE = {result['rel_mse'][name]:.3g}, {result['seconds'][name]:.1f} s{each}",
+                       result["images"][name]))
+    equal = "equal modelled cost" if isinstance(result["spp"], dict) else f"{result['spp']} spp per strategy"
+    shared = f"exposure: {'auto, ' if auto else ''}shared, x{exposure:.3g}"
+    return panels_figure(panels, path, title=f"{title or equal} ({shared})", exposure=exposure)
+
+
+def panels_figure(panels: Sequence[tuple[str, np.ndarray]], path: str | Path, *, title: str,
+                  exposure: float) -> Path:
+    """Linear images ``(label, (H, W, 3))`` side by side, each tone mapped with the one
+    ``exposure`` (NaN shows black) and labelled below; written to ``path`` (matplotlib, Agg)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    names = list(result["images"])
-    h, w, _ = result["reference"].shape
-    fig = Figure(figsize=(3.2 * len(names), 3.2 * h / w + 1.2))
+    h, w, _ = np.shape(panels[0][1])
+    fig = Figure(figsize=(3.2 * len(panels), 3.2 * h / w + 1.2))
     FigureCanvasAgg(fig)
-    for k, name in enumerate(names):
-        ax = fig.add_subplot(1, len(names), k + 1)
-        ax.imshow(srgb_encode(np.nan_to_num(result["images"][name]) * exposure))
+    for k, (label, img) in enumerate(panels):
+        ax = fig.add_subplot(1, len(panels), k + 1)
+        ax.imshow(srgb_encode(np.nan_to_num(np.asarray(img, float)) * exposure))
         ax.set_xticks([]), ax.set_yticks([])
-        each = f", {result['spp'][name]} spp" if isinstance(result["spp"], dict) else ""
-        ax.set_xlabel(f"{name}\nrelMSE = {result['rel_mse'][name]:.3g}, {result['seconds'][name]:.1f} s{each}",
-                      fontsize=9)
-    equal = "equal modelled cost" if isinstance(result["spp"], dict) else f"{result['spp']} spp per strategy"
-    shared = f"exposure: {'auto, ' if auto else ''}shared, x{exposure:.3g}"
-    fig.suptitle(f"{title or equal} ({shared})", fontsize=10)
+        ax.set_xlabel(label, fontsize=9)
+    fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return Path(path)
