@@ -103,14 +103,7 @@ class _Job:
         self.scene, self.settings, self.samplers = scene, settings, samplers
         self.spp, self.batch, self.root, self.chunk = spp, batch, root, chunk
         self.width, self.n_pixels = scene.sensor.width, scene.sensor.width * scene.sensor.height
-        self._integrand = integrand
-
-
-    @property
-    def integrand(self) -> PixelIntegrand:
-        if self._integrand is None:
-            self._integrand = PixelIntegrand(self.scene, **self.settings)
-        return self._integrand
+        self.integrand = PixelIntegrand(scene, **settings) if integrand is None else integrand
 
     @property
     def n_batches(self) -> int:
@@ -294,16 +287,18 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     total, done = job.n_pixels * job.n_batches, min(start, job.n_batches) * job.n_pixels
     # allocator tuning only in the local pool's processes, which vrlab starts and owns
     fn = _units_in_own_worker if executor is None and workers > 1 else _units
-    # one task per tile in this process; else about 4 tasks per worker and batch (one pool for all batches)
-    # a caller's executor (a Dask cluster) may have more workers than ``workers`` says: >= 64 tasks
-    groups = (len(tiles) if workers == 1 and executor is None else
-              min(len(tiles), TASKS_PER_WORKER * workers if executor is None else max(TASKS_PER_WORKER * workers, 64)))
+    # tasks per batch (one pool serves all batches): a tile each in this process; else about 4 per
+    # worker, at least 64 on a caller's executor (a Dask cluster may have more workers than ``workers``)
+    if workers == 1 and executor is None:
+        groups = len(tiles)
+    else:
+        groups = min(len(tiles), TASKS_PER_WORKER * workers if executor is None else max(TASKS_PER_WORKER * workers, 64))
     tasks = [(payload, [(t, k) for t in tiles[i::groups]]) for k in range(start, job.n_batches) for i in range(groups)]
     new: dict = {}                          # batch -> {tile: statistics}, until the batch is merged
     k = start
     for _, res in run_units(fn, tasks, workers=workers, executor=executor):
-        for t, b, st in res:
-            new.setdefault(b, {})[t] = st
+        for t, batch, st in res:
+            new.setdefault(batch, {})[t] = st
             done += min((t + 1) * TILE_PIXELS, job.n_pixels) - t * TILE_PIXELS
             if progress is not None:
                 progress(done, total)
