@@ -14,6 +14,7 @@ pytest.importorskip("matplotlib")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.colors import to_hex  # noqa: E402
 from matplotlib.container import ErrorbarContainer  # noqa: E402
+from vrlab.lab.plots import overlapping_tick_labels  # noqa: E402
 
 MAX_LINES = 6
 
@@ -74,21 +75,6 @@ def legend_colours(ax) -> dict:
     return out
 
 
-def overlapping_ticks(fig) -> list:
-    fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
-    bad = []
-    for ax in fig.axes:
-        for axis in (ax.xaxis, ax.yaxis):
-            lo, hi = sorted(axis.get_view_interval())
-            texts = [t.label1 for t in axis.get_major_ticks() + axis.get_minor_ticks()
-                     if t.label1.get_visible() and t.label1.get_text() and lo <= t.get_loc() <= hi]
-            boxes = [t.get_window_extent(renderer) for t in texts]
-            bad += [(texts[i].get_text(), texts[j].get_text()) for i in range(len(boxes))
-                    for j in range(i + 1, len(boxes)) if boxes[i].overlaps(boxes[j])]
-    return bad
-
-
 def problems(fig) -> list[str]:
     """What breaks the rules in ``fig`` (empty: none)."""
     out, seen = [], {}
@@ -104,7 +90,7 @@ def problems(fig) -> list[str]:
         for label, colour in legend_colours(ax).items():
             if seen.setdefault(label, colour) != colour:
                 out.append(f"{name}: legend {label!r} is {colour} here, {seen[label]} elsewhere")
-    out += [f"overlapping tick labels {a!r} / {b!r}" for a, b in overlapping_ticks(fig)]
+    out += [f"overlapping tick labels {a!r} / {b!r}" for a, b in overlapping_tick_labels(fig)]
     return out
 
 
