@@ -20,7 +20,6 @@ try:
 except ImportError:  # run from a checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from vrlab.render import builtin_scene_path, load_scene, render
-from vrlab.render.camera import Camera
 from vrlab.render.geometry import SceneGeometry
 from vrlab.render.groups import unit_sphere_hit
 
@@ -95,15 +94,14 @@ class OldGeometry:
 def _scene(name, width=128, height=96):
     """A built-in scene at ``width`` x ``height`` (the film is edited: not every scene has
     a resolution parameter)."""
-    import dataclasses
-    sc = load_scene(builtin_scene_path(name))
-    sc.sensor = dataclasses.replace(sc.sensor, width=width, height=height)
+        sc = load_scene(builtin_scene_path(name))
+    sc = sc.with_size(width, height)
     return sc
 
 
 def make_rays(scene, n, rng):
     """n camera rays and up to n rays leaving their hits."""
-    cam = Camera(scene.sensor)
+    cam = scene.sensor
     film = rng.uniform(size=(n, 2)) * [scene.sensor.width, scene.sensor.height]
     o, d = cam.rays(film)
     h = SceneGeometry(scene).intersect(o, d)

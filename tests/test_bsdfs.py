@@ -75,7 +75,7 @@ def test_pdf_integrates_to_one_on_the_sphere(name, theta):
 def test_microfacet_upper_hemisphere_mass_is_below_one_at_grazing():
     # what is true: the whole-sphere density integrates to 1; restricted to wi.z > 0 (Mitsuba's
     # pdf) it integrates to P(wo·m > 0 and reflect(wo, m).z > 0): 1 at normal incidence, < 1 grazing
-    b = RoughConductor(0.5)
+    b = RoughConductor(0.5, "ggx")
     up = lambda wo: integrate(lambda w: b.pdf(wo, w) * (w[..., 2] > 0), HemisphereChart(2), 128)
     # at wo = n, m beyond 45 deg reflects below: P(tan^2 theta_m < 1) = 1 / (1 + alpha^2) for GGX
     assert up(direction(0.0)) == pytest.approx(1 / (1 + 0.25), abs=2e-3)

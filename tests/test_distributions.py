@@ -43,6 +43,16 @@ CASES = {
     "cone-0.8": (D.UniformCone(0.8), CapChart(0.8), (20, 24)),
     "phong-tilted": (D.PhongLobe(10).around(TILT), SphereChart(), (30, 30)),
     "mixture": (D.Mixture([D.CosineHemisphere(), D.PhongLobe(30).around(TILT)], [0.3, 0.7]), SphereChart(), (30, 30)),
+    "beckmann-0.2": (D.Beckmann(0.2), HemisphereChart(power=3), (40, 24)),
+    "beckmann-0.7": (D.Beckmann(0.7), HemisphereChart(power=2), (30, 24)),
+    # pixel filters (offsets in pixel units; discretised = Mitsuba's scalar-variant weights)
+    "filter-box": (D.BoxFilter(), BoxChart([(-0.5, 0.5)] * 2), (16, 16)),
+    "filter-tent": (D.TentFilter(1.5), BoxChart([(-1.5, 1.5)] * 2), (24, 24)),
+    "filter-tent-continuous": (D.TentFilter(discretized=False), BoxChart([(-1, 1)] * 2), (24, 24)),
+    "filter-gaussian": (D.GaussianFilter(), BoxChart([(-2, 2)] * 2), (24, 24)),
+    "filter-gaussian-continuous": (D.GaussianFilter(0.3, discretized=False), BoxChart([(-1.2, 1.2)] * 2), (24, 24)),
+    "filter-gaussian-window": (D.GaussianFilter().window((-0.7, -np.inf), (3.0, 0.4)),
+                               BoxChart([(-0.7, 2), (-2, 0.4)]), (24, 24)),
 }
 NAMES = sorted(CASES)
 
@@ -111,6 +121,13 @@ def test_closed_form_pdf_values():
     # at 45 degrees tan^2 = 1, cos^4 = 1/4: D = a^2 / (pi/4 (a^2 + 1)^2)
     assert D.GGX(a).D(s45)[0] == pytest.approx(a * a / (PI / 4 * (a * a + 1) ** 2))
     assert D.UniformCone(0.5).pdf(z)[0] == pytest.approx(1 / (2 * PI * 0.5))
+    # Beckmann: D(n) = 1 / (pi a^2); at 45 degrees tan^2 = 1, cos^4 = 1/4
+    assert D.Beckmann(a).pdf(z)[0] == pytest.approx(1 / (PI * a * a))
+    assert D.Beckmann(a).D(s45)[0] == pytest.approx(np.exp(-1 / (a * a)) / (PI / 4 * a * a))
+    assert D.Beckmann(a).pdf(-z)[0] == 0
+    # filters: tent 1 - |x|/r normalised by r^2; box uniform on the unit pixel
+    assert D.TentFilter(2.0, discretized=False).pdf([[0.5, -1.0]])[0] == pytest.approx(0.75 * 0.5 / 4)
+    assert D.BoxFilter().pdf([[0.2, -0.4], [0.6, 0]]) == pytest.approx([1.0, 0.0])
     assert D.LinearInterval(0, PI / 2, 0, 1).pdf([[1.0]])[0] == pytest.approx(8 / PI**2)
     assert D.Exponential(3.0).pdf([[0.0], [1.0]]) == pytest.approx([3.0, 3 * np.exp(-3)])
     assert D.Disk(2.0).pdf([[0.5, 0.5], [2.5, 0]]) == pytest.approx([1 / (4 * PI), 0])
@@ -156,6 +173,11 @@ class _WrongPdf:
     (D.GGX(0.3), D.GGX(0.33), HemisphereChart(power=2)),                      # roughness off by 10%
     (D.CosineHemisphere("disk"), D.UniformHemisphere(), HemisphereChart()),
     (D.LinearInterval(0, PI / 2, 0, 1), D.LinearInterval(0, PI / 2, 0.05, 1), IntervalChart(0, PI / 2)),
+    (D.Beckmann(0.3), D.Beckmann(0.33), HemisphereChart(power=2)),                # roughness off by 10%
+    (D.GaussianFilter(0.5), D.GaussianFilter(0.55), BoxChart([(-2, 2)] * 2)),     # stddev off by 10%
+    # Mitsuba's scalar film weighs by the 31-step table, not the continuous filter
+    (D.GaussianFilter(), D.GaussianFilter(discretized=False), BoxChart([(-2, 2)] * 2)),
+    (D.TentFilter(), D.TentFilter(discretized=False), BoxChart([(-1, 1)] * 2)),
 ])
 def test_harness_rejects_a_slightly_wrong_pdf(sampler, wrong, chart):
     bins = (30,) if chart.p == 1 else (30, 24)
@@ -228,6 +250,14 @@ def test_mixture_selection_and_zero_probability():
     (lambda: D.UniformSphere().sample(np.zeros((4, 3))), r"\(\.\.\., 2\)"),
     (lambda: D.UniformSphere().pdf(np.zeros((4, 2))), r"\(\.\.\., 3\)"),
     (lambda: D.PhongLobe(3).around([0, 0, 0]), "non-zero"),
+    (lambda: D.Beckmann(0), "alpha"),
+    (lambda: D.Beckmann(1e60), "alpha"),
+    (lambda: D.GaussianFilter(stddev=0), "stddev"),
+    (lambda: D.TentFilter(radius=-1), "radius"),
+    (lambda: D.BoxFilter(radius=np.inf), "radius"),
+    (lambda: D.BoxFilter().window((0.6, 0), (1, 1)), "overlap"),
+    (lambda: D.BoxFilter().window((0, 0), (0, 1)), "lo < hi"),
+    (lambda: D.TentFilter().sample(np.zeros((4, 3))), r"\(\.\.\., 2\)"),
 ])
 def test_bad_input_raises(make, match):
     with pytest.raises(ValueError, match=match):

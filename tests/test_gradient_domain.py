@@ -9,7 +9,6 @@ import pytest
 
 from test_render import CENTRE_TOL, FLOOR, L_E, RECT_LIGHT, RHO, bonferroni_z, exact_image, polygon_irradiance, scene
 from vrlab.render import PixelIntegrand, render_gradient_domain, screened_poisson
-from vrlab.render.camera import Camera
 from vrlab.render.geometry import SceneGeometry
 
 SC = scene(FLOOR + RECT_LIGHT, fov=20, width=10, height=8)     # a smooth irradiance gradient across the image
@@ -23,7 +22,7 @@ def exact_box(sc, k: int = 16) -> np.ndarray:
     sub = (np.arange(k) + 0.5) / k
     su = np.stack(np.meshgrid(sub, sub, indexing="ij"), -1).reshape(-1, 2)           # (k^2, 2)
     pix = np.stack(np.divmod(np.arange(h * w), w), -1)
-    o, d = Camera(sc.sensor).pixel_rays(pix[:, None, :], np.broadcast_to(su, (h * w, k * k, 2)))
+    o, d = sc.sensor.pixel_rays(pix[:, None, :], np.broadcast_to(su, (h * w, k * k, 2)))
     hits = SceneGeometry(sc).intersect(o.reshape(-1, 3), d.reshape(-1, 3))
     corner, e1, e2, _ = sc.shapes[1].rectangle()
     verts = np.array([corner, corner + e1, corner + e1 + e2, corner + e2])

@@ -15,7 +15,6 @@ rendered with vrlab at the references' resolution and compared
 """
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -105,7 +104,7 @@ def test_agrees_with_mitsuba(name, spp, block, mean_tol):
     ref_err = np.load(DATA / f"{name}_stderr.npy")
     h, w, _ = ref.shape
     scene = load_scene(builtin_scene_path(name))
-    scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=w, height=h))
+    scene = scene.with_size(w, h)
     img, err = render_pair(scene, spp, "mis-power", rng=20240611)
     r = compare(img, err, spp, ref, ref_err, block=block)
     msg = f"{name}: {r}"
@@ -138,7 +137,7 @@ def test_other_strategies_agree_with_mitsuba(name, strategy, options):
     ref_err = np.load(DATA / f"{name}_stderr.npy")
     h, w, _ = ref.shape
     scene = load_scene(builtin_scene_path(name))
-    scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=w, height=h))
+    scene = scene.with_size(w, h)
     img, err = render_pair(scene, spp, strategy, rng=7, **options)
     r = compare(img, err, spp, ref, ref_err, block=block)
     msg = f"{name}/{strategy}: {r}"

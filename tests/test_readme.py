@@ -45,6 +45,21 @@ def test_plug_your_own_estimator_section_runs(monkeypatch, capsys):
     assert "LightThenBSDF" in capsys.readouterr().out
 
 
+def test_your_own_scene_element_section_runs(capsys):
+    """The registered element of the README loads from XML and renders (tint applied)."""
+    from vrlab.render import registered
+
+    namespace: dict = {}
+    exec(compile(_section_code("Your own scene element"), str(README), "exec"), namespace)
+    image = namespace["image"]
+    assert image.shape == (24, 32, 3) and np.all(np.isfinite(image))
+    floor = image[21, 16]
+    assert floor[0] > floor[1] > floor[2] > 0                       # reflectance 0.5 x (1, 0.5, 0.25)
+    assert floor[1] / floor[0] == pytest.approx(0.5, rel=1e-5)
+    assert registered("bsdf")["tinted"] is namespace["Tinted"]
+    assert "(24, 32, 3)" in capsys.readouterr().out
+
+
 def _mentioned_paths(doc: Path) -> list[tuple[str, Path]]:
     """``(path, folder it is relative to)`` for every repository path ``doc`` mentions:
     markdown link and ``href``/``src`` targets (relative to ``doc``'s folder; URLs and

@@ -6,7 +6,6 @@ import pytest
 from scipy import stats
 
 from vrlab.render import Scene, load_scene
-from vrlab.render.camera import Camera
 from conftest import render_pair
 from vrlab.render.presets import PRESETS as STRATEGIES
 from vrlab.render.geometry import SceneGeometry
@@ -62,7 +61,7 @@ def polygon_irradiance(x: np.ndarray, normal: np.ndarray, verts: np.ndarray, rad
 
 def floor_hits(sc) -> np.ndarray:
     """Hit points (H*W, 3) of the pixel-centre rays."""
-    o, d = Camera(sc.sensor).pixel_centers()
+    o, d = sc.sensor.pixel_centers()
     hits = SceneGeometry(sc).intersect(o.reshape(-1, 3), d.reshape(-1, 3))
     assert np.all(hits.shape == 0)                     # every pixel sees the floor
     return hits.p
@@ -208,13 +207,14 @@ def test_camera_convention_local_x_is_image_left():
 
 def test_camera_rays_match_fov():
     sc = scene(FLOOR, origin="0, 0, 0", target="0, 0, 1", up="0, 1, 0", fov=90, width=40, height=20)
-    cam = Camera(sc.sensor)
+    cam = sc.sensor
     o, d = cam.rays(np.array([[0.0, 10.0], [40.0, 10.0], [20.0, 0.0], [20.0, 10.0]]))
     np.testing.assert_allclose(d[0], np.array([1, 0, 1]) / np.sqrt(2), atol=1e-12)    # left edge
     np.testing.assert_allclose(d[1], np.array([-1, 0, 1]) / np.sqrt(2), atol=1e-12)   # right edge
     np.testing.assert_allclose(d[2], np.array([0, 0.5, 1]) / np.sqrt(1.25), atol=1e-12)  # top: tan = 1/aspect
     np.testing.assert_allclose(d[3], [0, 0, 1], atol=1e-12)
-    np.testing.assert_allclose(o, 0)
+    # rays start on the near plane z = near_clip (0.01 by default), as Mitsuba's
+    np.testing.assert_allclose(o, 0.01 * d / d[:, 2:], atol=1e-15)
 
 
 # ----------------------------------------------------------------------------- geometry

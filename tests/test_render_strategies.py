@@ -204,7 +204,7 @@ def test_shapes_with_identical_bsdfs_share_a_shading_group():
     assert len(integ.bsdfs) == len(np.unique(integ.group_of_shape)) == 4     # white, red, green, light's
     for k, s in enumerate(sc.shapes):
         model = integ.bsdfs[integ.group_of_shape[k]]
-        np.testing.assert_array_equal(model.reflectance, s.bsdf.params["reflectance"])
+        np.testing.assert_array_equal(model.reflectance, s.bsdf.reflectance)
 
 
 def test_emitters_reflect_other_lights_only_with_an_explicit_bsdf():

@@ -4,8 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vrlab.render import (SceneError, Sensor, builtin_scene_path, list_builtin_scenes, load_scene,
+from vrlab.render import (SceneError, builtin_scene_path, list_builtin_scenes, load_scene,
                           transforms as tf)
+from vrlab.render.sensors import HDRFilm, PerspectiveCamera
 
 BUILTINS = ("box_ellipsoid", "cornell_box", "furnace", "many_lights", "veach_mis")
 
@@ -100,7 +101,8 @@ def test_export_copies_the_meshes_a_scene_uses(monkeypatch, tmp_path):
     files = loader.export_builtin_scene("mesh", out)
     assert files == [out / "mesh.xml", out / "meshes" / "quad.obj"]          # each file once
     scene = load_scene(out / "mesh.xml")
-    assert [s.params.get("filename") for s in scene.shapes][:2] == [str(out / "meshes" / "quad.obj")] * 2
+    assert [s.filename for s in scene.shapes[:2]] == [str(out / "meshes" / "quad.obj")] * 2
+    assert scene.files == [out / "meshes" / "quad.obj"]
     with pytest.raises(FileExistsError, match="quad.obj"):
         loader.export_builtin_scene("mesh", out)
     (out / "mesh.xml").write_text("edited")
@@ -142,7 +144,7 @@ def test_veach_plates_reflect_lights_to_camera():
     plates = [s for s in scene.shapes if s.type == "rectangle" and s.bsdf.type == "roughconductor"]
     lights = [s for s in scene.shapes if s.type == "sphere"]
     assert len(plates) == 4 and len(lights) == 4
-    alphas = [p.bsdf.params["alpha"] for p in plates]
+    alphas = [p.bsdf.alpha for p in plates]
     assert sorted(alphas) == [0.005, 0.02, 0.05, 0.1]
     radii = np.array([s.sphere()[1] for s in lights])
     power = np.array([s.emitter.radiance[0] for s in lights]) * radii ** 2
@@ -241,14 +243,14 @@ def test_sensor_integrator_and_defaults():
     assert s.sensor.fov_y == pytest.approx(30)
     assert s.sensor.fov_x > 30
     # fov_axis conventions (Mitsuba's parse_fov), aspect 4:3
-    base = dict(fov=50.0, to_world=np.eye(4), width=400, height=300, spp=1)
-    fx = Sensor(fov_axis="x", **base)
+    base = dict(fov=50.0, to_world=np.eye(4), film=HDRFilm(width=400, height=300))
+    fx = PerspectiveCamera(fov_axis="x", **base)
     assert fx.fov_x == 50 and fx.fov_y < 50
-    fy = Sensor(fov_axis="y", **base)
+    fy = PerspectiveCamera(fov_axis="y", **base)
     assert fy.fov_y == pytest.approx(50)
-    assert Sensor(fov_axis="smaller", **base).fov_x == pytest.approx(fy.fov_x)
-    assert Sensor(fov_axis="larger", **base).fov_x == 50
-    fd = Sensor(fov_axis="diagonal", **base)
+    assert PerspectiveCamera(fov_axis="smaller", **base).fov_x == pytest.approx(fy.fov_x)
+    assert PerspectiveCamera(fov_axis="larger", **base).fov_x == 50
+    fd = PerspectiveCamera(fov_axis="diagonal", **base)
     half_w, half_h = np.tan(np.deg2rad(fd.fov_x) / 2), np.tan(np.deg2rad(fd.fov_y) / 2)
     assert np.hypot(half_w, half_h) == pytest.approx(np.tan(np.deg2rad(25)))
 
@@ -282,7 +284,7 @@ def test_shapes_geometry_and_refs():
        <float name="exponent" value="10"/></bsdf></bsdf></shape>
     <shape type="cube"/>"""
     rect, sph, ell, disk, cube = load_scene(scene_xml(body)).shapes
-    np.testing.assert_allclose(rect.bsdf.params["reflectance"], [0.1, 0.2, 0.3])
+    np.testing.assert_allclose(rect.bsdf.reflectance, [0.1, 0.2, 0.3])
     np.testing.assert_allclose(rect.emitter.radiance, [5, 5, 5])
     corner, e1, e2, n = rect.rectangle()
     np.testing.assert_allclose(corner, [-2, -3, 1])
@@ -294,7 +296,8 @@ def test_shapes_geometry_and_refs():
     assert r == pytest.approx(1.0)
     assert sph.bsdf.type == "diffuse" and sph.emitter is None
     np.testing.assert_allclose(ell.ellipsoid()[1], np.diag([1, 2, 3]))
-    assert disk.bsdf.type == "phong" and disk.bsdf.twosided and disk.bsdf.params["exponent"] == 10
+    assert disk.bsdf.type == "twosided" and disk.bsdf.inner.type == "phong" and disk.bsdf.twosided
+    assert disk.bsdf.inner.exponent == 10
     tri = cube.triangles()
     assert tri.shape == (12, 3, 3)
     normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
@@ -311,8 +314,11 @@ def test_obj_shape(tmp_path):
     (tmp_path / "n.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n")
     (tmp_path / "n.xml").write_text(scene_xml(
         '<shape type="obj"><string name="filename" value="n.obj"/></shape>'))
-    with pytest.raises(SceneError, match="face_normals"):
-        load_scene(tmp_path / "n.xml")
+    smooth = load_scene(tmp_path / "n.xml").shapes[0]            # vertex normals: smooth shading
+    assert smooth.has_shading_normals and smooth.normals.shape == (3, 3)
+    (tmp_path / "f.xml").write_text(scene_xml(
+        '<shape type="obj"><string name="filename" value="n.obj"/><boolean name="face_normals" value="true"/></shape>'))
+    assert not load_scene(tmp_path / "f.xml").shapes[0].has_shading_normals
 
 
 def test_error_has_line_number():
@@ -333,25 +339,25 @@ BAD = {
     "unknown param": (scene_xml('<shape type="cube"><bsdf type="diffuse">'
                                 '<float name="roughness" value="1"/></bsdf></shape>'),
                       ["roughness", "reflectance"]),
-    "texture": (scene_xml('<shape type="cube"><bsdf type="diffuse"><texture type="bitmap" '
-                          'name="reflectance"/></bsdf></shape>'), ["texture", "reflectance", "<rgb>"]),
+    "not a texture": (scene_xml('<shape type="cube"><bsdf type="diffuse"><bsdf type="diffuse" '
+                                'name="reflectance"/></bsdf></shape>'), ["bsdf", "reflectance", "<rgb>"]),
     "unknown child": (scene_xml('<shape type="cube"><medium type="homogeneous"/></shape>'),
                       ["medium", "<bsdf>", "<emitter>"]),
     "point emitter": (scene_xml(SHAPE + '<emitter type="point"/>'), ["point", "area"]),
     "shape emitter type": (scene_xml('<shape type="cube"><emitter type="spot"/></shape>'),
                            ["spot", "area"]),
-    "wrong integrator": (scene_xml(SHAPE, integrator='<integrator type="path"/>'),
-                         ["path", "direct"]),
-    "no rfilter": (scene_xml(SHAPE, sensor=SENSOR.replace('<rfilter type="box"/>', '')),
-                   ["film", "box"]),
-    "gaussian": (scene_xml(SHAPE, sensor=SENSOR.replace('"box"', '"gaussian"')),
-                 ["gaussian", "box"]),
+    "wrong integrator": (scene_xml(SHAPE, integrator='<integrator type="bdpt"/>'),
+                         ["bdpt", "direct", "path"]),
+    "infinite path": (scene_xml(SHAPE, integrator='<integrator type="path"/>'),
+                      ["max_depth", "-1", "direct lighting"]),
+    "deep path": (scene_xml(SHAPE, integrator='<integrator type="path"><integer name="max_depth" value="3"/>'
+                            '</integrator>'), ["max_depth", "3"]),
+    "mitchell": (scene_xml(SHAPE, sensor=SENSOR.replace('"box"', '"mitchell"')),
+                 ["mitchell", "box", "gaussian", "tent"]),
+    "sdfgrid": (scene_xml('<shape type="sdfgrid"/>'), ["sdfgrid", "signed distance"]),
     "fov_axis": (scene_xml(SHAPE, sensor=SENSOR.replace(
         '<float name="fov" value="45"/>', '<float name="fov" value="45"/>'
         '<string name="fov_axis" value="z"/>')), ["fov_axis", "diagonal"]),
-    "sample_visible missing": (scene_xml(ROUGH.format('')), ["sample_visible", "false"]),
-    "sample_visible true": (scene_xml(ROUGH.format('<boolean name="sample_visible" value="true"/>')),
-                            ["sample_visible", "false"]),
     "material": (scene_xml(ROUGH.format(GOOD_ROUGH + '<string name="material" value="Au"/>')),
                  ["Au", "none"]),
     "distribution": (scene_xml(ROUGH.format(GOOD_ROUGH + '<string name="distribution" '
@@ -369,7 +375,7 @@ BAD = {
     "undefined var": (scene_xml('<shape type="sphere"><float name="radius" value="$r"/></shape>'),
                       ["$r", "float"]),
     "no version": (scene_xml(SHAPE, head="<scene>"), ["scene", "version"]),
-    "old version": (scene_xml(SHAPE, head='<scene version="0.6.0">'), ["0.6.0", "3.x"]),
+    "old version": (scene_xml(SHAPE, head='<scene version="0.6.0">'), ["0.6.0", "2.x", "3.x"]),
     "not xml": ("<scene version='3.0.0'><shape></scene>", ["XML"]),
     "unknown transform op": (scene_xml('<shape type="cube"><transform name="to_world">'
                                        '<shear value="1"/></transform></shape>'),
@@ -378,11 +384,15 @@ BAD = {
                                     '<scale x="1" y="2" z="1"/></transform></shape>'),
                           ["sphere", "ellipsoid"]),
     "pixel_format": (scene_xml(SHAPE, sensor=SENSOR.replace(
-        '<rfilter', '<string name="pixel_format" value="rgba"/><rfilter')), ["rgba", "rgb"]),
-    "hide_emitters": (scene_xml(SHAPE, integrator='<integrator type="direct"><boolean '
-                                'name="hide_emitters" value="true"/></integrator>'),
-                      ["hide_emitters", "false"]),
-    "top-level junk": (scene_xml(SHAPE + '<include filename="x.xml"/>'), ["include", "<shape>"]),
+        '<rfilter', '<string name="pixel_format" value="xyz"/><rfilter')), ["xyz", "rgb"]),
+    "missing include": (scene_xml(SHAPE + '<include filename="x.xml"/>'), ["include", "x.xml", "cannot read"]),
+    "top-level junk": (scene_xml(SHAPE + '<medium type="homogeneous"/>'), ["medium", "<shape>", "<include>"]),
+    "ref cycle": (scene_xml('<bsdf type="twosided" id="a"><ref id="a"/></bsdf><shape type="cube"><ref id="a"/>'
+                            '</shape>'), ["cycle"]),
+    "duplicate id": (scene_xml('<bsdf type="diffuse" id="a"/><bsdf type="diffuse" id="a"/>' + SHAPE),
+                     ["duplicate id", "'a'"]),
+    "unused ref child": (scene_xml('<bsdf type="diffuse" id="a"/><shape type="cube"><ref id="a"/><ref id="a"/>'
+                                   '</shape>'), ["at most 1", "bsdf"]),
     "bad attribute": (scene_xml('<shape type="cube"><transform name="to_world">'
                                 '<translate x="1" w="2"/></transform></shape>'), ["translate", "w"]),
 }

@@ -11,14 +11,18 @@ singularities for smooth closed shapes), where per-cell Gauss quadrature is poor
 """
 from __future__ import annotations
 
+import decimal
+from decimal import Decimal as Dec
+
 import numpy as np
 import pytest
 
 from vrlab._rng import as_generator
 from vrlab.distributions.frames import to_local, to_world
 from vrlab.distributions.solid_angle import LightSample, SolidAngleFromArea, SphereCone
-from vrlab.distributions.quadrics import EllipsoidSurface, SphereSurface
-from vrlab.distributions.surfaces import BoxSurface, RectangleSurface, Surface
+from vrlab.distributions.quadrics import (EllipsoidSurface, SphereSurface, unit_sphere_hit, unit_sphere_hits,
+                                          unit_sphere_roots)
+from vrlab.distributions.surfaces import BoxSurface, DiskSurface, RectangleSurface, Surface
 from vrlab.testing import (AtlasChart, CapChart, EllipsoidChart, ParallelogramChart, SphereChart,
                            assert_gof, box_surface_chart, chi2_gof, integrate)
 from vrlab.testing.ellipsoid_view import EllipsoidViewChart
@@ -49,6 +53,17 @@ def box():
 
 def ellipsoid():
     return EllipsoidSurface([1.0, 2.0, 3.0], M_ELL)
+
+
+C_DISK, A1_DISK, A2_DISK = [0.2, -0.1, 1.0], [1.0, 0.2, 0.1], [0.3, 0.8, -0.2]   # sheared: an ellipse
+
+
+def disk():
+    return DiskSurface(C_DISK, A1_DISK, A2_DISK)
+
+
+def disk_polar():
+    return DiskSurface(C_DISK, A1_DISK, A2_DISK, method="polar")
 
 
 def sphere():
@@ -106,6 +121,38 @@ def _chi2_refined(dist, chart, bins, *, sub=8, n=100_000, rng=0, quad=4, name="r
     return res, x
 
 
+class _DiskChart:
+    """The disk c + sqrt(s) (cos(2 pi t) a1 + sin(2 pi t) a2); area element |dx/ds x dx/dt|,
+    here from the two derivatives (pi |a1 x a2| by hand)."""
+
+    p, dim_x = 2, 3
+
+    def __init__(self, center, a1, a2):
+        self.c, self.a = np.asarray(center, float), np.stack([a1, a2]).astype(float)
+
+    def to_param(self, x):
+        pq = (np.asarray(x) - self.c) @ np.linalg.pinv(self.a)
+        return np.stack([np.sum(pq * pq, -1), np.mod(np.arctan2(pq[..., 1], pq[..., 0]) / (2 * np.pi), 1)], -1)
+
+    def _dirs(self, s):
+        phi = 2 * np.pi * s[..., 1:2]
+        return np.cos(phi) * self.a[0] + np.sin(phi) * self.a[1], -np.sin(phi) * self.a[0] + np.cos(phi) * self.a[1]
+
+    def from_param(self, s):
+        return self.c + np.sqrt(s[..., 0:1]) * self._dirs(s)[0]
+
+    def jacobian(self, s):
+        radial, tangent = self._dirs(s)          # dx/ds = radial / (2 sqrt s), dx/dt = 2 pi sqrt(s) tangent
+        return np.linalg.norm(np.cross(radial / 2, 2 * np.pi * tangent), axis=-1)
+
+
+class _WrongDisk(DiskSurface):
+    """Disk density 1 / (pi |a1| |a2|): forgets the shear (right only for perpendicular axes)."""
+
+    def pdf(self, x):
+        return np.full(np.shape(x)[:-1], 1.0 / (np.pi * np.linalg.norm(self.axis1) * np.linalg.norm(self.axis2)))
+
+
 class _WrongEllipsoid(EllipsoidSurface):
     """Ellipsoid density without the ||M^-T n|| factor: 1 / (4 pi |det M|)."""
 
@@ -142,6 +189,8 @@ AREA_CASES = [
     ("parallelepiped", sheared_box, lambda: _parallelepiped_chart(C_SHEAR, L_SHEAR), (36, 12)),
     ("ellipsoid", ellipsoid, lambda: EllipsoidChart([1.0, 2.0, 3.0], M_ELL), (20, 20)),
     ("sphere", sphere, lambda: EllipsoidChart([0.0, 0.0, 0.0], 2.0 * np.eye(3)), (20, 20)),
+    ("disk", disk, lambda: _DiskChart(C_DISK, A1_DISK, A2_DISK), (16, 24)),
+    ("disk-polar", disk_polar, lambda: _DiskChart(C_DISK, A1_DISK, A2_DISK), (16, 24)),
 ]
 
 
@@ -162,6 +211,13 @@ def test_area_pdf_integrates_to_one_and_area_is_exact(name, make, chart, bins):
 def test_wrong_ellipsoid_pdf_fails_chi_square():
     wrong = _WrongEllipsoid([1.0, 2.0, 3.0], M_ELL)
     res = chi2_gof(wrong, EllipsoidChart([1.0, 2.0, 3.0], M_ELL), (20, 20), n=100_000, rng=3)
+    with pytest.raises(AssertionError):
+        assert_gof(res)
+
+
+def test_wrong_disk_pdf_fails_chi_square():
+    wrong = _WrongDisk(C_DISK, A1_DISK, A2_DISK)
+    res = chi2_gof(wrong, _DiskChart(C_DISK, A1_DISK, A2_DISK), (16, 24), n=100_000, rng=3)
     with pytest.raises(AssertionError):
         assert_gof(res)
 
@@ -187,7 +243,7 @@ def test_samples_lie_on_the_surface():
     assert np.allclose(np.linalg.norm(s.sample(u) - s.center, axis=-1), 2.0, rtol=1e-12, atol=0)
 
 
-@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere])
+@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere, disk, disk_polar])
 def test_invert_undoes_sample(make):
     surface = make()
     u = as_generator(6).random((5_000, 2))
@@ -244,6 +300,10 @@ def test_normals():
     assert np.allclose(np.sum(b.normal(x) * b._e2[k], -1), 0, atol=1e-12)
     r = rect()
     assert np.allclose(r.normal(r.sample(u[:3])), np.cross(r.edge1, r.edge2) / r.area)
+    dk = disk()
+    n = np.cross(A1_DISK, A2_DISK)
+    assert np.allclose(dk.normal(dk.sample(u[:3])), n / np.linalg.norm(n))
+    assert np.allclose((dk.sample(u) - C_DISK) @ n, 0, atol=1e-12)               # in the plane
 
 
 # ----------------------------------------------------------------------------- intersect
@@ -271,8 +331,45 @@ def test_intersect_known_values():
     assert np.allclose(e.intersect([0, 0, -10], [0, 0, 1]), [7, 13])
     assert np.allclose(e.intersect([0, -10, 0], [0, 1, 0]), [8, 12])
 
+    dk = DiskSurface([0, 0, 1], [2, 0, 0], [0, 0.5, 0])                       # ellipse x^2/4 + 4 y^2 <= 1
+    t = dk.intersect([[1.9, 0, 3], [0, 0.45, 3], [0, 0.55, 3], [1.9, 0.2, 3]], [0, 0, -1])
+    assert np.allclose(t[:2, 0], 2) and np.all(np.isinf(t[2:, 0]))
+    assert dk.bounding_sphere()[1] == pytest.approx(2.0)
+    sheared = DiskSurface([0, 0, 0], [1, 0, 0], [1, 0.2, 0])                   # semi-major axis > |a2|
+    far = sheared.sample(np.array([[0.5 + 1e-9, 0.5 + 0.125]]))                # concentric: the diagonal
+    assert np.linalg.norm(far) <= sheared.bounding_sphere()[1] + 1e-12
+    assert sheared.bounding_sphere()[1] > np.linalg.norm([1, 0.2, 0]) * 1.3
 
-@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere])
+
+def test_unit_sphere_roots_known_values():
+    o = np.array([[0, 0, -5], [0, 0, -5], [0, 0, 0.5], [0, 1, -5], [0, 0, 1 + 1e-12], [0, 0, -5]], float)
+    d = np.array([[0, 0, 1], [0, 1, 0], [0, 0, 1], [0, 0, 1], [0, 0, -1], [0, 0, 0]], float)
+    near, far = unit_sphere_roots(o, d)
+    # through the centre, a miss, from inside, tangent (double root), starting 1e-12 outside
+    # (the small root c/q = 1e-12 without cancellation), and d = 0 (no line)
+    np.testing.assert_allclose(near[[0, 2, 3]], [4, -1.5, 5])
+    np.testing.assert_allclose(far[[0, 2, 3]], [6, 0.5, 5])
+    gap = o[4, 2] - 1.0                                                      # exact (Sterbenz): ~1e-12
+    assert near[4] == pytest.approx(gap, rel=1e-12, abs=0) and far[4] == pytest.approx(2.0)
+    assert np.all(np.isinf(near[[1, 5]])) and np.all(np.isinf(far[[1, 5]]))
+    np.testing.assert_allclose(unit_sphere_hit(o, d, 0.0), [4, np.inf, 0.5, 5, gap, np.inf], rtol=1e-12)
+    np.testing.assert_allclose(unit_sphere_hit(o, d, 4.5), [6, np.inf, np.inf, 5, np.inf, np.inf])
+    t_min = np.array([0, 0, 0, 0, 1e-9, 0.0])                                 # per ray
+    hits = unit_sphere_hits(o, d, t_min)
+    np.testing.assert_allclose(hits, [[4, 6], [np.inf] * 2, [0.5, np.inf], [5, 5], [2, np.inf], [np.inf] * 2])
+    # a start 1.5e-8 outside, inputs whose a, b, c are exact in float64: the stable root c / q
+    # is right to rounding, the textbook (-b - sqrt(b^2 - a c)) / a is 7e-9 off (cancellation)
+    o1, d1 = np.array([1 + 2.0**-26, 0.0, 0.0]), np.array([-1.0, 2.0**-4, 0.0])
+    with decimal.localcontext() as ctx:
+        ctx.prec = 50
+        a, b, c = (sum(Dec(x) * Dec(y) for x, y in zip(u, v)) for u, v in ((d1, d1), (o1, d1), (o1, o1)))
+        exact = float((c - 1) / (-(b - (b * b - a * (c - 1)).sqrt())))      # c / q, b < 0
+    assert unit_sphere_roots(o1, d1)[0] == pytest.approx(exact, rel=1e-12, abs=0)
+    assert unit_sphere_hit(o.astype(np.float32), d.astype(np.float32), 0.0).dtype == np.float32
+    np.testing.assert_allclose(unit_sphere_hit(o, 2 * d, 0.0)[0], 2.0)       # t in units of |d|
+
+
+@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere, disk])
 def test_intersect_finds_the_sampled_point_and_broadcasts(make):
     s = make()
     u = as_generator(8).random((4, 500, 2))
@@ -293,7 +390,8 @@ def test_intersect_finds_the_sampled_point_and_broadcasts(make):
 
 def test_rectangle_and_box_directions_chi_square():
     results = []
-    for k, (make, power) in enumerate([(rect, 1), (rect, 2), (box, 1), (box, 2), (sheared_box, 2)]):
+    for k, (make, power) in enumerate([(rect, 1), (rect, 2), (box, 1), (box, 2), (sheared_box, 2), (disk, 1),
+                                       (disk, 2)]):
         d = SolidAngleFromArea(make(), REF)
         axis, z_min = _aimed(d.surface, REF)
         res, w = _chi2_refined(_InFrame(d, axis), CapChart(z_min, power), (16, 16), rng=20 + k,
@@ -318,7 +416,7 @@ def test_ellipsoid_and_sphere_directions_chi_square():
     assert_gof(results, alpha=0.01)
 
 
-@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere])
+@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere, disk])
 def test_solid_angle_pdf_integrates_to_one(make):
     s = make()
     d = s.solid_angle_from(REF)
@@ -419,6 +517,7 @@ IRRADIANCE_CASES = [
     ("box", box, np.array([-0.2, -0.6, -0.6])),
     ("ellipsoid", ellipsoid, np.array([-0.5, -0.3, -0.6])),
     ("sphere", sphere, np.array([-0.6, -0.8, -0.3])),
+    ("disk", disk, np.array([-0.3, -0.5, -0.8])),
 ]
 
 
@@ -449,6 +548,17 @@ def test_irradiance_estimate_matches_quadrature(name, make, n_ref):
         assert abs(fc.mean() - exact) <= 4 * fc.std(ddof=1) / np.sqrt(len(fc))
 
 
+def test_disk_irradiance_on_axis_closed_form():
+    """A circular disk of radius R seen on its axis from distance h: int cos dw = pi R^2 / (R^2 + h^2)."""
+    R, h = 0.7, 1.5
+    for method in DiskSurface.METHODS:
+        dk = DiskSurface([0.0, 0.0, 0.0], [R, 0.0, 0.0], [0.0, R, 0.0], method=method)
+        w, p = dk.solid_angle_from([0.0, 0.0, h]).sample_pdf(as_generator(53).random((200_000, 2)))
+        f = -w[:, 2] / p
+        exact = np.pi * R**2 / (R**2 + h**2)
+        assert abs(f.mean() - exact) <= 4 * f.std(ddof=1) / np.sqrt(len(f))
+
+
 def test_one_hit_irradiance_is_biased():
     s = sphere()
     n_ref = -REF / np.linalg.norm(REF)
@@ -464,7 +574,7 @@ def test_one_hit_irradiance_is_biased():
 
 # ----------------------------------------------------------------------------- batching
 
-@pytest.mark.parametrize("make", [rect, box, ellipsoid, sphere])
+@pytest.mark.parametrize("make", [rect, box, ellipsoid, sphere, disk])
 def test_batched_reference_points_match_one_at_a_time(make):
     s = make()
     rng = as_generator(60)
@@ -597,10 +707,34 @@ def test_from_matrix_follows_mitsuba():
     (lambda: SolidAngleFromArea(sphere(), [1.0, 2.0]), "ref"),
     (lambda: SolidAngleFromArea(object(), [1.0, 2.0, 3.0]), "surface"),
     (lambda: sphere().sample(np.zeros((4, 3))), "u"),
+    (lambda: DiskSurface([0, 0, 0], [1, 0, 0], [2, 0, 0]), "axis1, axis2"),
+    (lambda: DiskSurface([0, 0, 0], [0, 0, 0], [0, 1, 0]), "axis1"),
+    (lambda: DiskSurface([0, 0, 0], [1, 0, 0], [0, 1]), "axis2"),
+    (lambda: DiskSurface([0, 0, np.inf], [1, 0, 0], [0, 1, 0]), "center"),
+    (lambda: DiskSurface([0, 0, 0], [1, 0, 0], [0, 1, 0], method="square"), "method"),
+    (lambda: DiskSurface.from_matrix(np.diag([1.0, 1.0, 1.0, 2.0])), "matrix"),
 ])
 def test_bad_input_raises_value_error(build, arg):
     with pytest.raises(ValueError, match=arg):
         build()
+
+
+@pytest.mark.parametrize("flip_normals", [False, True])
+def test_disk_from_matrix_follows_mitsuba(flip_normals):
+    """Mitsuba 3's ``disk`` under to_world (one with det < 0): the same point for the same u
+    (both use the concentric map), its normal M^-T e_z, area and pdf."""
+    mi = pytest.importorskip("mitsuba")
+    mi.set_variant("scalar_rgb")
+    for M in (np.array([[1.0, 0.3, 0, 1], [0, -0.8, 0.2, 2], [0.1, 0, 1.5, 3], [0, 0, 0, 1]]),   # det < 0
+              np.array([[0.5, 0.0, 0.2, -1], [0.1, 0.9, 0, 0], [0, 0.2, 1, 2], [0, 0, 0, 1]])):
+        ref = mi.load_dict({"type": "disk", "to_world": mi.ScalarTransform4f(M), "flip_normals": flip_normals})
+        dk = DiskSurface.from_matrix(M, flip_normals=flip_normals)
+        u = as_generator(7).random((40, 2))
+        ps = [ref.sample_position(0.0, mi.Point2f(*v)) for v in u]
+        np.testing.assert_allclose(dk.sample(u), [np.array(p.p) for p in ps], rtol=0, atol=1e-5)
+        np.testing.assert_allclose(dk.normal(dk.sample(u)), [np.array(p.n) for p in ps], rtol=0, atol=1e-6)
+        assert dk.area == pytest.approx(ref.surface_area(), rel=1e-6)
+        assert dk.pdf(dk.sample(u[:1]))[0] == pytest.approx(ps[0].pdf, rel=1e-6)
 
 
 def test_float32_inputs_stay_float32_and_match_float64():

@@ -202,8 +202,6 @@ def check_render(args: argparse.Namespace) -> dict:
     """Every flag of ``vrlab render`` as a value, the scene loaded and sized, the reference
     read (see the module docstring); raises :class:`~vrlab.cli_args.UsageError` or
     :class:`~vrlab.cli_args.Failure`."""
-    import dataclasses
-
     from .render.presets import PRESETS
 
     p = C.check_flags(args, PRESETS, SPP_MAX)
@@ -240,8 +238,7 @@ def check_render(args: argparse.Namespace) -> dict:
     p["path"] = _scene_path(args.scene)
     scene = _load(p["path"])
     if p["width"] is not None or p["height"] is not None:
-        scene.sensor = dataclasses.replace(scene.sensor, width=p["width"] or scene.sensor.width,
-                                           height=p["height"] or scene.sensor.height)
+        scene = scene.with_size(p["width"] or scene.sensor.width, p["height"] or scene.sensor.height)
     p["scene"], p["spp"] = scene, p["spp"] or scene.sensor.spp
     if p["stderr_out"] is not None and p["spp"] < 2:
         raise A.UsageError(f"--stderr-out needs --spp >= 2 (one sample has no standard error), got spp {p['spp']}")

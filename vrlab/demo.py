@@ -267,15 +267,14 @@ def lab_section(out: Path, seed: int, quick: bool, painter: _Painter | None = No
 def render_section(out: Path, seed: int, quick: bool) -> pd.DataFrame:
     """The Veach figure: BSDF sampling | light sampling | MIS on the glossy plates scene.
     The reference (an MIS render at more spp, its own seed) is rendered first, with progress."""
-    import dataclasses
-
+    
     from .render import builtin_scene_path, load_scene, render
     from .render.compare import compare, compare_figure
     from .render.image import auto_exposure
 
     scene = load_scene(builtin_scene_path("veach_mis"))
     w, h = (64, 48) if quick else (128, 96)
-    scene.sensor = dataclasses.replace(scene.sensor, width=w, height=h)
+    scene = scene.with_size(w, h)
     ref_spp = 32 if quick else 128
     bar = _bar(w * h, f"reference, {ref_spp} spp")
     reference = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([seed, 1]),

@@ -5,14 +5,16 @@ where the warp is a bijection, ``invert(x)``.
 """
 from .base import Distribution
 from .discrete import AliasTable, CDFTable
+from .filters import FILTERS, BoxFilter, FilterWindow, GaussianFilter, ReconstructionFilter, TentFilter
 from .frames import Frame, Oriented, orthonormal_basis, to_local, to_world
 from .interval import Exponential, LinearInterval, Product, TruncatedNormal, UniformBox, UniformInterval
+from .microfacet import Beckmann
 from .mixture import Mixture
 from .planar import Disk, Rectangle, Triangle, concentric_disk
 from .spherical import GGX, CosineHemisphere, PhongLobe, UniformCone, UniformHemisphere, UniformSphere
 from .solid_angle import LightSample, SolidAngleFromArea, SphereCone
-from .quadrics import EllipsoidSurface, SphereSurface
-from .surfaces import BoxSurface, RectangleSurface, Surface
+from .quadrics import EllipsoidSurface, SphereSurface, unit_sphere_hit, unit_sphere_hits, unit_sphere_roots
+from .surfaces import BoxSurface, DiskSurface, RectangleSurface, Surface
 from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 
 __all__ = [
@@ -22,5 +24,7 @@ __all__ = [
     "GGX", "CosineHemisphere", "PhongLobe", "UniformCone", "UniformHemisphere", "UniformSphere",
     "PiecewiseConstant1D", "PiecewiseConstant2D",
     "LightSample", "SolidAngleFromArea", "SphereCone",
-    "BoxSurface", "EllipsoidSurface", "RectangleSurface", "SphereSurface", "Surface",
+    "BoxSurface", "DiskSurface", "EllipsoidSurface", "RectangleSurface", "SphereSurface", "Surface",
+    "unit_sphere_hit", "unit_sphere_hits", "unit_sphere_roots",
+    "Beckmann", "FILTERS", "BoxFilter", "FilterWindow", "GaussianFilter", "ReconstructionFilter", "TentFilter",
 ]

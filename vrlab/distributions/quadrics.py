@@ -1,7 +1,15 @@
-"""Quadric light surfaces: ellipsoid (a mapped unit sphere, Jacobian density) and sphere.
+"""Quadric light surfaces: ellipsoid (a mapped unit sphere, Jacobian density) and sphere,
+and the ray / unit-sphere roots that every quadric (here and in the renderer) intersects with.
 
 See ``surfaces.py`` for the shared ``Surface`` interface and the ellipsoid density
 derivation, p_A(x) = 1 / (4 pi |det M| ||M^-T n_s||) (Russian lecture 4).
+
+Ray / unit sphere: |o + t d|^2 = 1 is a t^2 + 2 b t + c = 0 with a = d.d, b = o.d,
+c = o.o - 1.  The textbook roots (-b -+ sqrt(b^2 - a c)) / a cancel when |b| >> a c; the
+stable pair is q = -(b + sign(b) sqrt(b^2 - a c)), t = q / a and t = c / q (the product of
+the roots is c / a): Press et al., Numerical Recipes 3rd ed. 5.6; PBRT 3rd ed. 3.2.2.
+An ellipsoid c + M S^2 is the unit sphere in the coordinates M^-1 (x - c), where a ray keeps
+its parameter t.
 """
 from __future__ import annotations
 
@@ -9,12 +17,67 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._vec import dot as _dot
 from ._args import _affine4, _matrix3, _positive3, _rotation3, _sizes, _vector3
 from .base import as_points, as_uniforms, positive_float
-from .surfaces import FOUR_PI, Surface, _INTERSECT_DOC, _quadric_hits, _sphere_from_u, _sphere_to_u, _unit
+from .surfaces import FOUR_PI, TWO_PI, Surface, _INTERSECT_DOC, _sphere_to_u, _unit
 
 if TYPE_CHECKING:
     from .solid_angle import SphereCone
+
+__all__ = ["EllipsoidSurface", "SphereSurface", "unit_sphere_hit", "unit_sphere_hits", "unit_sphere_roots"]
+
+
+# ----------------------------------------------------------------------------- ray / unit sphere
+
+def unit_sphere_roots(o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(t_near, t_far)``, t_near <= t_far, the parameters where the line o + t d meets the
+    unit sphere |x| = 1; both ``inf`` where it misses (b^2 - a c < 0, or d = 0).
+
+    Stable roots (module docstring): q = -(b + sign(b) sqrt(b^2 - a c)), t = q / a, c / q
+    (t = q / a twice when q = 0), a = d.d, b = o.d, c = o.o - 1.  ``o`` and ``d`` of shape
+    (..., 3) broadcast; ``d`` need not be unit (t is in units of its length).  No argument
+    checks (hot path); a non-finite root counts as a miss.  Results keep the dtype NumPy
+    gives ``o`` and ``d`` (float32 stays float32).
+    """
+    a = _dot(d, d)
+    b = _dot(o, d)
+    c = _dot(o, o) - 1.0
+    disc = b * b - a * c
+    hit = disc >= 0.0
+    sq = np.sqrt(np.where(hit, disc, 0.0))
+    q = -(b + np.where(b >= 0.0, sq, -sq))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        t1 = q / a
+        t2 = np.where(q != 0.0, c / np.where(q != 0.0, q, 1.0), t1)
+    t1 = np.where(hit & np.isfinite(t1), t1, np.inf)
+    t2 = np.where(hit & np.isfinite(t2), t2, np.inf)
+    return np.minimum(t1, t2), np.maximum(t1, t2)
+
+
+def unit_sphere_hit(o: np.ndarray, d: np.ndarray, t_min) -> np.ndarray:
+    """The first hit: the smallest root t > ``t_min`` of :func:`unit_sphere_roots`, ``inf`` if
+    none.  ``t_min`` is a number or an array broadcasting with the rays' leading shape."""
+    near, far = unit_sphere_roots(o, d)
+    return np.where(near > t_min, near, np.where(far > t_min, far, np.inf))
+
+
+def unit_sphere_hits(o: np.ndarray, d: np.ndarray, t_min) -> np.ndarray:
+    """Every hit: the roots t > ``t_min`` of :func:`unit_sphere_roots`, shape (..., 2),
+    ascending, ``inf`` for misses (a tangent ray gives its double root twice)."""
+    near, far = unit_sphere_roots(o, d)
+    ahead = near > t_min
+    return np.stack([np.where(ahead, near, np.where(far > t_min, far, np.inf)), np.where(ahead, far, np.inf)], -1)
+
+
+# ----------------------------------------------------------------------------- shapes
+
+def _sphere_from_u(u: np.ndarray) -> np.ndarray:
+    """Uniform unit-sphere point: z = 1 - 2 u1, phi = 2 pi u2 (Archimedes' hat-box)."""
+    z = 1.0 - 2.0 * u[..., 0]
+    r = np.sqrt(np.clip(1.0 - z * z, 0.0, None))
+    phi = TWO_PI * u[..., 1]
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
 
 
 class EllipsoidSurface(Surface):
@@ -76,7 +139,7 @@ class EllipsoidSurface(Surface):
 
     def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
         o, d = self._rays(origin, direction)
-        return _quadric_hits((o - self.center) @ self.Minv.T, d @ self.Minv.T, self._t_min(t_min))
+        return unit_sphere_hits((o - self.center) @ self.Minv.T, d @ self.Minv.T, self._t_min(t_min))
 
     intersect.__doc__ = _INTERSECT_DOC
 
@@ -117,7 +180,7 @@ class SphereSurface(Surface):
 
     def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
         o, d = self._rays(origin, direction)
-        return _quadric_hits((o - self.center) / self.radius, d / self.radius, self._t_min(t_min))
+        return unit_sphere_hits((o - self.center) / self.radius, d / self.radius, self._t_min(t_min))
 
     intersect.__doc__ = _INTERSECT_DOC
 

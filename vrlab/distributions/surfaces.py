@@ -10,6 +10,9 @@ direct lighting calculations" (TOG 1996), Arvo, "Stratified sampling of spherica
 triangles" (1995), Pharr, Jakob & Humphreys, PBRT 3rd ed. 14.2.
 
 * ``RectangleSurface(corner, edge1, edge2)``: x = corner + u1 e1 + u2 e2, p = 1/|e1 x e2|.
+* ``DiskSurface(center, axis1, axis2)``: x = c + p a1 + q a2 with (p, q) uniform on the unit
+  disk (``planar.Disk``); a linear map scales every area by |a1 x a2|, so x is uniform by
+  area, p = 1 / (pi |a1 x a2|).
 * ``BoxSurface(center, half_extents, rotation)``: pick a face with probability
   area_k / A (u1 is remapped through the 6-face CDF and reused), uniform on it;
   p = 1/A.  ``BoxSurface.from_matrix`` gives any parallelepiped (Mitsuba ``cube``).
@@ -38,6 +41,7 @@ from .. import checks
 from ._args import _affine4, _matrix3, _positive3, _rotation3, _sizes, _vector3
 from .base import Distribution, as_points, as_uniforms
 from .frames import to_local, to_world  # noqa: F401
+from .planar import Disk
 
 if TYPE_CHECKING:
     from .solid_angle import SolidAngleFromArea
@@ -60,14 +64,6 @@ def _finish_hits(t: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return np.sort(np.where(valid, t, np.inf), axis=-1)
 
 
-def _sphere_from_u(u: np.ndarray) -> np.ndarray:
-    """Uniform unit-sphere point: z = 1 - 2 u1, phi = 2 pi u2 (Archimedes' hat-box)."""
-    z = 1.0 - 2.0 * u[..., 0]
-    r = np.sqrt(np.clip(1.0 - z * z, 0.0, None))
-    phi = TWO_PI * u[..., 1]
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
-
-
 def _sphere_to_u(d: np.ndarray) -> np.ndarray:
     u2 = np.arctan2(d[..., 1], d[..., 0]) / TWO_PI
     u2 = np.where(u2 < 0, u2 + 1.0, u2)
@@ -75,23 +71,15 @@ def _sphere_to_u(d: np.ndarray) -> np.ndarray:
     return np.stack([(1.0 - d[..., 2]) / 2.0, u2], axis=-1)
 
 
-def _quadric_hits(o: np.ndarray, d: np.ndarray, t_min: float) -> np.ndarray:
-    """Parameters t > t_min with |o + t d| = 1 (unit sphere), shape (..., 2), misses inf.
-
-    Stable roots: q = -(b + sign(b) sqrt(disc)), t = q / a and c / q.
-    """
-    a = np.sum(d * d, -1)
-    b = np.sum(o * d, -1)
-    c = np.sum(o * o, -1) - 1.0
-    disc = b * b - a * c
-    hit = disc >= 0.0
-    sq = np.sqrt(np.where(hit, disc, 0.0))
-    q = -(b + np.where(b >= 0.0, sq, -sq))
+def _plane_hit(o: np.ndarray, d: np.ndarray, point: np.ndarray, n: np.ndarray, dual: np.ndarray,
+               t_min: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(t, ok, local)`` for rays o + t d and the plane through ``point`` with normal ``n``:
+    t = ((point - o) . n) / (d . n), ``ok`` where t is finite and > t_min, and the hit's
+    plane coordinates (o + t d - point) @ ``dual`` (dual (3, 2): pseudo-inverse of the edges)."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        t1 = q / a
-        t2 = np.where(q != 0.0, c / np.where(q != 0.0, q, 1.0), t1)
-    t = np.stack([t1, t2], -1)
-    return _finish_hits(t, hit[..., None] & np.isfinite(t) & (t > t_min))
+        t = ((point - o) @ n) / (d @ n)
+    ok = np.isfinite(t) & (t > t_min)
+    return t, ok, (o + np.where(ok, t, 0.0)[..., None] * d - point) @ dual
 
 
 # ----------------------------------------------------------------------------- base
@@ -219,13 +207,7 @@ class RectangleSurface(Surface):
 
     def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
         o, d = self._rays(origin, direction)
-        n = self.unit_normal
-        denom = d @ n
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = ((self.corner - o) @ n) / denom
-        ok = np.isfinite(t) & (t > self._t_min(t_min))
-        tt = np.where(ok, t, 0.0)
-        st = (o + tt[..., None] * d - self.corner) @ self._dual
+        t, ok, st = _plane_hit(o, d, self.corner, self.unit_normal, self._dual, self._t_min(t_min))
         ok &= np.all((st >= 0.0) & (st <= 1.0), -1)
         return np.where(ok, t, np.inf)[..., None]
 
@@ -233,6 +215,88 @@ class RectangleSurface(Surface):
 
     def _repr_fields(self):
         return {"corner": self.corner.tolist(), "edge1": self.edge1.tolist(), "edge2": self.edge2.tolist()}
+
+
+# ----------------------------------------------------------------------------- disk
+
+class DiskSurface(Surface):
+    """Uniform points on the (elliptic) disk c + r cos(t) a1 + r sin(t) a2, r <= 1.
+
+    x = c + p a1 + q a2 with (p, q) = ``planar.Disk(1, method=method).sample(u)``: the affine
+    image of the unit disk, uniform by area (the map scales every area by |a1 x a2|), so
+    p = 1 / area with area = pi |a1 x a2| (area measure).  normal = normalize(a1 x a2);
+    ``invert`` gives the u of (p, q).  ``method``: ``"concentric"`` (Shirley & Chiu 1997;
+    Mitsuba 3's ``disk`` shape, src/shapes/disk.cpp ``sample_position``) or ``"polar"``.
+    ``DiskSurface.from_matrix(M)``: Mitsuba's ``disk`` (the unit disk in the xy plane)
+    under the 4x4 ``to_world`` ``M``: c = M (0, 0, 0), a1 = M e_x, a2 = M e_y, so that
+    ``sample(u)`` is Mitsuba's ``sample_position(u).p``, and Mitsuba's normal M^-T e_z
+    (negated with ``flip_normals``).  Checked: finite 3-vectors, non-zero and non-parallel
+    axes, ``method`` one of ``METHODS``.
+    """
+
+    max_hits = 1
+    METHODS = Disk.METHODS
+
+    def __init__(self, center: Any, axis1: Any, axis2: Any, method: str = "concentric"):
+        self.center = _vector3(center, "center")
+        self.axis1 = _vector3(axis1, "axis1")
+        self.axis2 = _vector3(axis2, "axis2")
+        self.disk = Disk(1.0, method=method)
+        self.method = self.disk.method
+        with np.errstate(over="ignore"):
+            l1, l2 = np.linalg.norm(self.axis1), np.linalg.norm(self.axis2)
+        for length, name in ((l1, "axis1"), (l2, "axis2")):
+            if length == 0:
+                raise ValueError(f"{name}: must be non-zero")
+            _sizes(np.array([length]), name)
+        cross = np.cross(self.axis1, self.axis2)
+        norm = float(np.linalg.norm(cross))
+        if norm <= 1e-12 * l1 * l2:
+            raise ValueError("axis1, axis2: must not be parallel (degenerate disk)")
+        self.area = float(np.pi * norm)
+        self.unit_normal = cross / norm
+        self._axes = np.stack([self.axis1, self.axis2])     # (2, 3)
+        self._dual = np.linalg.pinv(self._axes)             # (3, 2): (x - c) @ dual = (p, q)
+
+    @classmethod
+    def from_matrix(cls, matrix: Any, flip_normals: bool = False, method: str = "concentric") -> "DiskSurface":
+        """Mitsuba ``disk`` under the affine 4x4 ``to_world`` ``matrix`` (see the class docstring)."""
+        lin, trans = _affine4(matrix, "matrix")
+        flip_normals = checks.flag(flip_normals, "flip_normals")
+        self = cls(trans, lin[:, 0], lin[:, 1], method)
+        if (np.linalg.det(lin) < 0) != flip_normals:       # M^-T e_z = (M e_x x M e_y) / det M
+            self.unit_normal = -self.unit_normal
+        return self
+
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:
+        """The centre and the semi-major axis (largest singular value of [a1 a2])."""
+        return self.center, float(np.linalg.svd(self._axes, compute_uv=False)[0])
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        return self.disk.sample(u) @ self._axes + self.center
+
+    def pdf(self, x: np.ndarray) -> np.ndarray:
+        x = as_points(x, 3)
+        return np.full(x.shape[:-1], 1.0 / self.area)
+
+    def invert(self, x: np.ndarray) -> np.ndarray:
+        return self.disk.invert((as_points(x, 3) - self.center) @ self._dual)
+
+    def normal(self, x: np.ndarray) -> np.ndarray:
+        x = as_points(x, 3)
+        return np.broadcast_to(self.unit_normal, x.shape).copy()
+
+    def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
+        o, d = self._rays(origin, direction)
+        t, ok, pq = _plane_hit(o, d, self.center, self.unit_normal, self._dual, self._t_min(t_min))
+        ok &= np.sum(pq * pq, -1) <= 1.0
+        return np.where(ok, t, np.inf)[..., None]
+
+    intersect.__doc__ = _INTERSECT_DOC
+
+    def _repr_fields(self):
+        return {"center": self.center.tolist(), "axis1": self.axis1.tolist(), "axis2": self.axis2.tolist(),
+                "method": self.method}
 
 
 # ----------------------------------------------------------------------------- box

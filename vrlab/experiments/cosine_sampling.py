@@ -16,7 +16,6 @@ Run ``python -m vrlab.experiments.cosine_sampling [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 from pathlib import Path
 
@@ -126,7 +125,7 @@ def render_samples(scene, estimator, spp: int, rng) -> np.ndarray:
 
 def render_study(size: tuple[int, int], spps: list[int], seed: int = 3):
     scene = load_scene(builtin_scene_path("cornell_box"))
-    scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=size[0], height=size[1]))
+    scene = scene.with_size(size[0], size[1])
     rows, images = [], {}
     for spp in spps:
         for strategy in RENDER_STRATEGIES:

@@ -28,7 +28,6 @@ Run ``python -m vrlab.experiments.gradient_domain [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 from pathlib import Path
 
@@ -54,7 +53,7 @@ METHODS = {"primal": "primal (= plain, equal spp)", "plain_equal_time": "plain, 
 def sized(name: str, width: int = WIDTH, height: int = HEIGHT):
     """Built-in scene ``name`` with its sensor set to ``width`` x ``height``."""
     scene = load_scene(builtin_scene_path(name))
-    return dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=width, height=height))
+    return scene.with_size(width, height)
 
 
 def reference(name: str, scene, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray, str]:

@@ -24,7 +24,6 @@ Run ``python -m vrlab.experiments.light_surfaces [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 from pathlib import Path
 
@@ -280,7 +279,7 @@ RENDER_STRATEGIES = ("cosine", "light", "mixture", "mis-power")
 
 def render_study(size: tuple[int, int], spp: int, ref_spp: int, seed: int = 7):
     scene = load_scene(builtin_scene_path("box_ellipsoid"))
-    scene = dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=size[0], height=size[1]))
+    scene = scene.with_size(size[0], size[1])
     t0 = time.perf_counter()
     reference = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([seed, 1])).value
     ref_secs = time.perf_counter() - t0

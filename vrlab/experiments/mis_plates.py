@@ -17,7 +17,6 @@ estimate (MSE = variance for an unbiased estimator).
 """
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -47,7 +46,7 @@ BLOCK_PIXELS = 4096                                # pixels per block of image_v
 def plates_scene(size: tuple[int, int]):
     """The built-in ``veach_mis`` scene with its sensor set to ``size`` = (width, height)."""
     scene = load_scene(builtin_scene_path("veach_mis"))
-    return dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=size[0], height=size[1]))
+    return scene.with_size(size[0], size[1])
 
 
 def region_name(plate: int, light: int, short: bool = False) -> str:
@@ -67,7 +66,7 @@ def regions(scene) -> tuple[np.ndarray, np.ndarray, list, list]:
     o, d = o.reshape(-1, 3), d.reshape(-1, 3)
     hits = integ.geometry.intersect(o, d)
     plates = [k for k, s in enumerate(scene.shapes) if s.bsdf.type == "roughconductor"]
-    alphas = [float(scene.shapes[k].bsdf.params["alpha"]) for k in plates]
+    alphas = [float(scene.shapes[k].bsdf.alpha) for k in plates]
     plate = np.full(h * w, -1)
     for rank, i in enumerate(np.argsort(alphas)[::-1]):           # roughest first
         plate[hits.shape == plates[i]] = rank

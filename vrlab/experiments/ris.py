@@ -28,7 +28,6 @@ Run ``python -m vrlab.experiments.ris [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 from pathlib import Path
 
@@ -212,7 +211,7 @@ def methods(ms, power_candidates: bool = True) -> list[tuple[str, str, str, int]
 def small_scene(size):
     """``many_lights`` at ``size`` = (width, height) pixels."""
     scene = load_scene(builtin_scene_path("many_lights"))
-    return dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=size[0], height=size[1]))
+    return scene.with_size(size[0], size[1])
 
 
 def light_free_mask(scene, sub: int = 6) -> np.ndarray:

@@ -29,7 +29,6 @@ Run ``python -m vrlab.experiments.sampling_patterns [--full] [--out DIR]``.
 """
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -158,7 +157,7 @@ def edge_table(spps: list[int], reps: int, seed: int = 4) -> pd.DataFrame:
 def small_box(size):
     """The built-in Cornell box at ``size`` = (width, height) pixels."""
     scene = load_scene(builtin_scene_path("cornell_box"))
-    return dataclasses.replace(scene, sensor=dataclasses.replace(scene.sensor, width=size[0], height=size[1]))
+    return scene.with_size(size[0], size[1])
 
 
 def edge_pixels(integ: PixelIntegrand) -> np.ndarray:
@@ -249,7 +248,7 @@ def report_importance(size, spps: list[int], ref_spp: int, seed: int = 6):
     rows, images, refs = [], {}, {}
     for name, strategies in REPORT_IS.items():
         scene = load_scene(builtin_scene_path(name))
-        scene.sensor = dataclasses.replace(scene.sensor, width=size[0], height=size[1])
+        scene = scene.with_size(size[0], size[1])
         ref = render(scene, ref_spp, "mis-power", rng=np.random.SeedSequence([seed, 0]), workers=1)
         ref, ref_se = ref.value, ref.stderr
         refs[name] = ref

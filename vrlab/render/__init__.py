@@ -1,16 +1,23 @@
 """vrlab's direct-lighting renderer: Mitsuba 3 XML scenes, ``render``, images, and the
 screened Poisson reconstruction of gradient-domain rendering (``screened_poisson``).
 
-``load_scene(path_or_xml)`` returns plain dataclasses (:class:`Scene`, :class:`Sensor`,
-:class:`Shape`, ...) with NumPy 4x4 ``to_world`` matrices; see :mod:`vrlab.render.scene`
-for the supported subset and :mod:`vrlab.render.transforms` for the conventions.
+``load_scene(path_or_xml)`` reads Mitsuba 3 scene files into a :class:`Scene` of registered
+element objects (one class per Mitsuba plugin: :mod:`vrlab.render.registry`, ``register``
+and ``registered``), with NumPy 4x4 ``to_world`` matrices; see :mod:`vrlab.render.scene`
+for the supported elements and :mod:`vrlab.render.transforms` for the conventions.
 """
 from . import transforms
-from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor
+from .registry import Element, register, registered
+from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor, TwoSided
 from .builtin import (builtin_scene_path, describe_builtin_scene, export_builtin_scene, list_builtin_scenes,
                       list_mitsuba_references, mitsuba_reference)
-from .loader import load_scene, read_obj
-from .scene import BSDF, AreaEmitter, Integrator, Scene, SceneError, Sensor, Shape
+from .loader import load_scene
+from .meshes import read_obj
+from .scene import Scene, SceneError
+from .shapes import Shape
+from .emitters import AreaEmitter, Emitter
+from .integrators import Integrator
+from .sensors import Sensor
 from .film import render
 from .gradient import GradientDomainImage, render_gradient_domain
 from .pixels import PixelIntegrand
@@ -19,7 +26,8 @@ from .shading import ShadingIntegrand
 from .._alloc import keep_freed_memory
 from .._lazy import lazy_attributes
 
-__all__ = ["BSDFModel", "Diffuse", "Phong", "RoughConductor", "AreaEmitter", "BSDF", "Integrator", "Scene",
+__all__ = ["BSDFModel", "Diffuse", "Element", "Emitter", "Phong", "RoughConductor", "TwoSided", "AreaEmitter",
+           "Integrator", "Scene", "register", "registered",
            "SceneError", "Sensor", "Shape", "builtin_scene_path", "describe_builtin_scene", "export_builtin_scene",
            "keep_freed_memory", "list_builtin_scenes", "list_mitsuba_references", "mitsuba_reference", "load_scene", "read_obj", "render", "PixelIntegrand", "PRESETS", "preset",
            "GradientDomainImage", "render_gradient_domain",

@@ -62,8 +62,8 @@ def export_builtin_scene(name: str, folder: str | os.PathLike, *, overwrite: boo
             f"folder must be a folder path (a non-empty str or os.PathLike), got {folder!r}")
     folder, base = Path(folder), src.parent.resolve()
     files = {src: Path(src.name)}                  # source -> path relative to the folder
-    for shape in load_scene(src).shapes:           # meshes beside the scene go along
-        ref = Path(shape.params.get("filename", src)).resolve()
+    for ref in load_scene(src).files:              # meshes, images, included files beside the scene go along
+        ref = Path(ref).resolve()
         if ref not in files and ref.is_relative_to(base):
             files[ref] = ref.relative_to(base)
     if folder.exists() and not folder.is_dir():

@@ -24,7 +24,7 @@ in float64 and rounded, and pixel estimates are accumulated in float64.
 
 Emitting surfaces reflect other lights through their BSDF like any surface, as in
 Mitsuba; an emitter without a ``<bsdf>`` is black (Mitsuba's behaviour), and black
-diffuse surfaces are skipped.  ``obj`` emitters cannot be sampled by the ``"light"``
+BSDFs are skipped.  The camera is the scene's sensor element (its ``pixel_rays``).  ``obj`` emitters cannot be sampled by the ``"light"``
 technique (the techniques ``"bsdf"``, ``"cosine"`` and ``"uniform"`` reach them).
 ``render`` lives in :mod:`vrlab.render.film`.
 """
@@ -34,39 +34,14 @@ import numpy as np
 
 from .. import checks
 from .._vec import dot, scale, side
-from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor
-from .camera import Camera
 from .geometry import Hits, SceneGeometry
 from .lights import LIGHT_SELECTIONS, LightSet
-from .scene import BSDF, Scene
+from .scene import Scene
 
-__all__ = ["DirectLighting", "lambertian_albedo", "make_bsdf"]
+__all__ = ["DirectLighting"]
 
 F32 = np.float32
 SHADOW_EPS = 1e-4             # a blocker must be this much closer (relative) than the emitter
-
-
-def make_bsdf(desc: BSDF) -> BSDFModel:
-    """The :mod:`vrlab.render.bsdfs` model of a scene ``BSDF`` description."""
-    if not isinstance(desc, BSDF):
-        raise TypeError(f"desc must be a vrlab.render.BSDF, got {type(desc).__name__}")
-    p = desc.params
-    if desc.type == "diffuse":
-        return Diffuse(p["reflectance"])
-    if desc.type == "roughconductor":
-        return RoughConductor(p["alpha"], p["distribution"])
-    if desc.type == "phong":
-        return Phong(p["diffuse_reflectance"], p["specular_reflectance"], p["exponent"])
-    raise ValueError(f"bsdf type {desc.type!r} is not supported; allowed: diffuse, roughconductor, phong")
-
-
-def lambertian_albedo(bsdf: BSDFModel) -> np.ndarray:
-    """k_d of the Lambertian part k_d/pi of a BSDF (RGB; 0 for a rough conductor)."""
-    if isinstance(bsdf, Diffuse):
-        return bsdf.reflectance
-    if isinstance(bsdf, Phong):
-        return bsdf.kd
-    return np.zeros(3)
 
 
 class DirectLighting:
@@ -89,22 +64,24 @@ class DirectLighting:
         # non-emitter blocks it: two smaller geometries (see ``trace``)
         self.emitter_geometry = SceneGeometry(scene, np.flatnonzero(emits))
         self.blocker_geometry = SceneGeometry(scene, np.flatnonzero(~emits))
-        self.camera = Camera(scene.sensor)
+        self.camera = scene.sensor
+        self.hide_emitters = bool(scene.integrator.hide_emitters)
+        self.shading = bool(scene.integrator.shading)
         shapes = scene.shapes
-        # shapes with identical BSDFs are shaded together (one batch per distinct BSDF)
-        keys = [repr((s.bsdf.type, sorted((k, np.asarray(v).tolist() if not isinstance(v, str) else v)
-                                          for k, v in s.bsdf.params.items()), s.bsdf.twosided))
-                for s in shapes]
-        distinct = list(dict.fromkeys(keys))
-        self.group_of_shape = np.array([distinct.index(k) for k in keys], dtype=np.int64)
+        # shapes with equal BSDFs are shaded together (one batch per distinct BSDF)
+        keys = [s.bsdf.key() for s in shapes]
+        distinct = {k: g for g, k in enumerate(dict.fromkeys(keys))}
+        self.group_of_shape = np.array([distinct[k] for k in keys], dtype=np.int64)
         first = [keys.index(k) for k in distinct]
-        self.bsdfs = [make_bsdf(shapes[i].bsdf) for i in first]      # one model per group
-        self.kd = [lambertian_albedo(b) for b in self.bsdfs]
-        self.twosided = np.array([shapes[i].bsdf.twosided for i in first], dtype=bool)
+        self.bsdfs = [shapes[i].bsdf for i in first]      # one model per group
+        self.kd = [np.asarray(b.diffuse_albedo(), float) for b in self.bsdfs]
+        self.twosided = np.array([b.twosided for b in self.bsdfs], dtype=bool)
         self.is_emitter = emits
-        black = [s.bsdf.type == "diffuse" and not np.any(np.asarray(s.bsdf.params["reflectance"]) > 0)
-                 for s in shapes]
-        self.shaded = ~np.array(black, dtype=bool)         # black diffuse reflects nothing
+        #: shapes whose shading normals differ from the geometric ones (meshes with vertex normals)
+        self.smooth = [k for k, s in enumerate(shapes) if s.has_shading_normals]
+        self.shapes = shapes
+        # black BSDFs reflect nothing; with a path of depth 1 nothing is shaded
+        self.shaded = np.array([self.shading and not s.bsdf.is_black() for s in shapes], dtype=bool)
         self.radiance = np.array([s.emitter.radiance if s.emitter is not None else np.zeros(3)
                                   for s in shapes], F32)
         self.eps = 1e-5              # ray offset, relative to 1 + max|p| (float32 hit decisions)
@@ -125,6 +102,17 @@ class DirectLighting:
         lights_of_emitters[emits] = np.arange(n_lights)
         if self.lights is None:
             self.light_of_shape = lights_of_emitters
+
+    def shading_normals(self, hits: Hits) -> np.ndarray | None:
+        """Shading normals of camera hits (None where every shape shades with its geometric normal)."""
+        if not self.smooth:
+            return None
+        ns = hits.n.copy()
+        for k in self.smooth:
+            rows = np.flatnonzero(hits.shape == k)
+            if len(rows):
+                ns[rows] = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
+        return ns
 
     def light_radiance(self, j: np.ndarray) -> np.ndarray:
         """L_e of lights ``j`` ``(R, 3)`` float32 (0 for j = -1)."""

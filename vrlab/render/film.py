@@ -25,7 +25,6 @@ veach_mis than with the tuning (2.9-3.3 s against 2.1-2.6 s at 128x96, 16 spp, o
 from __future__ import annotations
 
 import copy
-import dataclasses
 import os
 import pickle
 import time
@@ -170,7 +169,8 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     (default 1; a preset's from ``emitter_samples``/``bsdf_samples``, which default to
     the scene's integrator settings; ``ris_candidates`` = M of ``"ris"``).
 
-    ``points``: the pixels' primary-sample-space uniforms: None (i.i.d.), any vrlab
+    ``points``: the pixels' primary-sample-space uniforms: None (the scene's sampler:
+    i.i.d. for Mitsuba's ``independent``, see :mod:`vrlab.render.sensors.samplers`), any vrlab
     point set or SciPy engine, as a class, a name or an instance (see
     :class:`vrlab.points.SetSampler`: ``"stratified"`` / ``PaddedStratified`` are padded
     jittered strata, others a shared set with a Cranley-Patterson shift per pixel).
@@ -224,9 +224,7 @@ def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLi
     limit = max(256, 4 * (os.cpu_count() or 1))
     workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1, high=limit)
     if width is not None or height is not None:
-        sensor = dataclasses.replace(scene.sensor, width=scene.sensor.width if width is None else width,
-                                     height=scene.sensor.height if height is None else height)
-        scene = dataclasses.replace(scene, sensor=sensor)
+        scene = scene.with_size(width, height)
     settings = dict(settings)
     integrand = PixelIntegrand(scene, **settings)
     est = integrand.estimator
@@ -246,6 +244,8 @@ def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLi
                          f"chunk_pixels <= {MAX_PIXEL_WORK // (batch * work)} or None (automatic)")
     from ..points import SetSampler
 
+    if points is None:                   # the scene's sampler plays its part (sensors.samplers)
+        points = scene.sensor.sampler.points
     root = as_seed_sequence(rng)
     samplers = {batch: SetSampler(points, integrand.dim, batch, rng=unit_seed(root, 0))}
     if spp % batch:                                    # the last, partial batch has its own set

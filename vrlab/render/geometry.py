@@ -57,6 +57,7 @@ from .. import checks
 from .._vec import scale
 from .groups import Planar, Quadrics, parallelograms, unit
 from .scene import Scene
+from .shapes.base import CustomPart, DiskPart, Parallelograms, Quadric, Triangles
 
 __all__ = ["DEFAULT_RAY_CHUNK", "Hits", "SceneGeometry"]
 
@@ -65,12 +66,14 @@ DEFAULT_RAY_CHUNK = 1 << 15   # rays per block
 
 class Hits(NamedTuple):
     """Closest hits: ``t (N,)`` (inf on a miss), ``shape (N,)`` int (-1 on a miss),
-    ``p (N, 3)`` hit points and ``n (N, 3)`` unit geometric normals (0 on a miss)."""
+    ``p (N, 3)`` hit points, ``n (N, 3)`` unit geometric normals (0 on a miss) and ``prim
+    (N,)``, the primitive's index within its shape (a mesh's triangle; 0 for other shapes)."""
 
     t: np.ndarray
     shape: np.ndarray
     p: np.ndarray
     n: np.ndarray
+    prim: np.ndarray | None = None
 
 
 
@@ -105,48 +108,59 @@ class SceneGeometry:
             if idx.size and (idx.min() < 0 or idx.max() >= len(scene.shapes) or len(set(idx.tolist())) < idx.size):
                 raise ValueError(f"only: shape indices must be distinct and in [0, {len(scene.shapes) - 1}], "
                                  f"got {idx.tolist()}")
-        para, tris, quad, disk, pts, boxes = [], [], [], [], [np.zeros(3)], {}
+        para, tris, quad, disk, custom, pts, boxes = [], [], [], [], [], [np.zeros(3)], {}
         self._n_tri = 0
         self.n_shapes = len(scene.shapes) if only is None else len(only)
+        radii = []
         for k in range(len(scene.shapes)) if only is None else [int(i) for i in only]:
             s = scene.shapes[k]
             pts.append(s.center)
-            if s.type in ("rectangle", "cube", "obj"):
-                t = s.triangles()
-                self._n_tri += len(t)
-                pts.append(t.reshape(-1, 3))
-                if s.type == "rectangle":      # analytic in Mitsuba: normal M^-T z (mirrors too)
-                    corner, e1, e2, n = s.rectangle()
-                    para.append((np.array([[corner, e1, e2, n]]), k))
-                    continue
-                tol = 1e-12 * (1.0 + np.max(np.abs(t)))
-                pg, rest = parallelograms(t, tol)
-                para.append((pg, k))
-                if s.type == "cube":
-                    boxes[k] = s.to_world
-                t = t[rest]
-                tris.append((np.stack([t[:, 0], t[:, 1] - t[:, 0], t[:, 2] - t[:, 0],
-                                       unit(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]))],
-                                      axis=1), k))
-            elif s.type in ("sphere", "ellipsoid"):
-                c, m = s.ellipsoid()
-                quad.append((k, c, np.linalg.inv(m), -1.0 if s.flip_normals else 1.0))
-            elif s.type == "disk":
-                c, m = s.center, s.to_world[:3, :3]
-                disk.append((k, c, np.linalg.inv(m), s.disk()[3]))
-            else:  # pragma: no cover - the loader rejects other types
-                raise ValueError(f"shape type {s.type!r} is not supported by the renderer")
+            for part in s.parts():
+                if isinstance(part, Parallelograms):
+                    para.append((part.data, k, np.arange(len(part.data))))
+                    self._n_tri += 2 * len(part.data)
+                    c, e1, e2 = part.data[:, 0], part.data[:, 1], part.data[:, 2]
+                    pts += [c, c + e1, c + e2, c + e1 + e2]
+                elif isinstance(part, Triangles):
+                    t = part.tri
+                    self._n_tri += len(t)
+                    pts.append(t.reshape(-1, 3))
+                    if part.merge:
+                        tol = 1e-12 * (1.0 + np.max(np.abs(t)))
+                        pg, rest, first = parallelograms(t, tol)
+                        para.append((pg, k, first))
+                    else:              # every triangle on its own (its index and barycentrics are needed)
+                        rest = np.arange(len(t))
+                    if part.box is not None:
+                        boxes[k] = part.box
+                    t = t[rest]
+                    tris.append((np.stack([t[:, 0], t[:, 1] - t[:, 0], t[:, 2] - t[:, 0],
+                                           unit(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]))],
+                                          axis=1), k, rest))
+                elif isinstance(part, Quadric):
+                    quad.append((k, part.center, np.linalg.inv(part.matrix), part.sign))
+                    radii.append(np.linalg.norm(part.matrix, 2))
+                elif isinstance(part, DiskPart):
+                    disk.append((k, part.center, np.linalg.inv(part.matrix), part.normal))
+                    radii.append(np.linalg.norm(part.matrix, 2))
+                elif isinstance(part, CustomPart):
+                    custom.append((k, part.intersect))
+                    radii.append(s.bound_radius)
+                else:
+                    raise TypeError(f"shapes[{k}].parts(): unknown primitive part {type(part).__name__}; "
+                                    "use the parts of vrlab.render.shapes.base")
         self.planar = []
         for group, is_para in ((para, True), (tris, False)):
-            arr = np.concatenate([g for g, _ in group] or [np.zeros((0, 4, 3))])
+            arr = np.concatenate([g for g, _, _ in group] or [np.zeros((0, 4, 3))])
             if len(arr):
-                ids = np.concatenate([np.full(len(g), k) for g, k in group])
+                ids = np.concatenate([np.full(len(g), k) for g, k, _ in group])
+                local = np.concatenate([loc for _, _, loc in group])
                 self.planar.append(Planar(arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], ids, is_para,
-                                           boxes if is_para else None))
+                                           boxes if is_para else None, local))
         self.quadrics = Quadrics(quad) if quad else None
         self.disks = disk
+        self.custom = custom
         pts = np.vstack(pts)
-        radii = [np.linalg.norm(np.linalg.inv(q[2]), 2) for q in quad + disk]
         #: a length scale of the scene (for ray offsets)
         self.scale = float(np.max(np.abs(pts)) + max(radii, default=0.0))
 
@@ -169,14 +183,15 @@ class SceneGeometry:
         t = np.full(n_rays, np.inf)
         shape = np.full(n_rays, -1, dtype=np.int64)
         normal = np.zeros((n_rays, 3), dt)
+        prim = np.zeros(n_rays, np.int64)
         for a in range(0, n_rays, chunk):
             sl = slice(a, min(a + chunk, n_rays))
             self._closest(np.ascontiguousarray(o[sl]), np.ascontiguousarray(d[sl]), t_min,
-                          t[sl], shape[sl], normal[sl])
+                          t[sl], shape[sl], normal[sl], prim=prim[sl])
         hit = shape >= 0
         p = scale(d, np.where(hit, t, 0.0).astype(dt, copy=False))
         p += o
-        return Hits(t, shape, p if hit.all() else scale(p, hit), normal)
+        return Hits(t, shape, p if hit.all() else scale(p, hit), normal, prim)
 
     def distance(self, origin: np.ndarray, direction: np.ndarray, t_min: float = 0.0,
                  chunk: int = DEFAULT_RAY_CHUNK, with_shape: bool = False):
@@ -197,7 +212,7 @@ class SceneGeometry:
                           t[sl], shape[sl], normal[sl], finish=False, shapes=with_shape)
         return (t, shape) if with_shape else t
 
-    def _closest(self, o, d, t_min, t, shape, normal, finish: bool = True, shapes: bool = True):
+    def _closest(self, o, d, t_min, t, shape, normal, finish: bool = True, shapes: bool = True, prim=None):
         """Update ``t``, ``shape``, ``normal`` (views of one chunk) in place; with
         ``finish=False`` (float32 rays) the dense groups only set t and, with ``shapes``,
         the shape."""
@@ -215,30 +230,30 @@ class SceneGeometry:
                 if not index:
                     best = tg if best is None else np.minimum(best, tg)
                 elif k == 0:
-                    best, prim, group = tg, jg, np.where(tg < np.inf, 0, -1)
+                    best, j_best, group = tg, jg, np.where(tg < np.inf, 0, -1)
                 else:                                 # strict: the earlier group keeps ties
                     closer = tg < best
-                    best, prim, group = np.where(closer, tg, best), np.where(closer, jg, prim), np.where(closer, k, group)
+                    best, j_best, group = np.where(closer, tg, best), np.where(closer, jg, j_best), np.where(closer, k, group)
             if not finish:
                 t[...] = best
                 if shapes:
                     for k, g in enumerate(dense):
                         r = np.flatnonzero(group == k) if len(dense) > 1 else slice(None)
-                        shape[r] = g.shape_of(prim[r])
+                        shape[r] = g.shape_of(j_best[r])
                     shape[best == np.inf] = -1
             for k, g in enumerate(dense if finish else []):
                 r = np.flatnonzero(group == k)
                 if len(r) and o.dtype == np.float32:       # float32 rays: float32 hits
-                    g.finish32(o, d, t_min, r, prim[r], best[r], t, shape, normal)
+                    g.finish32(o, d, t_min, r, j_best[r], best[r], t, shape, normal, prim)
                 elif len(r):
-                    g.finish(o, d, t_min, r, prim[r], best[r], t, shape, normal)
+                    g.finish(o, d, t_min, r, j_best[r], best[r], t, shape, normal, prim)
         exact = [g for g in self.planar if g.bvh is not None]
         if self.quadrics is not None and not self.quadrics.use_dense:
             exact.append(self.quadrics)
-        if exact or self.disks:        # float64 decisions: float64 rays
+        if exact or self.disks or self.custom:        # float64 decisions: float64 rays
             o, d = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
         for g in exact:
-            g.closest(o, d, t_min, t, shape, normal)
+            g.closest(o, d, t_min, t, shape, normal, prim)
         for k, c, minv, n in self.disks:
             ol, dl = (o - c) @ minv.T, d @ minv.T
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -250,3 +265,13 @@ class SceneGeometry:
             t[better] = tt[better]
             shape[better] = k
             normal[better] = n
+            if prim is not None:
+                prim[better] = 0
+        for k, intersect in self.custom:
+            tt, nn = intersect(o, d, t_min)
+            better = tt < t
+            t[better] = tt[better]
+            shape[better] = k
+            normal[better] = nn[better]
+            if prim is not None:
+                prim[better] = 0

@@ -10,6 +10,7 @@ import numpy as np
 
 from .._vec import dot as _dot
 from .._vec import norm, scale
+from ..distributions.quadrics import unit_sphere_hit
 from .bvh import BVH
 from .dense import DensePlanar, closest_quadrics
 
@@ -58,7 +59,8 @@ def parallelograms(tri: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]
     """Split triangles ``(T, 3, 3)`` into parallelograms ``(corner, e1, e2)`` made of
     consecutive pairs ``(p0, p1, p2), (p0, p2, y)`` or ``(y, p0, p2)`` with ``y = p0 + p2 - p1``
     (fan-triangulated quads, also reversed), and the indices of the triangles left over.
-    Returns ``(para (Q, 4, 3): corner, e1, e2, winding normal of the first triangle), rest``."""
+    Returns ``(para (Q, 4, 3): corner, e1, e2, winding normal of the first triangle), rest,
+    first``, ``first`` the index of each parallelogram's first triangle."""
     a, b = tri[:-1], tri[1:]
     p0, p1, p2 = a[:, 0], a[:, 1], a[:, 2]
 
@@ -79,18 +81,20 @@ def parallelograms(tri: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]
     p0, p1, p2 = tri[first, 0], tri[first, 1], tri[first, 2]
     n = unit(np.cross(p1 - p0, p2 - p0))
     para = np.stack([p1, p0 - p1, p2 - p1, n], axis=1) if len(first) else np.zeros((0, 4, 3))
-    return para, np.flatnonzero(~used)
+    return para, np.flatnonzero(~used), first
 
 
 class Planar:
     """Parallelograms (``para=True``) or triangles ``v0 + s e1 + u e2`` with their
     normals and shape indices; see the module docstring for the formulas."""
 
-    def __init__(self, v0, e1, e2, normal, shape, para: bool, boxes: dict | None = None):
+    def __init__(self, v0, e1, e2, normal, shape, para: bool, boxes: dict | None = None, local=None):
         m = np.cross(e1, e2)
         m2 = np.sum(m * m, -1)
         keep = m2 > 0                                  # degenerate ones are never hit
         v0, e1, e2, m, m2 = v0[keep], e1[keep], e2[keep], m[keep], m2[keep]
+        #: each primitive's index within its shape (a mesh's triangle index)
+        self.local = (np.zeros(len(shape), np.int64) if local is None else np.asarray(local, np.int64))[keep]
         self.para = para
         self.v0, self.e1, self.e2 = v0, e1, e2
         self.normal, self.shape = normal[keep], shape[keep]
@@ -112,9 +116,10 @@ class Planar:
         """float32 ``(t, j)`` of every ray against every primitive (:mod:`.dense`)."""
         return self.kernel.closest(O, D, t_min, index)
 
-    def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
+    def finish(self, o, d, t_min, rows, j, t32, t, shape, normal, prim=None):
         """float64 plane t, shape and normal of the rays ``rows`` whose closest hit is
-        primitive ``j`` by the float32 pass (the in/out decision is that pass's)."""
+        primitive ``j`` by the float32 pass (the in/out decision is that pass's); with
+        ``prim``, the primitive's index within its shape too."""
         j = self.kernel.faces(o, d, rows, t32, j)
         q = np.take(self.packed, j, axis=0)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -124,18 +129,22 @@ class Planar:
             rows, j, tt = rows[ok], j[ok], tt[ok]
         t[rows], shape[rows] = tt, np.take(self.shape, j)
         normal[rows] = np.take(self.normal, j, axis=0)
+        if prim is not None:
+            prim[rows] = np.take(self.local, j)
 
     def shape_of(self, j: np.ndarray) -> np.ndarray:
         """Shape index of the dense pass's primitives ``j`` (box winners included)."""
         return np.take(self.shape_ext, j)
 
-    def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal):
+    def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal, prim=None):
         """``finish`` for float32 rays: the float32 pass's t and the primitive's normal."""
         j = self.kernel.faces(o, d, rows, t32, j)
         if len(rows) == len(t):                        # every ray: no scatter
             rows = slice(None)
         t[rows], shape[rows] = t32, np.take(self.shape, j)
         normal[rows] = np.take(self.normal32, j, axis=0)
+        if prim is not None:
+            prim[rows] = np.take(self.local, j)
 
     def exact(self, rays, t_min, i, j):
         """Exact t (inf on a miss) of the pairs ``(i, j)``; ``rays = [o, d]`` ``(N, 6)``."""
@@ -153,14 +162,16 @@ class Planar:
         ok &= np.isfinite(t)
         return np.where(ok, t, np.inf)
 
-    def closest(self, o, d, t_min, t, shape, normal):
-        """Update the closest hits ``t, shape, normal`` of a block of rays in place (BVH)."""
+    def closest(self, o, d, t_min, t, shape, normal, prim=None):
+        """Update the closest hits ``t, shape, normal`` (and ``prim``) of a block of rays in
+        place (BVH)."""
         rays = np.concatenate([o, d], axis=1)
 
         def test(i, j):
             return self.exact(rays, t_min, i, j)
         i, j, tt = self.bvh.closest(o, d, t_min, t, test)
-        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], lambda w: self.normal[j[w]])
+        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], lambda w: self.normal[j[w]],
+                prim, lambda w: self.local[j[w]])
 
 
 class Quadrics:
@@ -205,18 +216,20 @@ class Quadrics:
         n = x[:, 0:1] * minv[:, 0] + x[:, 1:2] * minv[:, 1] + x[:, 2:3] * minv[:, 2]   # M^-T x
         return self.sign[j, None] * unit(n)
 
-    def _fold(self, o, d, t_min, i, j, tt, t, shape, normal):
+    def _fold(self, o, d, t_min, i, j, tt, t, shape, normal, prim=None):
         def nrm(w):
             return self._normal(*self._local(o, d, i[w], j[w]), j[w], tt[w])
-        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], nrm)
+        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], nrm, prim, lambda w: 0)
 
     def dense(self, O: np.ndarray, D: np.ndarray, t_min: float, index: bool = True):
         """float32 ``(t, j)`` of every ray against every quadric (:mod:`.dense`)."""
         return closest_quadrics(self.c32, self.minv32, self.r2_32, O[:3], D, t_min, index)
 
-    def finish(self, o, d, t_min, rows, j, t32, t, shape, normal):
+    def finish(self, o, d, t_min, rows, j, t32, t, shape, normal, prim=None):
         """float64 t (stable roots; the float32 t where a grazing ray misses in float64),
-        shape and normal of the rays ``rows`` whose closest hit is quadric ``j``."""
+        shape and normal of the rays ``rows`` whose closest hit is quadric ``j`` (``prim``: 0)."""
+        if prim is not None:
+            prim[rows] = 0
         if self.radius is not None:
             return self._finish_spheres(o, d, t_min, rows, j, t, shape, normal)
         ol, dl, minv = self._local(o, d, rows, j)
@@ -231,9 +244,11 @@ class Quadrics:
         """Shape index of the dense pass's quadrics ``j``."""
         return np.take(self.shape, j)
 
-    def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal):
+    def finish32(self, o, d, t_min, rows, j, t32, t, shape, normal, prim=None):
         """``finish`` for float32 rays: spheres keep the float32 pass's t, normal = sign
         (o + t d - c) / r in float32; ellipsoids take the float64 ``finish``."""
+        if prim is not None:
+            prim[rows] = 0
         if self.radius is None:
             return self.finish(o, d, t_min, rows, j, t32, t, shape, normal)
         x = np.take(o, rows, axis=0)
@@ -260,7 +275,7 @@ class Quadrics:
         oc += scale(dd, tt)
         t[rows], shape[rows], normal[rows] = tt, np.take(self.shape, j), scale(oc, np.take(self.sign, j) / r)
 
-    def closest(self, o, d, t_min, t, shape, normal):
+    def closest(self, o, d, t_min, t, shape, normal, prim=None):
         """Update the closest hits of a block of rays in place."""
         a, oo = _dot(d, d), _dot(o, o)
         tol = -_TOL_DISC * a * (np.sqrt(oo) + self.cmax) ** 2
@@ -281,7 +296,7 @@ class Quadrics:
             jj.append(j + sl.start)
         i, j = _pairs(ii, jj)
         tt = unit_sphere_hit(*self._local(o, d, i, j)[:2], t_min)
-        self._fold(o, d, t_min, i, j, tt, t, shape, normal)
+        self._fold(o, d, t_min, i, j, tt, t, shape, normal, prim)
 
 
 def _blocks(n_rays: int, n_prims: int, elems: int):
@@ -315,7 +330,8 @@ def _firsts(i: np.ndarray) -> np.ndarray:
     return f
 
 
-def _update(t, shape, normal, i, tt, shape_of: Callable, normal_of: Callable) -> None:
+def _update(t, shape, normal, i, tt, shape_of: Callable, normal_of: Callable, prim=None,
+            prim_of: Callable | None = None) -> None:
     """Fold pair hits ``(ray i, t tt)`` (``i`` ascending) into the closest hits; a tie
     keeps the earlier hit (the first pair, or the hit already stored)."""
     w = np.flatnonzero(tt < t[i])
@@ -330,20 +346,5 @@ def _update(t, shape, normal, i, tt, shape_of: Callable, normal_of: Callable) ->
     t[rows] = tw[win]
     shape[rows] = shape_of(w[win])
     normal[rows] = normal_of(w[win])
-
-
-def unit_sphere_hit(o: np.ndarray, d: np.ndarray, t_min: float) -> np.ndarray:
-    """Smallest t > t_min with |o + t d| = 1, inf if none (stable quadratic roots)."""
-    a = _dot(d, d)
-    b = _dot(o, d)
-    c = _dot(o, o) - 1.0
-    disc = b * b - a * c
-    hit = disc >= 0.0
-    sq = np.sqrt(np.where(hit, disc, 0.0))
-    q = -(b + np.where(b >= 0.0, sq, -sq))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t1 = q / a
-        t2 = np.where(q != 0.0, c / np.where(q != 0.0, q, 1.0), t1)
-    lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
-    t = np.where(lo > t_min, lo, np.where(hi > t_min, hi, np.inf))
-    return np.where(hit & np.isfinite(t), t, np.inf)
+    if prim is not None:
+        prim[rows] = prim_of(w[win])

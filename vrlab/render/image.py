@@ -12,7 +12,14 @@
   (IEC 61966-2-1: 12.92 v for v <= 0.0031308, else 1.055 v^(1/2.4) - 0.055), rounded to
   8 bits (round(255 v));
   NaN or infinite pixels are an error (they have no colour).
-* ``.exr``: through the ``OpenEXR`` package when it is installed (not a dependency).
+* ``.exr``: through the ``OpenEXR`` package, as Mitsuba 3 writes and reads it (src/core/
+  bitmap.cpp): :func:`save_image` writes float32 channels ``R``, ``G``, ``B`` (ZIP
+  compression); :func:`load_image` reads ``R``, ``G``, ``B`` (``A`` and other channels
+  ignored) or a grey ``Y`` (repeated into the three channels), half or float, with the
+  values of ``mi.Bitmap(path)``.
+* :func:`read_bitmap` reads a texture file the way Mitsuba 3's ``Bitmap`` does (PNG,
+  JPEG, BMP, TGA through Pillow, 16-bit PNG decoded here, EXR), and
+  :func:`srgb_decode` is the sRGB transfer curve's inverse.
 * ``rel_mse(img, ref) = mean((img - ref)^2 / (ref^2 + 0.01))`` (relative MSE as used in
   rendering papers, e.g. Rousselle et al. 2011).
 
@@ -28,13 +35,14 @@ defaults to ``--exposure auto`` and reports the exposure it used.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from .. import checks
 
-__all__ = ["auto_exposure", "load_image", "rel_mse", "save_image", "srgb_encode"]
+__all__ = ["BITMAP_SUFFIXES", "Bitmap", "auto_exposure", "load_image", "read_bitmap", "rel_mse", "save_image",
+           "srgb_decode", "srgb_encode"]
 
 SUFFIXES = (".npy", ".png", ".exr")
 
@@ -133,24 +141,164 @@ def save_image(path: str | Path, img: np.ndarray, exposure: float | str = 1.0) -
 
 
 def load_image(path: str | Path, name: str = "path") -> np.ndarray:
-    """A linear (H, W, 3) float image from ``.npy`` (or ``.exr`` with ``OpenEXR``), e.g. a
-    reference for :func:`rel_mse`.  ``ValueError`` naming ``name`` if the file is missing,
-    unreadable, not (H, W, 3) or not finite."""
+    """A linear (H, W, 3) float image from ``.npy`` or ``.exr`` (channels R, G, B, or a grey
+    Y repeated three times; see the module docstring), e.g. a reference for
+    :func:`rel_mse`.  ``ValueError`` naming ``name`` if the file is missing, unreadable,
+    not (H, W, 3) or not finite."""
     p = checks.file_path(path, name, SUFFIXES, write=False)
     if p.suffix.lower() == ".png":
         raise ValueError(f"{name}: a .png is tone mapped; load a linear .npy or .exr image")
     if not p.is_file():
         raise ValueError(f"{name}: no such file {str(p)!r}")
-    try:
-        if p.suffix.lower() == ".npy":
+    if p.suffix.lower() == ".npy":
+        try:
             data = np.load(p, allow_pickle=False)
-        else:
-            import OpenEXR  # type: ignore[import-not-found]
+        except Exception as exc:  # noqa: BLE001 - any unreadable file
+            raise ValueError(f"{name}: cannot read image {str(p)!r}: {exc}") from None
+    else:
+        data, channels, _ = _read_exr(p, name)
+        data = data[..., :3] if channels.startswith("RGB") else np.repeat(data[..., :1], 3, axis=-1)
+    return _image(data, name, True)
 
-            with OpenEXR.File(str(p)) as f:
-                data = f.channels()["RGB"].pixels
-    except ImportError:
-        raise ValueError(f"{name}: reading .exr needs the OpenEXR package (pip install OpenEXR)") from None
+
+# -- texture files (Mitsuba 3's Bitmap reader, src/core/bitmap.cpp) ---------------------------
+
+BITMAP_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tga", ".exr")
+
+
+class Bitmap(NamedTuple):
+    """A texture file's pixels as Mitsuba 3's ``Bitmap`` holds them (rows top to bottom).
+
+    ``data``: ``(H, W, C)`` float64; integer formats are normalised, value / (2^bits - 1),
+    and not yet decoded from sRGB; EXR values as stored.  ``channels``: ``"Y"``, ``"YA"``,
+    ``"RGB"`` or ``"RGBA"`` (C = 1, 2, 3, 4; alpha straight, not premultiplied, as PNG
+    stores it).  ``srgb``: whether the values are sRGB-encoded (Mitsuba 3 treats every PNG,
+    JPEG, BMP and TGA so, whatever gAMA/iCCP chunks say; EXR is linear).  ``bits``: 8 or
+    16 (integers), 16 (half) or 32 (float) for EXR.
+    """
+
+    data: np.ndarray
+    channels: str
+    srgb: bool
+    bits: int
+
+
+def srgb_decode(encoded: Any) -> np.ndarray:
+    """The inverse sRGB transfer curve (IEC 61966-2-1), as Mitsuba 3 decodes 8/16-bit
+    images: v / 12.92 for v <= 0.04045, else ((v + 0.055) / 1.055)^2.4."""
+    v = np.asarray(encoded, dtype=float)
+    return np.where(v <= 0.04045, v / 12.92, np.power((np.maximum(v, 0.04045) + 0.055) / 1.055, 2.4))
+
+
+def read_bitmap(path: str | Path, name: str = "filename") -> Bitmap:
+    """The pixels of a texture file (:class:`Bitmap`), read as Mitsuba 3 does: PNG (1 to 16
+    bits; palette expanded to RGB, a tRNS key to alpha), JPEG, BMP and TGA through Pillow,
+    16-bit PNG decoded here (Pillow keeps 8 of the 16 bits of colour PNGs), EXR through
+    ``OpenEXR`` (channels R, G, B [A] or Y [A]).  ``ValueError`` naming ``name`` for a
+    missing file, another suffix, or a pixel layout Mitsuba refuses (CMYK, ...)."""
+    p = checks.file_path(path, name, BITMAP_SUFFIXES, write=False)
+    if not p.is_file():
+        raise ValueError(f"{name}: no such file {str(p)!r}")
+    if p.suffix.lower() == ".exr":
+        data, channels, bits = _read_exr(p, name)
+        return Bitmap(data.astype(float), channels, False, bits)
+    with open(p, "rb") as fh:
+        head = fh.read(33)
+    if head[:8] == b"\x89PNG\r\n\x1a\n" and len(head) == 33 and head[24] == 16:
+        data, channels = _read_png16(p, name)
+        return Bitmap(data / 65535.0, channels, True, 16)
+    from PIL import Image
+
+    try:
+        with Image.open(p) as im:
+            im.load()
+            mode = im.mode
+            if mode in ("1", "P", "PA"):
+                im = im.convert("L" if mode == "1" else "RGB")
+                mode = im.mode
+            layout = {"L": "Y", "LA": "YA", "RGB": "RGB", "RGBA": "RGBA"}.get(mode)
+            if layout is None:
+                raise ValueError(f"{name}: {str(p)!r} has pixel mode {mode!r}; supported: grey, grey + alpha, "
+                                 "RGB, RGBA, palette (8 bits per channel) or 16-bit PNG")
+            data = np.asarray(im, dtype=np.uint8)
+    except ValueError:
+        raise
     except Exception as exc:  # noqa: BLE001 - any unreadable file
         raise ValueError(f"{name}: cannot read image {str(p)!r}: {exc}") from None
-    return _image(data, name, True)
+    data = data.reshape(data.shape[0], data.shape[1], len(layout))
+    return Bitmap(data / 255.0, layout, True, 8)
+
+
+def _read_exr(p: Path, name: str) -> tuple[np.ndarray, str, int]:
+    """``(data (H, W, C) float32, channels, bits)`` of an EXR file's first part: channels
+    R, G, B (and A), else Y (and A), as Mitsuba 3's Bitmap picks them."""
+    try:
+        import OpenEXR  # type: ignore[import-not-found]
+    except ImportError:
+        raise ValueError(f"{name}: reading .exr needs the OpenEXR package (pip install OpenEXR)") from None
+    try:
+        with OpenEXR.File(str(p), separate_channels=True) as f:
+            found = {k: np.asarray(v.pixels) for k, v in f.channels().items()}
+    except Exception as exc:  # noqa: BLE001 - any unreadable file
+        raise ValueError(f"{name}: cannot read image {str(p)!r}: {exc}") from None
+    for layout in ("RGBA", "RGB", "YA", "Y"):
+        keys = list(layout)                                     # one-letter channel names
+        if all(k in found for k in keys) and not ({"RY", "BY"} & set(found)):
+            planes = [found[k] for k in keys]
+            if any(a.shape != planes[0].shape or a.ndim != 2 for a in planes):
+                raise ValueError(f"{name}: the channels {', '.join(keys)} of {str(p)!r} differ in size "
+                                 "(subsampled channels are not supported)")
+            bits = 16 if all(a.dtype == np.float16 for a in planes) else 32
+            return np.stack(planes, axis=-1).astype(np.float32), layout, bits
+    raise ValueError(f"{name}: {str(p)!r} has the channels {', '.join(sorted(found)) or 'none'}; "
+                     "expected R, G, B (and A) or Y (and A)")
+
+
+_PNG_CHANNELS = {0: "Y", 2: "RGB", 4: "YA", 6: "RGBA"}
+
+
+def _read_png16(p: Path, name: str) -> tuple[np.ndarray, str]:
+    """``(data (H, W, C) uint16, channels)`` of a non-interlaced 16-bit PNG (ISO/IEC 15948:
+    zlib stream of IDAT chunks, one filter byte per row).  The row filters are undone on
+    anti-diagonals of pixels (each pixel needs its left, upper and upper-left neighbours
+    only), so the loop runs over H + W - 1 diagonals, each step vectorised."""
+    import struct
+    import zlib
+
+    raw = p.read_bytes()
+    width, height, _, color, _, _, interlace = struct.unpack(">IIBBBBB", raw[16:29])
+    if color not in _PNG_CHANNELS or interlace != 0:
+        raise ValueError(f"{name}: {str(p)!r} is a {'interlaced ' if interlace else ''}16-bit PNG of colour "
+                         f"type {color}; supported 16-bit PNG: non-interlaced grey, grey + alpha, RGB, RGBA")
+    channels = _PNG_CHANNELS[color]
+    bpp = 2 * len(channels)
+    idat, pos = [], 8
+    while pos + 8 <= len(raw):
+        length, kind = struct.unpack(">I4s", raw[pos:pos + 8])
+        if kind == b"IDAT":
+            idat.append(raw[pos + 8:pos + 8 + length])
+        elif kind == b"IEND":
+            break
+        pos += 12 + length
+    try:
+        rows = np.frombuffer(zlib.decompress(b"".join(idat)), np.uint8)
+        rows = rows[:height * (1 + width * bpp)].reshape(height, 1 + width * bpp)
+    except (zlib.error, ValueError) as exc:
+        raise ValueError(f"{name}: cannot read image {str(p)!r}: corrupt PNG data ({exc})") from None
+    kinds = rows[:, 0].astype(np.int64)
+    if kinds.max(initial=0) > 4:
+        raise ValueError(f"{name}: cannot read image {str(p)!r}: unknown PNG row filter {kinds.max()}")
+    filt = rows[:, 1:].reshape(height, width, bpp).astype(np.int64)
+    out = np.zeros((height + 1, width + 1, bpp), np.int64)     # a zero row above and column left
+    for k in range(height + width - 1):
+        r = np.arange(max(0, k - width + 1), min(height, k + 1))
+        x = k - r
+        a, b, c = out[r + 1, x], out[r, x + 1], out[r, x]      # left, up, up-left
+        t = kinds[r, None]
+        est = a + b - c                                         # Paeth predictor
+        pa, pb, pc = np.abs(est - a), np.abs(est - b), np.abs(est - c)
+        paeth = np.where((pa <= pb) & (pa <= pc), a, np.where(pb <= pc, b, c))
+        pred = np.select([t == 1, t == 2, t == 3, t == 4], [a, b, (a + b) // 2, paeth], 0)
+        out[r + 1, x + 1] = (filt[r, x] + pred) & 255
+    pix = out[1:, 1:].reshape(height, width, len(channels), 2)
+    return (pix[..., 0] * 256 + pix[..., 1]).astype(np.uint16), channels

@@ -1,22 +1,19 @@
 """The emitters of a scene as direction samplers from shading points.
 
 * :class:`Light`: one emitting shape.  Spheres are sampled by the cone they subtend
-  (``SphereCone``), rectangles, cubes, disks and ellipsoids by area, converted to solid
-  angle over every hit (``SolidAngleFromArea``: p_w = sum_k p_A d_k^2 / |cos theta_k|).
+  (``SphereCone``), other shapes by area (their ``surface()`` distribution), converted
+  to solid angle over every hit (``SolidAngleFromArea``: p_w = sum_k p_A d_k^2 /
+  |cos theta_k|).
 * :class:`LightSet`: all lights plus the light-selection table (uniform, or by power =
   mean radiance x area through an ``AliasTable``).  When every emitter is black, power
   selection has nothing to weigh: it falls back to uniform selection and the lights
   contribute zero, as they do under any selection (a black image, as in Mitsuba).  ``sample`` draws (light j, direction)
   pairs with density P_j p_j(w); all sphere lights are sampled in one batched call, so
   scenes with hundreds of spheres cost no Python loop per light.
-* ``LightSet.cos_integral``: the closed-form unoccluded integral of cos(theta) over the
-  directions that reach a light, for control variates: Lambert's polygon formula for
-  rectangles, I = 1/2 |sum_k theta_k n . unit(v_k x v_k+1)| (Lambert 1760; Arvo 1995,
-  "Applications of irradiance tensors"), and I = pi (r/d)^2 cos(theta_c) for a sphere
-  that lies wholly above the horizon (the cone of a sphere is a disk light of solid
-  angle pi sin^2 alpha seen at cos theta_c).  Where no closed form applies (the light
-  crosses the horizon, the point is behind a one-sided light, other shapes) ``valid``
-  is False.
+* ``LightSet.cos_integrals``: the closed-form unoccluded integral of cos(theta) over
+  the directions that reach each light, for control variates (each shape's
+  ``cos_integral``: Lambert's polygon formula for rectangles, the cone of a sphere).
+  Where no closed form applies ``valid`` is False.
 """
 from __future__ import annotations
 
@@ -24,18 +21,13 @@ import numpy as np
 
 from .. import checks
 from .._vec import dot, norm
-from ..distributions import (
-    AliasTable,
-    BoxSurface,
-    EllipsoidSurface,
-    RectangleSurface,
-    SphereCone,
-)
+from ..distributions import AliasTable, SphereCone
 from ..distributions.base import uniforms32
 from ..distributions.surfaces import Surface
-from .scene import Shape
+from .shapes import Shape
+from .shapes.sphere import sphere_cos_integral
 
-__all__ = ["DiskSurface", "Light", "LightSet", "luminance"]
+__all__ = ["Light", "LightSet", "luminance"]
 
 LIGHT_SELECTIONS = ("uniform", "power")
 _LUMA = np.array([0.2126, 0.7152, 0.0722])   # Rec. 709 luminance weights
@@ -46,88 +38,36 @@ def luminance(rgb: np.ndarray) -> np.ndarray:
     return np.asarray(rgb, float) @ _LUMA
 
 
-def _sphere_cos_integral(center, radius, ref, n) -> tuple[np.ndarray, np.ndarray]:
-    """``(I, valid)``: I = pi (r/d)^2 cos(theta_c) = int cos dw over a sphere's cone where
-    the whole sphere is above the horizon of (``ref``, ``n``); broadcasts."""
-    v = center - ref
-    d = norm(v)
-    h = dot(v, n)
-    valid = (d > radius) & (h >= radius)
-    safe = np.where(valid, d, 1.0)
-    return np.where(valid, np.pi * (radius / safe) ** 2 * h / safe, 0.0), valid
-
-
-class DiskSurface(Surface):
-    """Uniform points on the disk c + M (x, y, 0), x^2 + y^2 <= 1 (affine maps keep uniformity)."""
-
-    max_hits = 1
-
-    def __init__(self, shape: Shape):
-        self.center, self.a1, self.a2, self.unit_normal = shape.disk()
-        self.minv = np.linalg.inv(shape.to_world[:3, :3])
-        self.area = float(np.pi * np.linalg.norm(np.cross(self.a1, self.a2)))
-
-    def bounding_sphere(self):
-        return self.center, float(max(np.linalg.norm(self.a1), np.linalg.norm(self.a2)))
-
-    def sample(self, u):
-        r, phi = np.sqrt(u[..., 0:1]), 2 * np.pi * u[..., 1:2]
-        return self.center + r * np.cos(phi) * self.a1 + r * np.sin(phi) * self.a2
-
-    def pdf(self, x):
-        return np.full(np.shape(x)[:-1], 1.0 / self.area)
-
-    def normal(self, x):
-        return np.broadcast_to(self.unit_normal, np.shape(x)).copy()
-
-    def intersect(self, origin, direction, t_min=None):
-        o, d = self._rays(origin, direction)
-        ol, dl = (o - self.center) @ self.minv.T, d @ self.minv.T
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = -ol[..., 2] / dl[..., 2]
-        ok = np.isfinite(t) & (t > self._t_min(t_min))
-        x = ol[..., :2] + np.where(ok, t, 0.0)[..., None] * dl[..., :2]
-        ok &= np.sum(x * x, -1) <= 1.0
-        return np.where(ok, t, np.inf)[..., None]
-
-
 class Light:
-    """An emitting shape as a direction sampler from reference points."""
+    """An emitting shape as a direction sampler from reference points: spheres by their cone,
+    other shapes by their area-sampling surface (``shape.surface()``) converted to solid
+    angle.  A shape without a surface distribution cannot be sampled (ValueError)."""
 
     def __init__(self, shape: Shape):
         self.radiance = np.asarray(shape.emitter.radiance, float)
-        self.type = shape.type
-        self.sphere = None
-        self.planar = shape.type in ("rectangle", "disk")   # one hit per direction: facing is a function of w
+        self.shape = shape
+        self.type = shape.plugin_name
+        self.sphere = shape.sphere_light
         self.sign = -1.0 if shape.flip_normals else 1.0
-        self.corners = None
         self.surface32 = None           # a float32 copy for float32 reference points (rectangles)
-        if shape.type == "sphere":
-            self.sphere = shape.sphere()
+        self.planar = False
+        if self.sphere is not None:
             self.area = 4 * np.pi * self.sphere[1] ** 2
             return
-        if shape.type == "rectangle":
-            self.surface = RectangleSurface.from_matrix(shape.to_world, shape.flip_normals)
-            self.surface32 = RectangleSurface(*(np.float32(a) for a in (self.surface.corner, self.surface.edge1,
-                                                                       self.surface.edge2)))
-            c, e1, e2, _ = shape.rectangle()
-            self.corners = np.array([c, c + e1, c + e1 + e2, c + e2])
-        elif shape.type == "cube":
-            self.surface = BoxSurface.from_matrix(shape.to_world)
-        elif shape.type == "ellipsoid":
-            self.surface = EllipsoidSurface.from_matrix(shape.to_world)
-        elif shape.type == "disk":
-            self.surface = DiskSurface(shape)
-        else:
-            raise ValueError(f"light sampling of {shape.type!r} emitters is not supported; use "
+        self.surface = shape.surface()
+        if self.surface is None:
+            raise ValueError(f"light sampling of {shape.plugin_name!r} emitters is not supported; use "
                              "strategy 'cosine' or 'bsdf', or rectangle/cube/disk/sphere/ellipsoid lights")
+        self.surface32 = shape.surface32()
+        # one hit per direction: whether the light faces the point is a function of w
+        self.planar = getattr(self.surface, "max_hits", 2) == 1
         self.area = self.surface.area
 
     def sample(self, ref: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
         """``(w, pdf, front, y)``: directions ``(m, 3)`` from ``ref (m, 3)``, their solid-angle
         pdf ``(m,)``, whether the light emits towards ``ref`` there and ``y``, the light's
-        first point along w (for spheres, rectangles and disks; NaN for cubes and
-        ellipsoids, where the sampled point may lie behind the first one)."""
+        first point along w (for spheres and planar lights; NaN for closed shapes, where
+        the sampled point may lie behind the first one)."""
         if self.sphere is not None:
             cone = SphereCone(self.sphere[0], self.sphere[1], ref)
             s = cone.sample_point(u)
@@ -158,23 +98,7 @@ class Light:
     def cos_integral(self, ref: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(I, valid)``: I = int cos(theta) dw over the directions from ``ref`` (normal
         ``n``) that reach this light, without occlusion, where a closed form applies."""
-        m = len(ref)
-        if self.sphere is not None:
-            return _sphere_cos_integral(self.sphere[0], self.sphere[1], ref, n)
-        if self.corners is None:
-            return np.zeros(m), np.zeros(m, bool)
-        v = self.corners[None] - ref[:, None]                # (m, 4, 3)
-        above = np.all(np.einsum("mkc,mc->mk", v, n) > 0, -1)
-        nl = self.surface.normal(self.corners[:1])[0]
-        front = np.sum((ref - self.corners[0]) * nl, -1) > 0
-        valid = above & front
-        v = v / np.linalg.norm(v, axis=-1, keepdims=True)
-        w = np.roll(v, -1, axis=1)
-        theta = np.arccos(np.clip(np.sum(v * w, -1), -1.0, 1.0))
-        c = np.cross(v, w)
-        c /= np.maximum(np.linalg.norm(c, axis=-1, keepdims=True), 1e-300)
-        integral = 0.5 * np.abs(np.sum(theta * np.einsum("mkc,mc->mk", c, n), -1))
-        return np.where(valid, integral, 0.0), valid
+        return self.shape.cos_integral(ref, n)
 
 
 def _rows_by_light(j: np.ndarray, which: np.ndarray):
@@ -289,7 +213,7 @@ class LightSet:
         out, valid = np.zeros((m, L)), np.zeros((m, L), bool)
         s = np.flatnonzero(self.is_sphere)
         if len(s):                                       # (m, S) at once
-            out[:, s], valid[:, s] = _sphere_cos_integral(self.centers[s], self.radii[s], ref[:, None], n[:, None])
+            out[:, s], valid[:, s] = sphere_cos_integral(self.centers[s], self.radii[s], ref[:, None], n[:, None])
         for i in np.flatnonzero(~self.is_sphere):
             out[:, i], valid[:, i] = self.lights[i].cos_integral(ref, n)
         return out, valid

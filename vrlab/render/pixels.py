@@ -91,11 +91,13 @@ class PixelIntegrand:
     def label(self) -> str:
         return self.estimator.label
 
-    def shading(self, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray) -> ShadingIntegrand:
-        """The shading integrand at points ``p`` (normals ``n``, towards ``wo``) of BSDF group ``group``."""
+    def shading(self, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
+                ns: np.ndarray | None = None) -> ShadingIntegrand:
+        """The shading integrand at points ``p`` (geometric normals ``n``, shading normals ``ns``,
+        towards ``wo``) of BSDF group ``group``."""
         if not self.lighting.bsdfs:
             raise ValueError("scene: it has no shapes to shade")
-        return ShadingIntegrand(self.lighting, group, p, n, wo)
+        return ShadingIntegrand(self.lighting, group, p, n, wo, ns)
 
     def outputs(self, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Unit outputs ``(3, P, S, c)`` of S samples in each of P pixels ``(P, 2)`` = (row,
@@ -111,21 +113,29 @@ class PixelIntegrand:
         o, d = o.reshape(-1, 3), d.reshape(-1, 3)
         hits = lit.geometry.intersect(o, d)
         le = lit.emitted(hits, d)
+        if lit.hide_emitters:
+            le[...] = 0.0
         shape = np.maximum(hits.shape, 0)
         group = np.where((hits.shape >= 0) & lit.shaded[shape], lit.group_of_shape[shape], -1)
         counts = np.bincount(group + 1, minlength=len(lit.bsdfs) + 1)[1:]
         u2 = u.reshape(P * S, self.dim)
         ue = u2[:, 2:]                                   # a view (whole rows are gathered below: 5x faster)
         out = None
+        n_shading = lit.shading_normals(hits)                           # None: the geometric ones
         for g in np.flatnonzero(counts):
+            ns = None
             if counts[g] == len(o):                                       # one group everywhere: no gathers
                 rows, p, n, wo, ug = slice(None), hits.p, hits.n, -d, ue
+                if n_shading is not None:
+                    ns = n_shading
             else:
                 rows = np.flatnonzero(group == g)
                 p, n, wo, ug = (np.take(a, rows, axis=0) for a in (hits.p, hits.n, d, u2))
                 ug = ug[:, 2:]
                 wo = np.negative(wo, out=wo)
-            sh = self.shading(g, p, n, wo)
+                if n_shading is not None:
+                    ns = np.take(n_shading, rows, axis=0)
+            sh = self.shading(g, p, n, wo, ns)
             ug = ug.reshape(len(ug), self.units, self.unit_dim)
             vals = np.asarray(self.estimator.unit_outputs(sh, ug))
             vals = np.broadcast_to(vals, (3,) + vals.shape[-3:])

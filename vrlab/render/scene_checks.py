@@ -1,10 +1,10 @@
-"""Checks of the scene objects (:mod:`vrlab.render.scene`): ranges the renderer supports.
+"""Ranges the renderer supports, and the checks the scene elements share.
 
-Every ``Sensor``, ``Integrator``, ``BSDF``, ``AreaEmitter``, ``Shape`` and ``Scene`` runs
-these in its constructor (and ``Scene.validate()`` runs them again, as ``render`` does
-once per call, after fields were changed in place).  Errors are ``TypeError`` (wrong
-kind) or ``ValueError`` (bad value) whose message starts with the field's name; the XML
-loader turns them into a :class:`~vrlab.render.SceneError` naming the element.
+Every element (:mod:`vrlab.render.registry`) checks its parameters in its constructor with
+these (and ``Scene.validate()`` runs the checks again, as ``render`` does once per call,
+after fields were changed in place).  Errors are ``TypeError`` (wrong kind) or
+``ValueError`` (bad value) whose message starts with the field's name; the XML loader
+turns them into a :class:`~vrlab.render.SceneError` naming the element.
 
 Limits (the renderer intersects and shades in float32, see :mod:`vrlab.render.direct`):
 
@@ -34,13 +34,6 @@ MAX_EXPONENT = 1e6
 MAX_SIDE = 65536
 MAX_PIXELS = 1 << 26
 MAX_SAMPLES = 4096            # emitter_samples, bsdf_samples (and render's ris_candidates)
-SHAPE_TYPES = ("rectangle", "cube", "sphere", "disk", "obj", "ellipsoid")
-BSDF_TYPES = ("diffuse", "roughconductor", "phong")
-FOV_AXES = ("x", "y", "diagonal", "smaller", "larger")
-DISTRIBUTIONS = ("beckmann", "ggx")
-BSDF_PARAMS = {"diffuse": ("reflectance",),
-               "phong": ("diffuse_reflectance", "specular_reflectance", "exponent"),
-               "roughconductor": ("distribution", "alpha", "sample_visible")}
 
 
 def rgb(value: Any, name: str) -> np.ndarray:
@@ -91,132 +84,3 @@ def rigid(m: np.ndarray, name: str) -> None:
         raise ValueError(f"{name}: the sensor to_world must be a rigid motion (no scale, shear or "
                          "projection), as in Mitsuba; supported: translate, rotate, lookat, "
                          "orthonormal matrix")
-
-
-def _type(value: Any, cls: type, name: str) -> None:
-    if not isinstance(value, cls):
-        raise TypeError(f"{name} must be a {cls.__name__}, got {checks.describe(value)}")
-
-
-def check_integrator(it) -> None:
-    checks.choice(it.type, "type", ("direct",))
-    it.emitter_samples = checks.integer(it.emitter_samples, "emitter_samples", low=0, high=MAX_SAMPLES)
-    it.bsdf_samples = checks.integer(it.bsdf_samples, "bsdf_samples", low=0, high=MAX_SAMPLES)
-    if it.emitter_samples + it.bsdf_samples == 0:
-        raise ValueError("emitter_samples and bsdf_samples are both 0; at least one must be >= 1")
-
-
-def check_sensor(s) -> None:
-    s.fov = checks.real(s.fov, "fov", low=0, high=180, low_open=True, high_open=True)
-    s.fov_axis = checks.choice(s.fov_axis, "fov_axis", FOV_AXES)
-    s.to_world = matrix4(s.to_world, "to_world")
-    rigid(s.to_world, "to_world")
-    s.width = checks.integer(s.width, "width", low=1, high=MAX_SIDE)
-    s.height = checks.integer(s.height, "height", low=1, high=MAX_SIDE)
-    if s.width * s.height > MAX_PIXELS:
-        raise ValueError(f"width x height = {s.width} x {s.height} exceeds {MAX_PIXELS} pixels "
-                         "(e.g. 8192 x 8192)")
-    s.spp = checks.integer(s.spp, "spp", low=1)
-    s.rfilter = checks.choice(s.rfilter, "rfilter", ("box",))
-    fx = s.fov_x
-    if not 0 < fx < 180:                 # only by rounding, with a very wide image
-        raise ValueError(f"fov: the horizontal field of view {fx:g} must be in (0, 180)")
-
-
-def check_bsdf(b) -> None:
-    checks.choice(b.type, "type", BSDF_TYPES)
-    b.twosided = checks.flag(b.twosided, "twosided")
-    if not isinstance(b.params, dict):
-        raise TypeError(f"params must be a dict, got {checks.describe(b.params)}")
-    allowed = BSDF_PARAMS[b.type]
-    extra = sorted(set(b.params) - set(allowed))
-    if extra:
-        raise ValueError(f"params: unknown key(s) {', '.join(map(repr, extra))} for a {b.type!r} "
-                         f"BSDF; allowed: {', '.join(allowed)}")
-    p = dict(b.params)
-    if b.type == "diffuse":
-        p["reflectance"] = rgb(p.get("reflectance", 0.5), "reflectance")
-    elif b.type == "phong":
-        p["diffuse_reflectance"] = rgb(p.get("diffuse_reflectance", 0.5), "diffuse_reflectance")
-        p["specular_reflectance"] = rgb(p.get("specular_reflectance", 0.2), "specular_reflectance")
-        p["exponent"] = checks.real(p.get("exponent", 30.0), "exponent", low=0, high=MAX_EXPONENT)
-    else:
-        p["distribution"] = checks.choice(p.get("distribution", "beckmann"), "distribution", DISTRIBUTIONS)
-        p["alpha"] = checks.real(p.get("alpha", 0.1), "alpha", low=0, high=MAX_ALPHA, low_open=True)
-        if checks.flag(p.get("sample_visible", False), "sample_visible"):
-            raise ValueError("sample_visible=True is not supported (vrlab samples the full NDF)")
-        p["sample_visible"] = False
-    b.params = p
-
-
-def check_emitter(e) -> None:
-    e.radiance = rgb(e.radiance, "radiance")
-
-
-def check_shape(sh) -> None:
-    from .scene import BSDF, AreaEmitter
-
-    checks.choice(sh.type, "type", SHAPE_TYPES)
-    sh.to_world = matrix4(sh.to_world, "to_world")
-    affine(sh.to_world, "to_world")
-    if sh.type == "sphere":
-        g = sh.to_world[:3, :3].T @ sh.to_world[:3, :3]
-        if np.abs(g - g[0, 0] * np.eye(3)).max() > 1e-6 * g[0, 0]:
-            raise ValueError("to_world of a sphere must be a similarity (no non-uniform scale or "
-                             "shear); use the vrlab 'ellipsoid' shape")
-    _type(sh.bsdf, BSDF, "bsdf")
-    if sh.emitter is not None:
-        _type(sh.emitter, AreaEmitter, "emitter")
-    sh.flip_normals = checks.flag(sh.flip_normals, "flip_normals")
-    if not isinstance(sh.params, dict):
-        raise TypeError(f"params must be a dict, got {checks.describe(sh.params)}")
-    if sh.type == "obj":
-        sh.params = dict(sh.params)
-        sh.params["vertices"], sh.params["faces"] = mesh(sh.params.get("vertices"), sh.params.get("faces"))
-        world = np.abs(sh.to_world[:3, :3] @ sh.params["vertices"].T + sh.to_world[:3, 3:]).max()
-        if world > MAX_COORD:
-            raise ValueError(f"vertices: world coordinates must lie within +-{MAX_COORD:g}, got {world:g}")
-
-
-def mesh(vertices: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
-    """``(vertices (V, 3) float, faces (T, 3) int)`` of a triangle mesh, checked."""
-    if vertices is None or faces is None:
-        raise ValueError("params: an 'obj' shape needs params 'vertices' (V, 3) and 'faces' (T, 3)")
-    v = checks.finite_array(vertices, "vertices", ndim=2, last=3)
-    if np.abs(v).max(initial=0.0) > MAX_COORD:
-        raise ValueError(f"vertices must lie within +-{MAX_COORD:g}, got {np.abs(v).max():g}")
-    f = np.asarray(faces)
-    if f.dtype.kind not in "iu" or f.ndim != 2 or f.shape[1] != 3:
-        raise ValueError(f"faces must be an integer array (T, 3), got {f.dtype} {f.shape}")
-    if len(f) == 0:
-        raise ValueError("faces: the mesh has no faces")
-    if f.min() < 0 or f.max() >= len(v):
-        raise ValueError(f"faces: vertex indices must lie in [0, {len(v) - 1}], got {f.min()} to {f.max()}")
-    tri = v[f]
-    if not np.any(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])):
-        raise ValueError("faces: every triangle of the mesh has zero area")
-    return v, f.astype(np.int64)
-
-
-def check_scene(sc, deep: bool = True) -> None:
-    from .scene import Integrator, Sensor, Shape
-
-    _type(sc.integrator, Integrator, "integrator")
-    _type(sc.sensor, Sensor, "sensor")
-    if isinstance(sc.shapes, (str, bytes)) or not hasattr(sc.shapes, "__iter__"):
-        raise TypeError(f"shapes must be a list of Shape, got {checks.describe(sc.shapes)}")
-    sc.shapes = list(sc.shapes)
-    if not sc.shapes:
-        raise ValueError("shapes: the scene has no shapes")
-    for k, s in enumerate(sc.shapes):
-        _type(s, Shape, f"shapes[{k}]")
-    if not isinstance(sc.source, str):
-        raise TypeError(f"source must be a string, got {checks.describe(sc.source)}")
-    if deep:
-        sc.integrator.validate()
-        sc.sensor.validate()
-        for k, s in enumerate(sc.shapes):
-            try:
-                s.validate()
-            except (TypeError, ValueError) as exc:
-                raise type(exc)(f"shapes[{k}] ({s.type!r}): {exc}") from None

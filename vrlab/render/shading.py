@@ -62,17 +62,20 @@ class ShadingIntegrand(Integrand):
     """Direct lighting at ``N`` shading points sharing one BSDF (see the module docstring).
 
     ``lighting``: the scene's :class:`~vrlab.render.direct.DirectLighting`; ``group``: the
-    BSDF group; ``p``, ``n``, ``wo`` (N, 3): points, unit normals and outgoing directions
-    (world).  Points ``x (N, m, 4)``; values ``(3, N, m)`` (RGB first: a batch axis).
+    BSDF group; ``p``, ``n``, ``wo`` (N, 3): points, unit geometric normals and outgoing
+    directions (world); ``ns``: unit shading normals (default ``n``; a mesh's interpolated
+    vertex normals), whose frame the BSDF is evaluated in, as in Mitsuba.  Points ``x (N, m, 4)``; values ``(3, N, m)`` (RGB first: a batch axis).
     """
 
-    def __init__(self, lighting, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray):
+    def __init__(self, lighting, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
+                 ns: np.ndarray | None = None):
         self.lighting, self.bsdf = lighting, lighting.bsdfs[group]
         p, n, wo = (np.asarray(a, F32) for a in (p, n, wo))
+        ns = n if ns is None else np.asarray(ns, F32)
         if lighting.twosided[group]:
-            n = scale(n, side(dot(wo, n)))
-        self.p, self.n = p, n
-        self.frame = Frame._trusted(n)          # hit normals are unit vectors (geometry normalises them)
+            ns = scale(ns, side(dot(wo, ns)))
+        self.p, self.n, self.ns = p, n, ns      # geometric normals offset the rays, shading ones give the frame
+        self.frame = Frame._trusted(ns)         # hit normals are unit vectors (geometry normalises them)
         self.wo_l = self.frame.to_local(wo)
         self.kd = lighting.kd[group]
         self.name, self.domain, self.dim, self.volume = "direct lighting", "directions x lights", 4, 4 * np.pi
@@ -197,7 +200,7 @@ class ShadingIntegrand(Integrand):
         lit = self.lighting
         if lit.lights is None or not np.any(self.kd > 0) or len(self.p) == 0:
             return np.zeros((3, len(self.p)))
-        integral, self._valid = lit.lights.cos_integrals(self.p, self.n)           # (N, L)
+        integral, self._valid = lit.lights.cos_integrals(self.p, self.ns)          # (N, L)
         return ((self.kd / np.pi) * ((integral * self._valid) @ lit.lights.radiance)).T
 
     def _unshadowed(self, x: np.ndarray) -> np.ndarray:

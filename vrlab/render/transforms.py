@@ -64,13 +64,17 @@ def scale(s: float | Sequence[float]) -> np.ndarray:
     return np.diag([a[0], a[1], a[2], 1.0])
 
 
-def rotate(axis: Sequence[float], angle: float) -> np.ndarray:
-    """Right-handed rotation by ``angle`` *degrees* about ``axis`` (Rodrigues)."""
+def rotate(axis: Sequence[float], angle: float, normalize: bool = True) -> np.ndarray:
+    """Right-handed rotation by ``angle`` *degrees* about ``axis`` (Rodrigues):
+    cos t I + sin t [k]x + (1 - cos t) k k^T with k = axis / |axis|.  ``normalize=False`` uses
+    ``axis`` as given, as Mitsuba 3's ``Transform4f::rotate`` and its ``<rotate>`` do (a
+    non-unit axis then also scales and shears)."""
     k = _vec3(axis, "rotate axis")
     nk = np.linalg.norm(k)
     if nk == 0:
         raise ValueError("rotate axis must be non-zero")
-    k = k / nk
+    if normalize:
+        k = k / nk
     t = np.deg2rad(checks.real(angle, "angle"))
     c, s = np.cos(t), np.sin(t)
     kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])

@@ -1,4 +1,5 @@
-"""Reading Mitsuba XML: line-numbered parsing, $defaults, typed properties, transforms."""
+"""Reading Mitsuba XML: line-numbered parsing, ``<include>``/``<path>``, ``$defaults``, and
+the typed properties an element's ``from_props`` reads (:class:`Props`)."""
 from __future__ import annotations
 
 import re
@@ -10,24 +11,34 @@ from typing import Any
 import numpy as np
 
 from . import transforms as tf
+from .registry import KINDS
 
-from .scene import BSDF, SceneError
+
+class SceneError(ValueError):
+    """A scene file uses something outside the supported subset, or is malformed."""
 
 
-# ----------------------------------------------------------------------------- parsing
-_PROP_TAGS = ("float", "integer", "boolean", "string", "rgb", "spectrum", "point", "vector",
-              "transform")
+PROP_TAGS = ("float", "integer", "boolean", "string", "rgb", "spectrum", "point", "vector", "transform")
 _NUM = re.compile(r"[,\s]+")
 _VAR = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*)")
 
 
-class _Ctx:
-    def __init__(self, lines: dict[int, int], parents: dict[int, ET.Element], base: Path,
-                 source: str = "<string>"):
-        self.lines, self.parents, self.base, self.source = lines, parents, base, source
+class Ctx:
+    """What the reading of one scene knows: where each element came from (file, line), the
+    ``$name`` values, the search paths and the objects built so far (by element and id)."""
+
+    def __init__(self, base: Path, source: str = "<string>"):
+        self.where: dict[int, tuple[str, int]] = {}      # id(element) -> (file, line)
+        self.parents: dict[int, ET.Element] = {}
+        self.base, self.source = base, source
+        self.paths: list[Path] = [base]
         self.vars: dict[str, str] = {}
-        self.overridden: set[str] = set()     # names set through load_scene(params=...)
-        self.bsdfs: dict[str, BSDF] = {}
+        self.overridden: set[str] = set()               # names set through load_scene(params=...)
+        self.defaults: set[str] = set()                 # names of the <default>s read so far
+        self.ids: dict[str, ET.Element] = {}           # id= -> its element
+        self.built: dict[int, Any] = {}                # id(element) -> the object built from it
+        self.building: set[int] = set()
+        self.files: list[Path] = []                    # every file the scene reads (includes, meshes, ...)
 
     def describe(self, el: ET.Element) -> str:
         attrs = "".join(f' {k}="{el.get(k)}"' for k in ("type", "name", "id") if el.get(k) is not None)
@@ -35,9 +46,9 @@ class _Ctx:
         while e is not None:
             path.append(e.tag)
             e = self.parents.get(id(e))
-        line = self.lines.get(id(el))
-        where = f" at line {line}" if line is not None else ""
-        return f"<{el.tag}{attrs}>{where} of {self.source} (in {'/'.join(reversed(path))})"
+        src, line = self.where.get(id(el), (self.source, None))
+        at = f" at line {line}" if line is not None else ""
+        return f"<{el.tag}{attrs}>{at} of {src} (in {'/'.join(reversed(path))})"
 
     def error(self, el: ET.Element, msg: str, supported: Any = None,
               scope: ET.Element | None = None) -> SceneError:
@@ -86,15 +97,23 @@ class _Ctx:
         if extra:
             raise self.error(el, f"unknown attribute(s) {', '.join(extra)}", allowed)
 
+    def resolve(self, el: ET.Element, filename: str) -> Path:
+        """A file named in the scene: absolute, or relative to the scene's folder and the
+        ``<path>`` folders (in the order given, the scene's own folder first)."""
+        p = Path(filename)
+        found = p if p.is_absolute() else next((f / p for f in self.paths if (f / p).exists()), self.base / p)
+        if found not in self.files:
+            self.files.append(found)
+        return found
 
-def _parse_xml(text: str, source: str = "<string>") -> tuple[ET.Element, dict[int, int], dict[int, ET.Element]]:
-    """Build an ElementTree with expat, recording each element's line number."""
-    lines: dict[int, int] = {}
+
+def parse_xml(text: str, source: str, ctx: Ctx) -> ET.Element:
+    """An ElementTree built with expat, recording each element's file and line in ``ctx``."""
     builder = ET.TreeBuilder()
     parser = expat.ParserCreate()
 
     def start(tag: str, attrs: dict[str, str]) -> None:
-        lines[id(builder.start(tag, attrs))] = parser.CurrentLineNumber
+        ctx.where[id(builder.start(tag, attrs))] = (source, parser.CurrentLineNumber)
 
     parser.StartElementHandler = start
     parser.EndElementHandler = builder.end
@@ -103,54 +122,99 @@ def _parse_xml(text: str, source: str = "<string>") -> tuple[ET.Element, dict[in
         root = builder.close()
     except (expat.ExpatError, AssertionError) as exc:
         raise SceneError(f"{source}: not a well-formed XML scene: {exc}") from None
-    parents = {id(c): p for p in root.iter() for c in p}
-    return root, lines, parents
+    return root
 
 
-class _Props:
-    """Children of a plugin element: named properties and nested objects, checked by name."""
+def check_version(ctx: Ctx, root: ET.Element) -> None:
+    """``<scene version="2.x.y">`` or ``"3.x.y"`` (the same file format in Mitsuba 3)."""
+    if root.tag != "scene":
+        raise ctx.error(root, "the root element must be <scene version=\"3.x.y\">", ["scene"])
+    ctx.check_attrs(root, ("version",))
+    version = ctx.attr(root, "version")
+    if not re.fullmatch(r"[23](\.\d+){0,2}", version.strip()):
+        raise ctx.error(root, f"scene version {version!r} is not supported (Mitsuba 0.x scenes use other "
+                              "parameter names)", ["2.x.y", "3.x.y"])
 
-    def __init__(self, ctx: _Ctx, el: ET.Element, allowed: dict[str, tuple[str, ...]],
-                 objects: tuple[str, ...] = ()):
+
+class Props:
+    """The children of one element, by name: properties (``<float name=..>``, ...), named
+    nested objects and references (``<texture name="reflectance">``, ``<ref name=.. id=..>``)
+    and unnamed nested objects.  The getters convert and check values and remember what
+    was read; :meth:`check_unused` refuses the rest, naming it."""
+
+    def __init__(self, ctx: Ctx, el: ET.Element, build):
         self.ctx, self.el = ctx, el
-        self.props: dict[str, ET.Element] = {}
-        self.objects: list[ET.Element] = []
-        what = f"{el.tag} '{el.get('type')}'"
-        supported = [f"{n} ({'/'.join(k)})" for n, k in allowed.items()] + [f"<{o}>" for o in objects]
-        supported = supported or ["no parameters"]
+        self.plugin = el.get("type")
+        self.values: dict[str, ET.Element] = {}
+        self.named: dict[str, tuple[ET.Element, Any]] = {}
+        self.objects: list[tuple[ET.Element, Any]] = []
+        self.used: set[str] = set()
+        self.used_objects: set[int] = set()
         for c in el:
-            if c.tag in objects:
-                self.objects.append(c)
-                continue
-            if c.tag not in _PROP_TAGS:
-                if c.get("name") in allowed:
-                    raise ctx.error(c, f"parameter '{c.get('name')}' of {what} cannot be <{c.tag}>",
-                                    [f"<{k}>" for k in allowed[c.get("name")]])
-                raise ctx.error(c, f"unsupported child of {what}", supported)
-            name = ctx.attr(c, "name")
-            if name not in allowed:
-                raise ctx.error(c, f"unknown parameter '{name}' for {what}", supported)
-            if c.tag not in allowed[name]:
-                raise ctx.error(c, f"parameter '{name}' of {what} cannot be <{c.tag}>",
-                                [f"<{k}>" for k in allowed[name]])
-            if name in self.props:
-                raise ctx.error(c, f"parameter '{name}' given twice")
-            self.props[name] = c
+            if c.tag in PROP_TAGS:
+                name = ctx.attr(c, "name")
+                if name in self.values or name in self.named:
+                    raise ctx.error(c, f"parameter '{name}' given twice")
+                self.values[name] = c
+            elif c.tag in KINDS or c.tag == "ref":
+                obj = build(c)
+                name = ctx.attr(c, "name", required=False)
+                if name is not None:
+                    if name in self.values or name in self.named:
+                        raise ctx.error(c, f"parameter '{name}' given twice")
+                    self.named[name] = (c, obj)
+                else:
+                    self.objects.append((c, obj))
+            else:
+                raise ctx.error(c, f"unsupported child of {self.what}",
+                                [f"<{t}>" for t in PROP_TAGS + KINDS + ("ref",)])
+
+    @classmethod
+    def empty(cls, ctx: Ctx, el: ET.Element) -> "Props":
+        """Props that name no parameter (for errors about the element as a whole)."""
+        out = cls.__new__(cls)
+        out.ctx, out.el, out.plugin = ctx, el, el.get("type")
+        out.values, out.named, out.objects, out.used, out.used_objects = {}, {}, [], set(), set()
+        return out
+
+    @property
+    def what(self) -> str:
+        return f"{self.el.tag} '{self.plugin}'"
 
     def has(self, name: str) -> bool:
-        return name in self.props
+        return name in self.values or name in self.named
+
+    def element(self, name: str) -> ET.Element | None:
+        """The XML element of parameter ``name`` (for error messages), or None."""
+        if name in self.values:
+            return self.values[name]
+        return self.named[name][0] if name in self.named else None
+
+    def _prop(self, name: str, tags: tuple[str, ...], required: bool) -> ET.Element | None:
+        self.used.add(name)
+        if name in self.named:
+            c = self.named[name][0]
+            raise self.ctx.error(c, f"parameter '{name}' of {self.what} cannot be an object here",
+                                 [f"<{t}>" for t in tags])
+        c = self.values.get(name)
+        if c is None:
+            if required:
+                raise self.ctx.error(self.el, f"missing required parameter '{name}'")
+            return None
+        if c.tag not in tags:
+            raise self.ctx.error(c, f"parameter '{name}' of {self.what} cannot be <{c.tag}>",
+                                 [f"<{t}>" for t in tags])
+        return c
 
     def float(self, name: str, default: float | None = None) -> float:
-        c = self.props.get(name)
+        c = self._prop(name, ("float", "integer"), default is None)
         if c is None:
-            if default is None:
-                raise self.ctx.error(self.el, f"missing required parameter '{name}'")
             return default
         self.ctx.check_attrs(c, ("name", "value"))
         return float(self.ctx.numbers(c, "value", (1,))[0])
 
-    def int(self, name: str, default: int) -> int:
-        c = self.props.get(name)
+    def int(self, name: str, default: int | None = None) -> int:
+        c = self._prop(name, ("integer",), default is None)
         if c is None:
             return default
         self.ctx.check_attrs(c, ("name", "value"))
@@ -159,8 +223,8 @@ class _Props:
             raise self.ctx.error(c, f"'{name}': value={text!r} is not an integer")
         return int(text)
 
-    def bool(self, name: str, default: bool) -> bool:
-        c = self.props.get(name)
+    def bool(self, name: str, default: bool | None = None) -> bool:
+        c = self._prop(name, ("boolean",), default is None)
         if c is None:
             return default
         self.ctx.check_attrs(c, ("name", "value"))
@@ -169,11 +233,9 @@ class _Props:
             raise self.ctx.error(c, f"'{name}': value={text!r} is not a boolean", ["true", "false"])
         return text == "true"
 
-    def string(self, name: str, default: str | None, choices: tuple[str, ...] | None = None) -> str:
-        c = self.props.get(name)
+    def string(self, name: str, default: str | None = None, choices: tuple[str, ...] | None = None) -> str:
+        c = self._prop(name, ("string",), default is None)
         if c is None:
-            if default is None:
-                raise self.ctx.error(self.el, f"missing required parameter '{name}'")
             return default
         self.ctx.check_attrs(c, ("name", "value"))
         text = self.ctx.attr(c, "value")
@@ -181,32 +243,122 @@ class _Props:
             raise self.ctx.error(c, f"unsupported value {text!r} for '{name}'", choices)
         return text
 
-    def rgb(self, name: str, default: float | None) -> np.ndarray:
-        c = self.props.get(name)
-        if c is None:
-            if default is None:
-                raise self.ctx.error(self.el, f"missing required parameter '{name}'")
-            return np.full(3, float(default))
-        self.ctx.check_attrs(c, ("name", "value"))
-        counts = {"rgb": (1, 3), "spectrum": (1,), "float": (1,)}[c.tag]
-        v = self.ctx.numbers(c, "value", counts)
-        if np.any(v < 0):
-            raise self.ctx.error(c, f"'{name}' must be non-negative, got {self.ctx.attr(c, 'value')!r}")
-        return np.broadcast_to(v, (3,)).astype(float)
+    def filename(self, name: str) -> Path:
+        """A file parameter resolved against the scene folder and the ``<path>`` folders."""
+        text = self.string(name)
+        return self.ctx.resolve(self.values[name], text)
 
-    def vector(self, name: str, default: tuple[float, float, float]) -> np.ndarray:
-        c = self.props.get(name)
+    def color(self, name: str, default: Any = None, *, kind: str = "reflectance", texture: bool = False):
+        """A colour ``(3,)``: ``<rgb>``, ``<spectrum>`` (one value, or wavelength:value pairs
+        converted as Mitsuba's RGB variants do, :mod:`vrlab.render.spectra`; ``kind`` is
+        ``"reflectance"``, ``"emission"`` or ``"unbounded"``) or ``<float>``; with ``texture``
+        also a nested or referenced ``<texture>`` (returned as the texture object)."""
+        self.used.add(name)
+        if name in self.named:
+            c, obj = self.named[name]
+            if not texture or getattr(obj, "kind", None) != "texture":
+                raise self.ctx.error(c, f"parameter '{name}' of {self.what} cannot be "
+                                        f"{'a ' + obj.kind if hasattr(obj, 'kind') else 'this object'}",
+                                     ["<rgb>", "<spectrum>", "<float>"] + (["<texture>"] if texture else []))
+            return obj
+        c = self._prop(name, ("rgb", "spectrum", "float", "integer"), default is None)
+        if c is None:
+            return np.full(3, float(default)) if np.ndim(default) == 0 else np.asarray(default, float)
+        return self._color_value(c, name, kind)
+
+    def _color_value(self, c: ET.Element, name: str, kind: str) -> np.ndarray:
+        if c.tag == "spectrum":
+            self.ctx.check_attrs(c, ("name", "value", "filename"))
+            from . import spectra
+
+            try:
+                if c.get("filename") is not None:
+                    value = spectra.load_spd(self.ctx.resolve(c, self.ctx.attr(c, "filename")))
+                else:
+                    value = self.ctx.attr(c, "value")
+                v = np.asarray(spectra.spectrum_property_rgb(value, kind=kind, warn=False), float)
+            except (ValueError, OSError) as exc:
+                raise self.ctx.error(c, f"'{name}': {exc}") from None
+        else:
+            self.ctx.check_attrs(c, ("name", "value"))
+            counts = {"rgb": (1, 3)}.get(c.tag, (1,))
+            v = np.broadcast_to(self.ctx.numbers(c, "value", counts), (3,)).astype(float)
+        return v
+
+    def texture(self, name: str, default: Any = None, *, kind: str = "reflectance"):
+        """A colour or a texture (:meth:`color` with ``texture=True``)."""
+        return self.color(name, default, kind=kind, texture=True)
+
+    def point(self, name: str, default: tuple[float, float, float] | None = None) -> np.ndarray:
+        c = self._prop(name, ("point", "vector"), default is None)
         if c is None:
             return np.array(default, float)
-        return _xyz(self.ctx, c, 0.0, allow_uniform=False)
+        return xyz(self.ctx, c, 0.0, allow_uniform=False)
+
+    vector = point
 
     def transform(self, name: str) -> np.ndarray:
-        c = self.props.get(name)
-        return np.eye(4) if c is None else _parse_transform(self.ctx, c)
+        c = self._prop(name, ("transform",), False)
+        return np.eye(4) if c is None else parse_transform(self.ctx, c)
+
+    def object(self, name: str, kinds: tuple[str, ...], required: bool = False):
+        """The nested object named ``name`` (one of ``kinds``), or None."""
+        self.used.add(name)
+        if name in self.values:
+            c = self.values[name]
+            raise self.ctx.error(c, f"parameter '{name}' of {self.what} must be an object",
+                                 [f"<{k}>" for k in kinds])
+        if name not in self.named:
+            if required:
+                raise self.ctx.error(self.el, f"missing required <{'/'.join(kinds)} name=\"{name}\">")
+            return None
+        c, obj = self.named[name]
+        if obj.kind not in kinds:
+            raise self.ctx.error(c, f"parameter '{name}' of {self.what} must be a {' or '.join(kinds)}, "
+                                    f"got a {obj.kind}")
+        return obj
+
+    def children(self, kind: str, at_most: int | None = None) -> list:
+        """The nested objects (and references) of ``kind``, in document order: the unnamed
+        ones and, as in Mitsuba (which finds a shape's BSDF by its kind), named ones too."""
+        named = {id(c) for c, _ in self.named.values()}
+        out = [(c, o) for c in self.el for c, o in [self._built(c)] if o is not None and o.kind == kind
+               and (id(c) in named or any(c is x for x, _ in self.objects))]
+        if at_most is not None and len(out) > at_most:
+            raise self.ctx.error(out[at_most][0], f"{self.what} takes at most {at_most} <{kind}>")
+        for c, _ in out:
+            self.used_objects.add(id(c))
+            if c.get("name") is not None:
+                self.used.add(self.ctx.attr(c, "name"))
+        return [o for _, o in out]
+
+    def _built(self, c: ET.Element):
+        for x, o in self.objects:
+            if x is c:
+                return c, o
+        for x, o in self.named.values():
+            if x is c:
+                return c, o
+        return c, None
+
+    def child(self, kind: str):
+        """The one unnamed nested object of ``kind``, or None."""
+        found = self.children(kind, at_most=1)
+        return found[0] if found else None
+
+    def check_unused(self, supported: list[str] | None = None) -> None:
+        """Refuse the parameters and nested objects that ``from_props`` did not read."""
+        for name, c in list(self.values.items()) + [(n, c) for n, (c, _) in self.named.items()]:
+            if name not in self.used:
+                known = sorted(self.used) if supported is None else supported
+                raise self.ctx.error(c, f"unknown parameter '{name}' for {self.what}", known or ["no parameters"])
+        for c, obj in self.objects:
+            if id(c) not in self.used_objects:
+                raise self.ctx.error(c, f"{self.what} does not take a nested <{obj.kind}>")
 
 
-def _xyz(ctx: _Ctx, el: ET.Element, default: float, allow_uniform: bool,
-         extra: tuple[str, ...] = ()) -> np.ndarray:
+def xyz(ctx: Ctx, el: ET.Element, default: float, allow_uniform: bool,
+        extra: tuple[str, ...] = ()) -> np.ndarray:
     """A 3-vector from ``value="x, y, z"`` or ``x= y= z=`` attributes."""
     ctx.check_attrs(el, ("name", "value", "x", "y", "z") + extra)
     if el.get("value") is not None:
@@ -220,24 +372,26 @@ def _xyz(ctx: _Ctx, el: ET.Element, default: float, allow_uniform: bool,
                      for k in "xyz"])
 
 
-def _parse_transform(ctx: _Ctx, el: ET.Element) -> np.ndarray:
+def parse_transform(ctx: Ctx, el: ET.Element) -> np.ndarray:
+    """A ``<transform>``: its operations, each left-multiplying the matrix so far."""
     ctx.check_attrs(el, ("name",))
     ops = ("translate", "scale", "rotate", "lookat", "matrix")
     m = np.eye(4)
     for c in el:
         try:
             if c.tag == "translate":
-                op = tf.translate(_xyz(ctx, c, 0.0, allow_uniform=False))
+                op = tf.translate(xyz(ctx, c, 0.0, allow_uniform=False))
             elif c.tag == "scale":
-                op = tf.scale(_xyz(ctx, c, 1.0, allow_uniform=True))
+                op = tf.scale(xyz(ctx, c, 1.0, allow_uniform=True))
             elif c.tag == "rotate":
                 if c.get("angle") is None:
                     raise ctx.error(c, "missing required attribute 'angle' (degrees)")
-                axis = _xyz(ctx, c, 0.0, allow_uniform=False, extra=("angle",))
-                op = tf.rotate(axis, ctx.numbers(c, "angle", (1,))[0])
+                axis = xyz(ctx, c, 0.0, allow_uniform=False, extra=("angle",))
+                op = tf.rotate(axis, ctx.numbers(c, "angle", (1,))[0], normalize=False)    # as Mitsuba
             elif c.tag == "lookat":
                 ctx.check_attrs(c, ("origin", "target", "up"))
-                op = tf.look_at(*(ctx.numbers(c, k, (3,)) for k in ("origin", "target", "up")))
+                up = ctx.numbers(c, "up", (3,)) if c.get("up") is not None else _default_up(ctx, c)
+                op = tf.look_at(ctx.numbers(c, "origin", (3,)), ctx.numbers(c, "target", (3,)), up)
             elif c.tag == "matrix":
                 ctx.check_attrs(c, ("value",))
                 op = tf.matrix(ctx.numbers(c, "value", (16, 9)))
@@ -251,3 +405,14 @@ def _parse_transform(ctx: _Ctx, el: ET.Element) -> np.ndarray:
     if abs(np.linalg.det(m[:3, :3])) < 1e-300:
         raise ctx.error(el, f"the transform '{el.get('name')}' is singular (a zero scale?)")
     return m
+
+
+def _default_up(ctx: Ctx, c: ET.Element) -> np.ndarray:
+    """Mitsuba's ``lookat`` without ``up``: a vector orthogonal to the view direction
+    (``coordinate_system(dir)``'s first tangent)."""
+    d = ctx.numbers(c, "target", (3,)) - ctx.numbers(c, "origin", (3,))
+    n = d / max(np.linalg.norm(d), 1e-300)
+    sign = 1.0 if n[2] >= 0 else -1.0
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    return np.array([1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]])

@@ -13,3 +13,10 @@ __all__ = [
     "GofResult", "assert_gof", "cell_integrals", "chi2_discrete", "chi2_gof", "histogram", "integrate",
     "pooled_chi2", "sidak_threshold",
 ]
+
+# Mitsuba 3 as the renderer's oracle (vrlab.testing.mitsuba): loaded on first use, it imports Mitsuba only to render
+from .._lazy import lazy_attributes  # noqa: E402
+_MITSUBA = ["assert_agrees_with_mitsuba", "mitsuba_reference", "render_test", "mean_z_test", "RenderTestResult",
+            "MeanTestResult", "Agreement", "rgb_to_xyz", "sample_budget"]
+__all__ += _MITSUBA
+__getattr__, __dir__ = lazy_attributes(__name__, dict.fromkeys(_MITSUBA, "mitsuba"), __all__)

@@ -1,0 +1,155 @@
+"""Every scene element against Mitsuba 3: a small scene that isolates it, rendered by vrlab and by
+Mitsuba 3 ``scalar_rgb``, judged by Mitsuba's own render-test criterion and an image-mean z-test
+(:func:`vrlab.testing.mitsuba.assert_agrees_with_mitsuba`, Mitsuba's budget of 2e6 samples per
+image unless ``VRLAB_RENDER_TEST_SAMPLES`` says otherwise), and deliberately wrong elements that
+must fail it (a filter off by half a pixel, a wrong spectrum weight, flat instead of smooth
+shading)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mitsuba")
+
+from vrlab.render.meshes import MeshData, write_ply, write_serialized   # noqa: E402
+from vrlab.testing.mitsuba import assert_agrees_with_mitsuba, mitsuba_reference, sample_budget   # noqa: E402
+
+W, H = 16, 12
+
+
+def scene(body: str, *, sensor: str = "", film: str = '<rfilter type="box"/>', camera: str = "perspective",
+          integrator: str = '<integrator type="direct"/>', lights: bool = True) -> str:
+    view = ('<float name="fov" value="50"/>' if camera == "perspective" and "fov" not in sensor
+            and "focal_length" not in sensor else "")
+    look = '<transform name="to_world"><lookat origin="0.3, 2.2, 3.4" target="0, 0.3, 0" up="0, 1, 0"/></transform>'
+    if camera == "orthographic":
+        look = ('<transform name="to_world"><scale value="1.6"/><lookat origin="0.3, 2.2, 3.4" target="0, 0.3, 0" '
+                'up="0, 1, 0"/></transform>')
+    light = ('<shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/>'
+             '<translate x="-0.5" y="2.2" z="0.6"/></transform><emitter type="area"><rgb name="radiance" '
+             'value="6, 5, 4"/></emitter></shape>'
+             '<shape type="sphere"><point name="center" value="1.1, 0.9, 0.4"/><float name="radius" value="0.2"/>'
+             '<emitter type="area"><rgb name="radiance" value="3, 5, 8"/></emitter></shape>') if lights else ""
+    floor = ('<shape type="rectangle"><transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/>'
+             '</transform><bsdf type="diffuse"><rgb name="reflectance" value="0.6, 0.5, 0.4"/></bsdf></shape>')
+    return (f'<scene version="3.0.0">{integrator}<sensor type="{camera}">{view}{sensor}{look}'
+            f'<film type="hdrfilm"><integer name="width" value="{W}"/><integer name="height" value="{H}"/>{film}'
+            f'</film></sensor>{floor}{light}{body}</scene>')
+
+
+def _sphere_mesh(n_theta: int = 8, n_phi: int = 12) -> MeshData:
+    """A low-poly unit sphere with exact vertex normals and (phi, theta) uvs: smooth shading
+    looks very different from flat shading on it."""
+    th = np.linspace(0.15, np.pi - 0.15, n_theta)
+    ph = np.linspace(0, 2 * np.pi, n_phi, endpoint=False)
+    t, p = np.meshgrid(th, ph, indexing="ij")
+    v = np.stack([np.sin(t) * np.cos(p), np.cos(t), np.sin(t) * np.sin(p)], -1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(n_theta - 1), np.arange(n_phi), indexing="ij")
+    a, b = i * n_phi + j, i * n_phi + (j + 1) % n_phi
+    c, d = a + n_phi, b + n_phi
+    faces = np.concatenate([np.stack([a, c, b], -1).reshape(-1, 3), np.stack([b, c, d], -1).reshape(-1, 3)])
+    uv = np.stack([p / (2 * np.pi), t / np.pi], -1).reshape(-1, 2)
+    return MeshData(vertices=v * 0.5 + [0, 0.5, 0], faces=faces, normals=v, uvs=uv)
+
+
+def _write_obj(path, mesh: MeshData, normals: bool = True) -> None:
+    lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in mesh.vertices]
+    lines += [f"vn {x:.9g} {y:.9g} {z:.9g}" for x, y, z in mesh.normals] if normals else []
+    k = "{0}//{0}" if normals else "{0}"
+    lines += ["f " + " ".join(k.format(i + 1) for i in f) for f in mesh.faces]
+    path.write_text("\n".join(lines) + "\n")
+
+
+SHAPES = {
+    "disk": '<shape type="disk"><transform name="to_world"><scale value="0.6"/><rotate x="1" angle="-60"/>'
+            '<translate y="0.6"/></transform><bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf></shape>',
+    "cube": '<shape type="cube"><transform name="to_world"><scale value="0.4"/><rotate y="1" angle="30"/>'
+            '<translate y="0.4"/></transform></shape>',
+    "cylinder": '<shape type="cylinder"><point name="p0" value="0, 0, 0"/><point name="p1" value="0, 1, 0"/>'
+                '<float name="radius" value="0.3"/><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>',
+    "sphere": '<shape type="sphere"><point name="center" value="-0.3, 0.5, 0"/><float name="radius" value="0.5"/>'
+              '<bsdf type="roughconductor"><float name="alpha" value="0.3"/></bsdf></shape>',
+    "instance": '<shape type="shapegroup" id="g"><shape type="cube"><transform name="to_world"><scale value="0.2"/>'
+                '</transform></shape><shape type="sphere"><point name="center" value="0.5, 0, 0"/>'
+                '<float name="radius" value="0.2"/></shape></shape>'
+                '<shape type="instance"><ref id="g"/><transform name="to_world"><translate y="0.3"/></transform></shape>'
+                '<shape type="instance"><ref id="g"/><transform name="to_world"><rotate y="1" angle="90"/>'
+                '<translate x="-0.5" y="0.6"/></transform></shape>',
+    "spectrum": '<shape type="sphere"><point name="center" value="0, 0.5, 0"/><float name="radius" value="0.5"/>'
+                '<bsdf type="diffuse"><spectrum name="reflectance" value="400:0.1, 500:0.8, 600:0.3, 700:0.9"/>'
+                '</bsdf></shape><shape type="disk"><transform name="to_world"><scale value="0.3"/>'
+                '<rotate x="1" angle="90"/><translate x="-1" y="1" z="0.5"/></transform><emitter type="area">'
+                '<spectrum name="radiance" value="450:2, 550:6, 650:3"/></emitter></shape>',
+}
+
+SENSORS = {
+    "fov_axis y": dict(sensor='<float name="fov" value="35"/><string name="fov_axis" value="y"/>'),
+    "focal_length default": dict(sensor='<float name="near_clip" value="0.5"/>'),
+    "principal point": dict(sensor='<float name="principal_point_offset_x" value="0.1"/>'
+                                   '<float name="principal_point_offset_y" value="-0.05"/>'),
+    "orthographic": dict(camera="orthographic"),
+    "crop": dict(film='<integer name="crop_offset_x" value="3"/><integer name="crop_offset_y" value="2"/>'
+                      '<integer name="crop_width" value="9"/><integer name="crop_height" value="7"/>'
+                      '<rfilter type="box"/>'),
+    "gaussian filter": dict(film=""),
+    "tent filter": dict(film='<rfilter type="tent"><float name="radius" value="1.5"/></rfilter>'),
+    "stratified sampler": dict(sensor='<sampler type="stratified"><integer name="sample_count" value="16"/></sampler>'),
+}
+
+INTEGRATORS = {
+    "path depth 2": '<integrator type="path"><integer name="max_depth" value="2"/></integrator>',
+    "moment": '<integrator type="moment"><integrator type="direct"><integer name="emitter_samples" value="2"/>'
+              '</integrator></integrator>',
+    "hide_emitters": '<integrator type="direct"><boolean name="hide_emitters" value="true"/></integrator>',
+}
+
+
+@pytest.mark.parametrize("name", sorted(SHAPES))
+def test_shapes_and_colours_agree_with_mitsuba(name):
+    assert_agrees_with_mitsuba(scene(SHAPES[name]))
+
+
+@pytest.mark.parametrize("name", sorted(SENSORS))
+def test_sensors_films_filters_and_samplers_agree_with_mitsuba(name):
+    assert_agrees_with_mitsuba(scene(SHAPES["cube"], **SENSORS[name]))
+
+
+@pytest.mark.parametrize("name", sorted(INTEGRATORS))
+def test_integrators_agree_with_mitsuba(name):
+    assert_agrees_with_mitsuba(scene(SHAPES["cube"], integrator=INTEGRATORS[name]))
+
+
+@pytest.mark.parametrize("fmt", ["obj", "ply", "serialized"])
+def test_meshes_with_smooth_shading_agree_with_mitsuba(tmp_path, fmt):
+    mesh = _sphere_mesh()
+    path = tmp_path / f"ball.{fmt}"
+    if fmt == "obj":
+        _write_obj(path, mesh)
+    elif fmt == "ply":
+        write_ply(path, mesh)
+    else:
+        write_serialized(path, mesh)
+    xml = scene(f'<shape type="{fmt}"><string name="filename" value="{path}"/></shape>')
+    agreement = assert_agrees_with_mitsuba(xml)
+    # flat shading is a different image: the criterion tells them apart
+    flat = xml.replace(f'value="{path}"/>', f'value="{path}"/><boolean name="face_normals" value="true"/>')
+    with pytest.raises(AssertionError):
+        assert_agrees_with_mitsuba(flat, reference=agreement.reference)
+
+
+def test_wrong_elements_fail_the_criterion():
+    """A filter off by half a pixel and a spectrum given the wrong weight (its plain average
+    instead of Mitsuba's CIE integration) each fail against the reference of the right scene."""
+    right = scene(SHAPES["cube"], film="")
+    spp = 4 * max(1, sample_budget() // (W * H))
+    mean, var = mitsuba_reference(right, spp)
+    shifted = scene(SHAPES["cube"], film="", sensor=f'<float name="principal_point_offset_x" value="{0.5 / W}"/>')
+    with pytest.raises(AssertionError):
+        assert_agrees_with_mitsuba(shifted, reference=(mean, var, spp))
+    good = scene(SHAPES["spectrum"])
+    spp = 4 * max(1, sample_budget() // (W * H))
+    mean, var = mitsuba_reference(good, spp)
+    flat = good.replace('<spectrum name="reflectance" value="400:0.1, 500:0.8, 600:0.3, 700:0.9"/>',
+                        '<rgb name="reflectance" value="0.525"/>')
+    with pytest.raises(AssertionError):
+        assert_agrees_with_mitsuba(flat, reference=(mean, var, spp))

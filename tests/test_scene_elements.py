@@ -1,0 +1,281 @@
+"""The element registry and Mitsuba 3's scene-file conventions: registered classes, a user's own
+element used from XML, include/path/ref/default, integrators, sensors (checked against
+Mitsuba 3's own ``Sensor.sample_ray``), films, samplers and the cylinder shape (against
+Mitsuba's ``Scene.ray_intersect``)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vrlab.render import SceneError, load_scene, register, registered, render
+from vrlab.render.bsdfs import Diffuse
+from vrlab.render.registry import KINDS
+from vrlab.render.shapes import Shape
+
+mi = pytest.importorskip("mitsuba")
+mi.set_variant("scalar_rgb")
+
+SENSOR = """<sensor type="perspective"><float name="fov" value="40"/>
+  <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+  <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+  <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="12"/>
+  <rfilter type="box"/></film></sensor>"""
+LIGHT = """<shape type="rectangle"><transform name="to_world"><scale value="3"/></transform>
+  <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf></shape>
+  <shape type="sphere"><point name="center" value="0, 0, 2"/><float name="radius" value="0.3"/>
+  <emitter type="area"><rgb name="radiance" value="4"/></emitter></shape>"""
+
+
+def scene_xml(body: str = LIGHT, sensor: str = SENSOR, integrator: str = '<integrator type="direct"/>',
+              version: str = "3.0.0") -> str:
+    return f'<scene version="{version}">{integrator}{sensor}{body}</scene>'
+
+
+def test_every_kind_has_registered_elements_and_each_class_its_kind():
+    for kind in KINDS:
+        table = registered(kind)
+        assert table, kind
+        for name, cls in table.items():
+            assert cls.kind == kind and cls.plugin_name == name, (kind, name)
+    assert {"rectangle", "disk", "sphere", "cube", "obj", "cylinder"} <= set(registered("shape"))
+    assert {"box", "tent", "gaussian"} <= set(registered("rfilter"))
+    registered("shape")["mine"] = None                       # a copy: the registry is untouched
+    assert "mine" not in registered("shape")
+
+
+def test_the_scene_documentation_lists_every_registered_element():
+    import vrlab.render.scene as doc
+
+    for kind in KINDS:
+        for name in registered(kind):
+            if kind == "emitter" and name == "area" or kind == "film":
+                continue
+            assert f"``{name}``" in doc.__doc__, (kind, name)
+
+
+def test_a_users_own_bsdf_loads_from_xml_and_renders():
+    @register("bsdf", "test_halfdiffuse")
+    class HalfDiffuse(Diffuse):
+        """Half the reflectance of a diffuse BSDF (a user's element)."""
+
+        @classmethod
+        def from_props(cls, p):
+            return cls(reflectance=0.5 * p.color("albedo", 1.0))
+
+    body = LIGHT.replace('<bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>',
+                         '<bsdf type="test_halfdiffuse"><rgb name="albedo" value="1.0"/></bsdf>')
+    mine, ref = load_scene(scene_xml(body)), load_scene(scene_xml())
+    assert isinstance(mine.shapes[0].bsdf, HalfDiffuse)
+    a, b = render(mine, 4, rng=3), render(ref, 4, rng=3)
+    np.testing.assert_allclose(a.value, b.value, rtol=1e-6)          # reflectance 0.5 both ways
+    with pytest.raises(SceneError, match="unknown parameter 'reflectance'"):
+        load_scene(scene_xml(LIGHT.replace('type="diffuse"', 'type="test_halfdiffuse"')))
+
+
+def test_a_users_own_shape_with_its_own_intersection():
+    from vrlab.render.shapes import CustomPart
+
+    @register("shape", "test_slab")
+    class Slab(Shape):
+        """The plane z = height, hit from both sides (a user's element)."""
+
+        def __init__(self, *, height=0.0, **common):
+            super().__init__(**common)
+            self.height = float(height)
+
+        @classmethod
+        def from_props(cls, p):
+            return cls(height=p.float("height", 0.0), **cls.common(p))
+
+        def parts(self):
+            def intersect(o, d, t_min):
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    t = (self.height - o[:, 2]) / d[:, 2]
+                t = np.where(np.isfinite(t) & (t > t_min), t, np.inf)
+                return t, np.broadcast_to([0.0, 0.0, 1.0], o.shape)
+            return [CustomPart(intersect)]
+
+        @property
+        def area(self):
+            return np.inf
+
+    body = LIGHT.replace('<shape type="rectangle"><transform name="to_world"><scale value="3"/></transform>',
+                         '<shape type="test_slab"><float name="height" value="0"/>')
+    slab = render(load_scene(scene_xml(body)), 16, rng=1).value
+    rect = render(load_scene(scene_xml()), 16, rng=1).value
+    np.testing.assert_allclose(slab, rect, rtol=1e-4, atol=1e-6)   # the rectangle fills the view
+
+
+def test_version_2_include_path_default_and_refs(tmp_path):
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "light.xml").write_text(
+        '<scene version="2.1.0"><shape type="sphere"><point name="center" value="0, 0, 2"/>'
+        '<float name="radius" value="$r"/><emitter type="area"><rgb name="radiance" value="4"/></emitter>'
+        '</shape></scene>')
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "meshes" / "quad.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n")
+    body = ('<default name="r" value="0.3"/><default name="integrator" value="direct"/>'
+            '<path value="meshes"/><include filename="parts/light.xml"/>'
+            '<texture type="checkerboard" id="unused_texture_is_fine"/>' if "checkerboard" in registered("texture")
+            else '<default name="r" value="0.3"/><default name="integrator" value="direct"/>'
+                 '<path value="meshes"/><include filename="parts/light.xml"/>')
+    body += ('<bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.5"/></bsdf>'
+             '<shape type="obj"><string name="filename" value="quad.obj"/><ref id="grey"/></shape>')
+    (tmp_path / "scene.xml").write_text(scene_xml(body, integrator='<integrator type="$integrator"/>',
+                                                  version="2.0.0"))
+    sc = load_scene(tmp_path / "scene.xml")
+    assert [s.type for s in sc.shapes] == ["sphere", "obj"]
+    assert sc.shapes[0].sphere()[1] == pytest.approx(0.3)
+    assert sc.files[:2] == [tmp_path / "parts" / "light.xml", tmp_path / "meshes" / "quad.obj"]
+    assert load_scene(tmp_path / "scene.xml", {"r": 0.5}).shapes[0].sphere()[1] == pytest.approx(0.5)
+    (tmp_path / "loop.xml").write_text(scene_xml('<include filename="loop.xml"/>'))
+    with pytest.raises(SceneError, match="includes itself"):
+        load_scene(tmp_path / "loop.xml")
+
+
+def test_named_refs_share_one_object():
+    body = ('<bsdf type="diffuse" id="a"><rgb name="reflectance" value="0.2"/></bsdf>'
+            '<shape type="rectangle"><ref id="a"/></shape><shape type="disk"><ref name="bsdf" id="a"/></shape>'
+            '<shape type="cube"><bsdf type="twosided"><ref id="a"/></bsdf></shape>')
+    sc = load_scene(scene_xml(body + LIGHT))            # a named ref is found by its kind, as in Mitsuba
+    assert sc.shapes[0].bsdf is sc.shapes[1].bsdf is sc.shapes[2].bsdf.inner
+
+
+@pytest.mark.parametrize("integrator, shading", [
+    ('<integrator type="moment"><integrator type="direct"/></integrator>', True),
+    ('<integrator type="path"><integer name="max_depth" value="2"/></integrator>', True),
+    ('<integrator type="volpath"><integer name="max_depth" value="2"/></integrator>', True),
+    ('<integrator type="moment"><integrator type="path"><integer name="max_depth" value="1"/>'
+     '</integrator></integrator>', False)])
+def test_integrators_render_what_they_are(integrator, shading):
+    sc = load_scene(scene_xml(integrator=integrator))
+    assert sc.integrator.shading is shading
+    img = render(sc, 2, rng=0).value
+    floor = img[0, 0]                                    # a corner pixel sees the lit floor only
+    assert bool(floor.max() > 0) is shading
+    assert img.max() == pytest.approx(4.0, rel=1e-5)     # the light seen directly
+
+
+def test_hide_emitters():
+    sc = load_scene(scene_xml(integrator='<integrator type="direct"><boolean name="hide_emitters" '
+                                         'value="true"/></integrator>'))
+    img = render(sc, 4, rng=0).value
+    assert img.max() < 1.0                                # the light (4) is hidden; the floor is lit
+    assert img[0, 0].max() > 0
+
+
+# ----------------------------------------------------------------------------- sensors
+def _film_positions(rng):
+    return np.concatenate([rng.random((40, 2)), [[0, 0], [1, 1], [0.5, 0.5], [0, 1]]])
+
+
+@pytest.mark.parametrize("sensor", [
+    '<float name="fov" value="40"/>',
+    '<float name="fov" value="30"/><string name="fov_axis" value="y"/>',
+    '<float name="fov" value="50"/><string name="fov_axis" value="diagonal"/>',
+    '<string name="focal_length" value="35mm"/>',
+    '',                                                             # Mitsuba's 50 mm
+    '<float name="fov" value="40"/><float name="principal_point_offset_x" value="0.1"/>'
+    '<float name="principal_point_offset_y" value="-0.05"/><float name="near_clip" value="0.5"/>',
+])
+@pytest.mark.parametrize("crop", ["", '<integer name="crop_offset_x" value="3"/><integer name="crop_width" value="9"/>'
+                                      '<integer name="crop_offset_y" value="2"/><integer name="crop_height" value="7"/>'])
+@pytest.mark.parametrize("kind", ["perspective", "orthographic"])
+def test_camera_rays_match_mitsuba(sensor, crop, kind):
+    if kind == "orthographic":
+        if "fov" in sensor or "focal" in sensor:
+            pytest.skip("orthographic cameras have no field of view")
+        sensor = sensor + '<transform name="to_world"><scale x="2" y="2"/><rotate y="1" angle="20"/>' \
+                          '<translate x="0.3"/></transform>'
+    else:
+        sensor += '<transform name="to_world"><lookat origin="1, 2, 5" target="0, 0.5, 0" up="0, 1, 0"/></transform>'
+    xml = scene_xml(sensor=f'<sensor type="{kind}">{sensor}<film type="hdrfilm"><integer name="width" value="20"/>'
+                           f'<integer name="height" value="15"/>{crop}<rfilter type="box"/></film></sensor>')
+    ours = load_scene(xml).sensor
+    theirs = mi.load_string(xml).sensors()[0]
+    crop_size = np.array([ours.width, ours.height])
+    for s in _film_positions(np.random.default_rng(5)):
+        ray, _ = theirs.sample_ray(0.0, 0.5, mi.Point2f(*s), mi.Point2f(0.5, 0.5))
+        film = np.array([ours.film.crop_offset_x, ours.film.crop_offset_y]) + s * crop_size
+        o, d = ours.rays(film[None])
+        np.testing.assert_allclose(d[0], np.array(ray.d), atol=2e-6)
+        np.testing.assert_allclose(o[0], np.array(ray.o), atol=2e-6 * (1 + np.abs(o).max()))
+
+
+def test_samplers_map_to_point_sets():
+    for plugin, points in [("independent", None), ("stratified", "stratified"), ("multijitter", "stratified"),
+                           ("orthogonal", "lhs"), ("ldsampler", "sobol")]:
+        sc = load_scene(scene_xml(sensor=SENSOR.replace('"independent"', f'"{plugin}"')))
+        assert sc.sensor.sampler.points == points and sc.sensor.spp == 4
+        est = render(sc, 4, rng=0)
+        assert ("stderr_note" in est.extra) is (points is not None)       # the i.i.d. error bar is flagged
+
+
+# ----------------------------------------------------------------------------- cylinder
+CYLINDERS = [
+    '<shape type="cylinder"/>',
+    '<shape type="cylinder"><float name="radius" value="0.4"/><point name="p0" value="0.1, -0.2, 0.3"/>'
+    '<point name="p1" value="0.5, 0.7, 1.1"/><boolean name="flip_normals" value="true"/></shape>',
+    '<shape type="cylinder"><transform name="to_world"><scale value="0.5"/><rotate x="0.6" y="0.8" angle="30"/>'
+    '<translate x="0.2"/></transform></shape>',
+]
+
+
+@pytest.mark.parametrize("shape", CYLINDERS)
+def test_cylinder_hits_and_area_match_mitsuba(shape):
+    xml = scene_xml(shape)
+    ours = load_scene(xml).shapes[0]
+    theirs = mi.load_string(xml)
+    assert ours.area == pytest.approx(theirs.shapes()[0].surface_area(), rel=1e-6)
+    rng = np.random.default_rng(2)
+    o = rng.normal(size=(600, 3)) * 2
+    d = rng.normal(size=(600, 3)) * 0.5 + ours.center - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    t, n = ours.parts()[0].intersect(o, d, 0.0)
+    for i in range(len(o)):
+        si = theirs.ray_intersect(mi.Ray3f(mi.Point3f(*o[i]), mi.Vector3f(*d[i])))
+        if not si.is_valid():
+            assert not np.isfinite(t[i]), i
+            continue
+        assert t[i] == pytest.approx(si.t, rel=1e-5, abs=1e-5), i
+        np.testing.assert_allclose(n[i], np.array(si.n), atol=1e-5)
+
+
+def test_cylinder_refuses_a_sheared_cross_section():
+    with pytest.raises(SceneError, match="to_world.*circle"):
+        load_scene(scene_xml('<shape type="cylinder"><transform name="to_world"><scale x="2"/></transform></shape>'))
+
+
+# ----------------------------------------------------------------------------- surface coordinates
+UV_SHAPES = [
+    '<shape type="rectangle"><transform name="to_world"><rotate x="1" angle="30"/><scale x="2"/></transform></shape>',
+    '<shape type="disk"><transform name="to_world"><rotate y="1" angle="-20"/></transform></shape>',
+    '<shape type="sphere"><point name="center" value="0.2, 0, 0"/><float name="radius" value="0.8"/></shape>',
+    '<shape type="cylinder"><float name="radius" value="0.5"/><point name="p0" value="0, -1, 0"/>'
+    '<point name="p1" value="0, 1, 0.3"/></shape>',
+    '<shape type="cube"><transform name="to_world"><rotate x="1" y="2" z="0.5" angle="37"/><scale value="0.7"/>'
+    '</transform></shape>',
+]
+
+
+@pytest.mark.parametrize("shape", UV_SHAPES)
+def test_surface_coordinates_match_mitsuba(shape):
+    xml = scene_xml(shape)
+    ours = load_scene(xml)
+    theirs = mi.load_string(xml)
+    from vrlab.render.geometry import SceneGeometry
+
+    rng = np.random.default_rng(3)
+    o = rng.normal(size=(400, 3)) * 3
+    d = rng.normal(size=(400, 3)) * 0.3 - o
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    hits = SceneGeometry(ours).intersect(o, d)
+    ok = hits.shape >= 0
+    uv = ours.shapes[0].uv(hits.p[ok], hits.prim[ok])
+    ref = []
+    for i in np.flatnonzero(ok):
+        si = theirs.ray_intersect(mi.Ray3f(mi.Point3f(*o[i]), mi.Vector3f(*d[i])))
+        assert si.is_valid()
+        ref.append(np.array(si.uv))
+    assert ok.sum() > 100
+    np.testing.assert_allclose(uv, np.array(ref), atol=2e-5)

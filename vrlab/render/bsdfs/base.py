@@ -1,0 +1,183 @@
+"""BSDF models of the direct-lighting renderer, in the local shading frame (normal = +z).
+
+Conventions (those of Mitsuba 3's ``BSDF.eval``/``sample``):
+
+* ``wo`` is the direction towards the camera (outgoing), ``wi`` the sampled direction
+  towards the light; both are unit vectors of shape ``(..., 3)`` that broadcast.
+* ``f(wo, wi) -> (..., 3)`` is the BRDF f_r alone (RGB, per steradian);
+  ``eval(wo, wi) -> (..., 3)`` is **f_r(wo, wi) * cos(theta_i)** (Mitsuba returns f·cos).
+* ``pdf(wo, wi) -> (...)`` is the solid-angle density of ``sample`` on the **whole
+  sphere**.  Samplers may produce directions below the horizon (a Phong lobe or a
+  microfacet reflection leaning past it); there ``eval`` is 0, so such samples add
+  zero and the estimator stays unbiased (the lost mass only costs variance).  On
+  wi.z > 0 the pdf equals Mitsuba's; Mitsuba reports 0 below the horizon.
+* ``sample(wo, u) -> (wi, weight, pdf)`` with ``u`` of shape ``(..., 2)`` and
+  ``weight = eval / pdf`` (0 where the pdf is 0).
+* ``distribution(wo)`` is a vrlab distribution (``dim_u = 2``, ``sample(u)``, ``pdf(w)``,
+  solid angle) so the estimators (``MonteCarlo``, MIS, ...) can use BSDF sampling.
+  ``wo`` broadcasts against the leading shape of ``u``: for per-pixel ``wo`` of shape
+  ``(*batch, 3)`` and uniforms ``(*batch, n, 2)`` pass ``wo[..., None, :]``.
+* Every model is one-sided: f = 0 when wo.z <= 0 or wi.z <= 0 (``twosided`` makes a
+  BSDF two-sided).
+* Every model is a registered scene element (:mod:`vrlab.render.registry`): one module
+  per Mitsuba plugin in this package; ``from_props`` reads it from a scene file and the
+  constructor takes the same parameters as keyword arguments.
+* Constructors check their arguments (``TypeError``/``ValueError`` naming them):
+  colours a number or an RGB array ``(..., 3)``, finite and in [0, 1e15]; ``alpha`` in
+  (0, 1e4]; ``exponent`` in [0, 1e6]; ``distribution`` ``"ggx"`` or ``"beckmann"``.
+  ``f``/``eval``/``pdf``/``sample`` check shapes only (``(..., 3)`` directions,
+  ``(..., 2)`` uniforms): they run per ray.
+
+Sources: Walter et al. 2007, "Microfacet Models for Refraction through Rough
+Surfaces" (D, Beckmann G1 approximation, sampling); Heitz 2014, "Understanding the
+Masking-Shadowing Function in Microfacet-Based BRDFs" (separable Smith G); Lafortune &
+Willems 1994, "Using the Modified Phong Reflectance Model for Physically Based
+Rendering" (normalised Phong); Mitsuba 3 plugin docs (``diffuse``, ``roughconductor``,
+``twosided``).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ... import checks
+from ..._vec import dot as vdot
+from ..._vec import scale
+from ...distributions.base import Distribution, as_points, as_uniforms
+from ..registry import Element
+from ..scene_checks import MAX_ALPHA, MAX_VALUE
+
+INV_PI = 1.0 / np.pi
+TWO_PI = 2.0 * np.pi
+
+__all__ = ["BSDFDirections", "BSDFModel", "alpha_param", "dirs", "mirror", "reflect", "rgb_param", "shape_of"]
+
+
+def reflect(w: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """Mirror ``w`` about the unit axis ``m``: 2 (w·m) m - w (invariant under m -> -m)."""
+    return scale(m, 2.0 * vdot(w, m)) - w
+
+
+def mirror(w: np.ndarray) -> np.ndarray:
+    """Mirror direction about the local normal +z: (-x, -y, z)."""
+    return w * np.array([-1.0, -1.0, 1.0])
+
+
+def rgb_param(value: Any, name: str) -> np.ndarray:
+    """A colour parameter: a number or an RGB array ``(..., 3)``, finite, in [0, MAX_VALUE]."""
+    if value is None:
+        raise TypeError(f"{name} must be a number or an RGB array, got None")
+    v = checks.finite_array(value, name)
+    if v.ndim == 0:
+        v = np.full(3, float(v))
+    if v.shape[-1:] != (3,) or v.size == 0 or np.any(v < 0) or np.any(v > MAX_VALUE):
+        raise ValueError(f"{name}: expected a scalar or RGB array (..., 3) in [0, {MAX_VALUE:g}], got {value!r}")
+    return v
+
+
+def alpha_param(value: Any, name: str = "alpha") -> float:
+    """A roughness in (0, MAX_ALPHA]."""
+    return checks.real(value, name, low=0, high=MAX_ALPHA, low_open=True)
+
+
+def _alpha(value: Any) -> float:
+    return checks.real(value, "alpha", low=0, high=MAX_ALPHA, low_open=True)
+
+
+def dirs(wo: Any, wi: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``wo``, ``wi`` as arrays of 3-vectors (shapes checked only)."""
+    return as_points(wo, 3, "wo"), as_points(wi, 3, "wi")
+
+
+class BSDFDirections(Distribution):
+    """The sampling distribution of ``bsdf`` for a fixed ``wo``: ``sample(u) -> wi``,
+    ``pdf(wi)`` (solid angle, whole sphere).  Built by ``BSDFModel.distribution(wo)``."""
+
+    dim_u = 2
+    dim_x = 3
+    measure = "solid angle"
+
+    def __init__(self, bsdf: BSDFModel, wo: np.ndarray):
+        self.bsdf = bsdf
+        self.wo = as_points(wo, 3, "wo")
+
+    def sample(self, u: np.ndarray) -> np.ndarray:
+        return self.bsdf._sample_direction(self.wo, as_uniforms(u, 2))
+
+    def pdf(self, w: np.ndarray) -> np.ndarray:
+        return self.bsdf.pdf(self.wo, w)
+
+    def _repr_fields(self) -> dict:
+        return {"bsdf": self.bsdf, "wo_shape": self.wo.shape}
+
+
+class BSDFModel(Element):
+    """Base of the BSDF elements: subclasses implement ``f``, ``pdf`` and
+    ``_sample_direction`` (and ``from_props`` to be read from a scene file), and may
+    override ``diffuse_albedo`` (the k_d of a Lambertian part, for the renderer's
+    ``"lambertian"`` control variate) and ``is_black``.  ``twosided`` is True for
+    Mitsuba's ``twosided`` adapter: the renderer then shades both sides alike."""
+
+    kind = "bsdf"
+    twosided = False
+
+    @property
+    def type(self) -> str:
+        """The Mitsuba plugin name (``"diffuse"``, ...)."""
+        return self.plugin_name
+
+    def diffuse_albedo(self) -> np.ndarray:
+        """k_d (RGB) of a Lambertian part k_d / pi of the BSDF (default 0)."""
+        return np.zeros(3)
+
+    def is_black(self) -> bool:
+        """True when the BSDF reflects nothing (the renderer skips shading it)."""
+        return False
+
+    def key(self) -> tuple:
+        """Shapes whose BSDFs have equal keys are shaded in one batch."""
+        fields = tuple((k, repr(v)) for k, v in sorted(self._repr_fields().items()))
+        return (type(self), self.twosided, fields)
+
+    def f(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError  # abstract
+
+    def pdf(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError  # abstract
+
+    def _sample_direction(self, wo: np.ndarray, u: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError  # abstract
+
+    def eval(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:
+        """f_r(wo, wi) cos(theta_i), RGB (..., 3); zero below either horizon."""
+        wo, wi = dirs(wo, wi)
+        return scale(self.f(wo, wi), np.clip(wi[..., 2], 0.0, None))
+
+    def distribution(self, wo: np.ndarray) -> BSDFDirections:
+        """A vrlab distribution of wi for this ``wo`` (see the module notes on broadcasting)."""
+        return BSDFDirections(self, wo)
+
+    def sample(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(wi, weight, pdf)`` with weight = f cos / pdf (RGB; 0 where pdf is 0)."""
+        wo = as_points(wo, 3, "wo")
+        wi = self._sample_direction(wo, as_uniforms(u, 2))
+        p = self.pdf(wo, wi)
+        val = self.eval(wo, wi)
+        pos = (p > 0)[..., None]
+        weight = np.where(pos, val / np.where(pos, p[..., None], 1.0), 0.0)
+        return wi, weight, p
+
+    def __repr__(self) -> str:
+        fields = ", ".join(f"{k}={v!r}" for k, v in self._repr_fields().items())
+        return f"{type(self).__name__}({fields})"
+
+    def _repr_fields(self) -> dict:
+        return {}
+
+
+def shape_of(wo: np.ndarray, u: np.ndarray) -> tuple:
+    """The shape ``(..., 3)`` of directions sampled for ``wo`` with uniforms ``u``."""
+    return np.broadcast_shapes(wo.shape[:-1], u.shape[:-1]) + (3,)
+
+
