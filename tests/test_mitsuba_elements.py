@@ -153,3 +153,55 @@ def test_wrong_elements_fail_the_criterion():
                         '<rgb name="reflectance" value="0.525"/>')
     with pytest.raises(AssertionError):
         assert_agrees_with_mitsuba(flat, reference=(mean, var, spp))
+
+
+# ----------------------------------------------------------------------------- textures
+def _textured(tmp_path, reflectance: str, shape: str = "rectangle") -> str:
+    from PIL import Image
+
+    img = (np.random.default_rng(0).random((8, 12, 3)) * 255).astype(np.uint8)
+    Image.fromarray(img).save(tmp_path / "tex.png")
+    reflectance = reflectance.replace("TEX", str(tmp_path / "tex.png"))
+    obj = ('<shape type="rectangle"><transform name="to_world"><scale value="1.5"/><rotate x="1" angle="-90"/>'
+           '<translate y="0.01"/></transform>' if shape == "rectangle" else
+           '<shape type="sphere"><point name="center" value="0, 0.5, 0.2"/><float name="radius" value="0.5"/>')
+    return scene(f'{obj}<bsdf type="diffuse">{reflectance}</bsdf></shape>')
+
+
+TEXTURES = {
+    "bitmap nearest": '<texture type="bitmap" name="reflectance"><string name="filename" value="TEX"/>'
+                      '<string name="filter_type" value="nearest"/></texture>',
+    "bitmap bilinear mirror": '<texture type="bitmap" name="reflectance"><string name="filename" value="TEX"/>'
+                              '<string name="wrap_mode" value="mirror"/><transform name="to_uv"><scale value="2"/>'
+                              '</transform></texture>',
+    "checkerboard": '<texture type="checkerboard" name="reflectance"><rgb name="color0" value="0.8, 0.2, 0.1"/>'
+                    '<transform name="to_uv"><scale value="4"/></transform></texture>',
+}
+
+
+@pytest.mark.parametrize("name", sorted(TEXTURES))
+@pytest.mark.parametrize("shape", ["rectangle", "sphere"])
+def test_textures_agree_with_mitsuba(tmp_path, name, shape):
+    assert_agrees_with_mitsuba(_textured(tmp_path, TEXTURES[name], shape))
+
+
+def test_a_flipped_texture_fails_the_criterion(tmp_path):
+    good = _textured(tmp_path, TEXTURES["bitmap nearest"])
+    spp = 4 * max(1, sample_budget() // (W * H))
+    mean, var = mitsuba_reference(good, spp)
+    flipped = good.replace('<string name="filter_type" value="nearest"/>', '<string name="filter_type" '
+                           'value="nearest"/><transform name="to_uv"><scale x="1" y="-1"/></transform>')
+    with pytest.raises(AssertionError):
+        assert_agrees_with_mitsuba(flipped, reference=(mean, var, spp))
+
+
+def test_mesh_attribute_texture_agrees_with_mitsuba(tmp_path):
+    mesh = _sphere_mesh()
+    colors = 0.2 + 0.7 * np.random.default_rng(1).random((len(mesh.vertices), 3))
+    mesh = MeshData(vertices=mesh.vertices, faces=mesh.faces, normals=mesh.normals, uvs=mesh.uvs,
+                    vertex_attributes={"vertex_color": colors})
+    write_ply(tmp_path / "ball.ply", mesh)
+    assert_agrees_with_mitsuba(scene(
+        f'<shape type="ply"><string name="filename" value="{tmp_path / "ball.ply"}"/><bsdf type="diffuse">'
+        '<texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/></texture>'
+        '</bsdf></shape>'))

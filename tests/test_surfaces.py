@@ -70,6 +70,40 @@ def sphere():
     return SphereSurface([0.0, 0.0, 0.0], 2.0)
 
 
+# an open cylinder: radius 0.6 about the axis (0.3, 0.8, 0.52)-ish of length 1.7
+_R3 = np.linalg.qr(np.array([[0.3, 1.0, 0.2], [0.8, -0.1, 0.5], [0.52, 0.3, -0.9]]))[0]
+C_CYL, A1_CYL, A2_CYL, A3_CYL = np.array([0.1, 0.2, -0.3]), 0.6 * _R3[:, 0], 0.6 * _R3[:, 1], 1.7 * _R3[:, 2]
+
+
+def cylinder():
+    from vrlab.distributions import CylinderSurface
+
+    return CylinderSurface(C_CYL, A1_CYL, A2_CYL, A3_CYL)
+
+
+class _CylinderChart:
+    """The tube c + cos(2 pi t) a1 + sin(2 pi t) a2 + s a3, (s, t) in [0, 1)^2; area element
+    |dx/ds x dx/dt| = |a3 x 2 pi (-sin a1 + cos a2)| (2 pi r h)."""
+
+    p, dim_x = 2, 3
+
+    def __init__(self, c, a1, a2, a3):
+        self.c, self.m = np.asarray(c, float), np.stack([a1, a2, a3], 1)
+
+    def to_param(self, x):
+        q = (np.asarray(x) - self.c) @ np.linalg.inv(self.m).T
+        return np.stack([q[..., 2], np.mod(np.arctan2(q[..., 1], q[..., 0]) / (2 * np.pi), 1)], -1)
+
+    def from_param(self, s):
+        phi = 2 * np.pi * s[..., 1:2]
+        return self.c + np.cos(phi) * self.m[:, 0] + np.sin(phi) * self.m[:, 1] + s[..., 0:1] * self.m[:, 2]
+
+    def jacobian(self, s):
+        phi = 2 * np.pi * s[..., 1:2]
+        dt = 2 * np.pi * (-np.sin(phi) * self.m[:, 0] + np.cos(phi) * self.m[:, 1])
+        return np.linalg.norm(np.cross(np.broadcast_to(self.m[:, 2], dt.shape), dt), axis=-1)
+
+
 def ones(x):
     return np.ones(np.shape(x)[:-1])
 
@@ -191,6 +225,7 @@ AREA_CASES = [
     ("sphere", sphere, lambda: EllipsoidChart([0.0, 0.0, 0.0], 2.0 * np.eye(3)), (20, 20)),
     ("disk", disk, lambda: _DiskChart(C_DISK, A1_DISK, A2_DISK), (16, 24)),
     ("disk-polar", disk_polar, lambda: _DiskChart(C_DISK, A1_DISK, A2_DISK), (16, 24)),
+    ("cylinder", cylinder, lambda: _CylinderChart(C_CYL, A1_CYL, A2_CYL, A3_CYL), (12, 24)),
 ]
 
 
@@ -220,6 +255,36 @@ def test_wrong_disk_pdf_fails_chi_square():
     res = chi2_gof(wrong, _DiskChart(C_DISK, A1_DISK, A2_DISK), (16, 24), n=100_000, rng=3)
     with pytest.raises(AssertionError):
         assert_gof(res)
+
+
+def test_wrong_cylinder_pdf_fails_chi_square():
+    """Uniform in (z, phi) is uniform by area only because the axes are orthogonal: sampling z
+    by u1^2 instead (a density wrong by 2 z) must fail."""
+    class Wrong(type(cylinder())):
+        def sample(self, u):
+            u = np.asarray(u, float)
+            return super().sample(np.stack([np.sqrt(u[..., 0]), u[..., 1]], -1))
+
+    res = chi2_gof(Wrong(C_CYL, A1_CYL, A2_CYL, A3_CYL), _CylinderChart(C_CYL, A1_CYL, A2_CYL, A3_CYL), (12, 24),
+                   n=100_000, rng=3)
+    with pytest.raises(AssertionError):
+        assert_gof(res)
+
+
+def test_cylinder_intersect_normal_and_invert():
+    s = cylinder()
+    u = np.random.default_rng(4).random((500, 2))
+    x = s.sample(u)
+    np.testing.assert_allclose(s.invert(x), u, atol=1e-12)
+    n = s.normal(x)
+    radial = x - C_CYL - ((x - C_CYL) @ _R3[:, 2])[:, None] * _R3[:, 2]
+    np.testing.assert_allclose(n, radial / np.linalg.norm(radial, axis=-1, keepdims=True), atol=1e-12)
+    o = x + 3.0 * n                                     # rays from outside towards the sampled points
+    t = s.intersect(o, -n)
+    assert np.all(np.isfinite(t[:, 0]))
+    np.testing.assert_allclose(t[:, 0], 3.0, rtol=1e-9)    # the first hit is the sampled point
+    with pytest.raises(ValueError, match="a1"):
+        type(s)(C_CYL, A1_CYL, A1_CYL, A3_CYL)              # the axes must be orthogonal
 
 
 def test_samples_lie_on_the_surface():

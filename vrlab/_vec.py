@@ -52,3 +52,12 @@ def outer3(s, c, dtype=None) -> np.ndarray:
         np.multiply(s, c[k], out=out[..., k])
     return out
 
+
+def matvec3(m: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``m @ x`` for a 3x3 matrix ``m`` and rows of 3-vectors ``x (..., 3)``, by elementwise
+    multiply-adds (no BLAS: the same bits in every process and for every batch size)."""
+    x = np.asarray(x)
+    out = x[..., 0:1] * m[:, 0]
+    out += x[..., 1:2] * m[:, 1]
+    out += x[..., 2:3] * m[:, 2]
+    return out

@@ -15,6 +15,7 @@ from .spherical import GGX, CosineHemisphere, PhongLobe, UniformCone, UniformHem
 from .solid_angle import LightSample, SolidAngleFromArea, SphereCone
 from .quadrics import EllipsoidSurface, SphereSurface, unit_sphere_hit, unit_sphere_hits, unit_sphere_roots
 from .surfaces import BoxSurface, DiskSurface, RectangleSurface, Surface
+from .cylinder import CylinderSurface
 from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 
 __all__ = [
@@ -24,7 +25,7 @@ __all__ = [
     "GGX", "CosineHemisphere", "PhongLobe", "UniformCone", "UniformHemisphere", "UniformSphere",
     "PiecewiseConstant1D", "PiecewiseConstant2D",
     "LightSample", "SolidAngleFromArea", "SphereCone",
-    "BoxSurface", "DiskSurface", "EllipsoidSurface", "RectangleSurface", "SphereSurface", "Surface",
+    "BoxSurface", "CylinderSurface", "DiskSurface", "EllipsoidSurface", "RectangleSurface", "SphereSurface", "Surface",
     "unit_sphere_hit", "unit_sphere_hits", "unit_sphere_roots",
     "Beckmann", "FILTERS", "BoxFilter", "FilterWindow", "GaussianFilter", "ReconstructionFilter", "TentFilter",
 ]

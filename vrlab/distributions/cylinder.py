@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from .._vec import matvec3
 from ._args import _vector3
 from .base import as_points, as_uniforms
 from .surfaces import TWO_PI, Surface, _finish_hits
@@ -76,7 +77,7 @@ class CylinderSurface(Surface):
 
     def local(self, x: np.ndarray) -> np.ndarray:
         """Local tube coordinates M^-1 (x - origin)."""
-        return (np.asarray(x, float) - self.origin) @ self.minv.T
+        return matvec3(self.minv, np.asarray(x, float) - self.origin)
 
     def sample(self, u: np.ndarray) -> np.ndarray:
         u = as_uniforms(u, 2)
@@ -101,7 +102,7 @@ class CylinderSurface(Surface):
 
     def intersect(self, origin, direction, t_min=None):
         o, d = self._rays(origin, direction)
-        return tube_hits(self.local(o), d @ self.minv.T, self._t_min(t_min))
+        return tube_hits(self.local(o), matvec3(self.minv, d), self._t_min(t_min))
 
     def _repr_fields(self):
         return {"radius": self.radius, "length": self.length}

@@ -1,7 +1,9 @@
 """A bounding-volume hierarchy of axis-aligned boxes, traversed as a wavefront.
 
 Built top-down by splitting the primitives at the median centroid along the widest
-axis; nodes are tested with the slab test (Kay & Kajiya 1986, "Ray tracing complex
+axis, one level of the tree at a time with every node of the level in one vectorised pass
+(segment reductions and one sort per level: 10^6 triangles build in seconds); nodes are
+tested with the slab test (Kay & Kajiya 1986, "Ray tracing complex
 scenes").  Traversal keeps an array of (ray, node) pairs and advances all of them one
 level per step, so the work is NumPy-vectorised over rays and nodes; pairs whose box
 lies beyond the closest hit found so far are dropped.
@@ -26,45 +28,42 @@ class BVH:
         cen = 0.5 * (plo + phi)
         pad = 1e-9 * (1.0 + np.max(np.abs(verts), initial=0.0))
         order = np.arange(len(verts))
-        lo, hi, left, start, count = [], [], [], [], []
-        stack = [(0, len(verts))]              # depth first: a left child follows its parent
-        while stack:
-            b, e = stack.pop()
-            k = len(lo)
-            idx = order[b:e]
-            lo.append(plo[idx].min(0) - pad)
-            hi.append(phi[idx].max(0) + pad)
-            if e - b <= leaf_size:
-                left.append(-1)
-                start.append(b)
-                count.append(e - b)
-                continue
-            left.append(k + 1)
+        lo, hi, start, count, left, right = [], [], [], [], [], []
+        # one level of nodes at a time (breadth first), every node of the level in one pass:
+        # segments [b, e) of ``order``; node ids follow the order nodes are appended in
+        b, e, n_nodes = np.array([0]), np.array([len(verts)]), 1
+        while len(b):
+            size = e - b
+            offs = np.concatenate([[0], np.cumsum(size)[:-1]])
+            pos = np.repeat(b - offs, size) + np.arange(size.sum())          # positions in ``order``
+            idx = order[pos]
+            seg = np.repeat(np.arange(len(b)), size)
+            lo.append(np.minimum.reduceat(plo[idx], offs) - pad)
+            hi.append(np.maximum.reduceat(phi[idx], offs) + pad)
+            inner = size > leaf_size
+            cmin, cmax = np.minimum.reduceat(cen[idx], offs), np.maximum.reduceat(cen[idx], offs)
+            axis = np.argmax(cmax - cmin, axis=1)
+            # median split along each node's widest centroid axis: sort within every node
+            key = cen[idx, axis[seg]]
+            s = np.lexsort((key, seg))
+            order[pos] = idx[s]
+            k_in = np.flatnonzero(inner)
+            kid = n_nodes + 2 * np.arange(len(k_in))
+            lft, rgt = np.full(len(b), -1), np.full(len(b), -1)
+            lft[k_in], rgt[k_in] = kid, kid + 1
             start.append(b)
-            count.append(0)
-            c = cen[idx]
-            axis = int(np.argmax(c.max(0) - c.min(0)))
-            mid = (e - b) // 2
-            order[b:e] = idx[np.argpartition(c[:, axis], mid)]
-            stack.append((b + mid, e))             # right subtree after the left one
-            stack.append((b, b + mid))
-        self.lo, self.hi = np.array(lo), np.array(hi)
+            count.append(np.where(inner, 0, size))
+            left.append(lft)
+            right.append(rgt)
+            mid = b[k_in] + size[k_in] // 2
+            b = np.stack([b[k_in], mid], 1).reshape(-1)
+            e = np.stack([mid, e[k_in]], 1).reshape(-1)
+            n_nodes += 2 * len(k_in)
+        self.lo, self.hi = np.concatenate(lo), np.concatenate(hi)
         self.box = np.concatenate([self.lo, self.hi], axis=1)
-        self.start, self.count = np.array(start), np.array(count)
+        self.start, self.count = np.concatenate(start), np.concatenate(count)
         self.order = order
-        self.left = np.array(left)
-        self.right = self._rights()
-
-    def _rights(self) -> np.ndarray:
-        """Right children: depth-first order puts a node's right subtree after its left."""
-        n = len(self.lo)
-        right = np.full(n, -1)
-        size = np.ones(n, int)
-        for k in range(n - 1, -1, -1):           # subtree sizes, children after parents
-            if self.count[k] == 0:
-                right[k] = self.left[k] + size[self.left[k]]
-                size[k] = 1 + size[self.left[k]] + size[right[k]]
-        return right
+        self.left, self.right = np.concatenate(left), np.concatenate(right)
 
     def closest(self, o: np.ndarray, d: np.ndarray, t_min: float, t_best: np.ndarray,
                 test: Callable[[np.ndarray, np.ndarray], np.ndarray]):

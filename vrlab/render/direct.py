@@ -74,7 +74,8 @@ class DirectLighting:
         self.group_of_shape = np.array([distinct[k] for k in keys], dtype=np.int64)
         first = [keys.index(k) for k in distinct]
         self.bsdfs = [shapes[i].bsdf for i in first]      # one model per group
-        self.kd = [np.asarray(b.diffuse_albedo(), float) for b in self.bsdfs]
+        # the Lambertian albedo per group (None for a textured BSDF: per point, at shading time)
+        self.kd = [None if b.textures else np.asarray(b.diffuse_albedo(), float) for b in self.bsdfs]
         self.twosided = np.array([b.twosided for b in self.bsdfs], dtype=bool)
         self.is_emitter = emits
         #: shapes whose shading normals differ from the geometric ones (meshes with vertex normals)
@@ -113,6 +114,26 @@ class DirectLighting:
             if len(rows):
                 ns[rows] = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
         return ns
+
+    def bsdf_values(self, group: int, hits: Hits, rows) -> dict | None:
+        """The textured parameters of BSDF group ``group`` at the camera hits ``rows``
+        (``{name: (N, 3)}``), or None for an untextured BSDF: each shape's textures are
+        looked up at its surface points (Mitsuba's uv, triangle and barycentrics)."""
+        textures = self.bsdfs[group].textures
+        if not textures:
+            return None
+        from .textures import SurfacePoints
+
+        shape, p, prim = hits.shape[rows], hits.p[rows], hits.prim[rows]
+        out = {a: np.empty((len(shape), 3)) for a in textures}
+        for k in np.unique(shape):
+            sel = np.flatnonzero(shape == k)
+            s = self.shapes[k]
+            bary = s.barycentrics(p[sel], prim[sel]) if hasattr(s, "barycentrics") else None
+            si = SurfacePoints(s.uv(p[sel], prim[sel]), prim[sel], bary, s)
+            for a, tex in textures.items():
+                out[a][sel] = tex.eval(si)
+        return out
 
     def light_radiance(self, j: np.ndarray) -> np.ndarray:
         """L_e of lights ``j`` ``(R, 3)`` float32 (0 for j = -1)."""

@@ -103,11 +103,14 @@ class Planar:
         self.a1 = np.cross(e2, m) / m2[:, None]
         self.a2 = np.cross(m, e1) / m2[:, None]
         self.packed = np.concatenate([v0, self.n, self.a1, self.a2], axis=1)
-        self.kernel = DensePlanar(self.n, self.a1, self.a2, v0, para, _box_faces(v0, e1, e2, self.shape, boxes or {}))
-        self.shape_ext = np.concatenate([self.shape, self.shape[self.kernel.box_faces[:, 0]]])   # + boxes
         p = len(v0)
         self.bvh = BVH(np.stack([v0, v0 + e1, v0 + e2] + ([v0 + e1 + e2] if para else []),
                                 axis=1)) if p >= _BVH_MIN_PRIMS else None
+        # the float32 all-pairs kernel, for groups without a BVH
+        self.kernel = None if self.bvh is not None else \
+            DensePlanar(self.n, self.a1, self.a2, v0, para, _box_faces(v0, e1, e2, self.shape, boxes or {}))
+        self.shape_ext = self.shape if self.kernel is None else \
+            np.concatenate([self.shape, self.shape[self.kernel.box_faces[:, 0]]])   # + boxes
 
     def __len__(self) -> int:
         return len(self.v0)

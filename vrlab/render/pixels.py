@@ -92,12 +92,12 @@ class PixelIntegrand:
         return self.estimator.label
 
     def shading(self, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
-                ns: np.ndarray | None = None) -> ShadingIntegrand:
+                ns: np.ndarray | None = None, values: dict | None = None) -> ShadingIntegrand:
         """The shading integrand at points ``p`` (geometric normals ``n``, shading normals ``ns``,
-        towards ``wo``) of BSDF group ``group``."""
+        towards ``wo``) of BSDF group ``group`` (``values``: its textured parameters there)."""
         if not self.lighting.bsdfs:
             raise ValueError("scene: it has no shapes to shade")
-        return ShadingIntegrand(self.lighting, group, p, n, wo, ns)
+        return ShadingIntegrand(self.lighting, group, p, n, wo, ns, values)
 
     def outputs(self, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Unit outputs ``(3, P, S, c)`` of S samples in each of P pixels ``(P, 2)`` = (row,
@@ -111,10 +111,10 @@ class PixelIntegrand:
         lit = self.lighting
         o, d = lit.camera.pixel_rays(pixels[:, None, :], u[..., :2], np.float32)
         o, d = o.reshape(-1, 3), d.reshape(-1, 3)
-        hits = lit.geometry.intersect(o, d)
+        # hide_emitters: camera rays pass through emitting shapes (Mitsuba 3.9 draws what lies
+        # behind them), so they meet the other shapes only
+        hits = (lit.blocker_geometry if lit.hide_emitters else lit.geometry).intersect(o, d)
         le = lit.emitted(hits, d)
-        if lit.hide_emitters:
-            le[...] = 0.0
         shape = np.maximum(hits.shape, 0)
         group = np.where((hits.shape >= 0) & lit.shaded[shape], lit.group_of_shape[shape], -1)
         counts = np.bincount(group + 1, minlength=len(lit.bsdfs) + 1)[1:]
@@ -135,7 +135,7 @@ class PixelIntegrand:
                 wo = np.negative(wo, out=wo)
                 if n_shading is not None:
                     ns = np.take(n_shading, rows, axis=0)
-            sh = self.shading(g, p, n, wo, ns)
+            sh = self.shading(g, p, n, wo, ns, lit.bsdf_values(g, hits, rows))
             ug = ug.reshape(len(ug), self.units, self.unit_dim)
             vals = np.asarray(self.estimator.unit_outputs(sh, ug))
             vals = np.broadcast_to(vals, (3,) + vals.shape[-3:])

@@ -68,8 +68,13 @@ class ShadingIntegrand(Integrand):
     """
 
     def __init__(self, lighting, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
-                 ns: np.ndarray | None = None):
-        self.lighting, self.bsdf = lighting, lighting.bsdfs[group]
+                 ns: np.ndarray | None = None, values: dict | None = None):
+        self.lighting = lighting
+        self._values = values
+        self._bsdf = lighting.bsdfs[group]
+        # a textured BSDF at these points (one row each); untextured: the group's own
+        self.bsdf = self._bsdf if values is None else self._bsdf.at(values)
+        self._bsdf_rows: dict = {}
         p, n, wo = (np.asarray(a, F32) for a in (p, n, wo))
         ns = n if ns is None else np.asarray(ns, F32)
         if lighting.twosided[group]:
@@ -77,7 +82,7 @@ class ShadingIntegrand(Integrand):
         self.p, self.n, self.ns = p, n, ns      # geometric normals offset the rays, shading ones give the frame
         self.frame = Frame._trusted(ns)         # hit normals are unit vectors (geometry normalises them)
         self.wo_l = self.frame.to_local(wo)
-        self.kd = lighting.kd[group]
+        self.kd = lighting.kd[group] if values is None else np.asarray(self.bsdf.diffuse_albedo(), float)
         self.name, self.domain, self.dim, self.volume = "direct lighting", "directions x lights", 4, 4 * np.pi
         self.bounds, self.exact, self.f2, self.theory = None, None, None, {}
         self._valid = self._lambertian_value = None            # the control's integral: on first use
@@ -101,7 +106,7 @@ class ShadingIntegrand(Integrand):
 
     def f(self, x: np.ndarray) -> np.ndarray:
         r = self.rows(x)
-        return self._rgb(self.bsdf.eval(self.rep(self.wo_l, x), r.wl) * self.emission(r), x)
+        return self._rgb(self.bsdf_for(x.shape[-2]).eval(self.rep(self.wo_l, x), r.wl) * self.emission(r), x)
 
     def uniform(self):
         return _Directional(self, "uniform")
@@ -111,6 +116,15 @@ class ShadingIntegrand(Integrand):
         if integral is None:
             integral = self._lambertian_value = self._lambertian_integral()
         return h, integral
+
+    def bsdf_for(self, m: int):
+        """The BSDF for the rows of point arrays with ``m`` samples per point (a textured
+        BSDF's per-point parameters repeated ``m`` times)."""
+        if self._values is None or m == 1:
+            return self.bsdf
+        if m not in self._bsdf_rows:
+            self._bsdf_rows[m] = self._bsdf.at({k: np.repeat(v, m, axis=0) for k, v in self._values.items()})
+        return self._bsdf_rows[m]
 
     # ---------------------------------------------------------------- rows of a point array
     @staticmethod
@@ -193,7 +207,8 @@ class ShadingIntegrand(Integrand):
             self.control("lambertian")
         jj = np.maximum(r.j, 0)
         valid = self.rep(self._valid, x)[np.arange(len(jj)), jj] & (r.j >= 0) & (self.light_pdf(r) > 0)
-        g = (self.kd / np.pi) * lit.light_radiance(r.j) * np.clip(r.wl[:, 2:3], 0.0, None)
+        kd = self.kd if self.kd.ndim == 1 else self.rep(self.kd, x)          # per point when textured
+        g = (kd / np.pi) * lit.light_radiance(r.j) * np.clip(r.wl[:, 2:3], 0.0, None)
         return self._rgb(scale(g, valid), x)
 
     def _lambertian_integral(self) -> np.ndarray:
@@ -207,7 +222,7 @@ class ShadingIntegrand(Integrand):
         r = self.rows(x)
         if r.front is None:          # not a sample of a technique: the traced ray decides the facing
             self.first_seen(r)
-        fr = self.bsdf.eval(self.rep(self.wo_l, x), r.wl)
+        fr = self.bsdf_for(x.shape[-2]).eval(self.rep(self.wo_l, x), r.wl)
         t = luminance(fr) * luminance(self.lighting.light_radiance(r.j))
         return np.where(r.front & (r.j >= 0), np.maximum(t, 0.0), 0.0).reshape(x.shape[:-1])
 

@@ -37,13 +37,14 @@ Rendering" (normalised Phong); Mitsuba 3 plugin docs (``diffuse``, ``roughconduc
 """
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import numpy as np
 
 from ... import checks
 from ..._vec import dot as vdot
-from ..._vec import scale
+from ..._vec import outer3, scale
 from ...distributions.base import Distribution, as_points, as_uniforms
 from ..registry import Element
 from ..scene_checks import MAX_ALPHA, MAX_VALUE
@@ -51,7 +52,8 @@ from ..scene_checks import MAX_ALPHA, MAX_VALUE
 INV_PI = 1.0 / np.pi
 TWO_PI = 2.0 * np.pi
 
-__all__ = ["BSDFDirections", "BSDFModel", "alpha_param", "dirs", "mirror", "reflect", "rgb_param", "shape_of"]
+__all__ = ["BSDFDirections", "BSDFModel", "alpha_param", "color_param", "dirs", "mirror", "plain", "reflect",
+           "rgb_param", "shape_of", "times_rgb"]
 
 
 def reflect(w: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -79,6 +81,30 @@ def rgb_param(value: Any, name: str) -> np.ndarray:
 def alpha_param(value: Any, name: str = "alpha") -> float:
     """A roughness in (0, MAX_ALPHA]."""
     return checks.real(value, name, low=0, high=MAX_ALPHA, low_open=True)
+
+
+def color_param(value: Any, name: str):
+    """A colour parameter that may also be a texture element (returned as it is)."""
+    from ..textures import Texture
+
+    if isinstance(value, Texture):
+        return value
+    return rgb_param(value, name)
+
+
+def times_rgb(s: np.ndarray, c: np.ndarray, dtype=None) -> np.ndarray:
+    """``s[..., None] * c`` for one colour ``c (3,)`` (column by column, fast) or per-row
+    colours ``c (..., 3)`` (a textured parameter at its points)."""
+    c = np.asarray(c)
+    if c.ndim == 1:
+        return outer3(s, c, dtype)
+    out = np.asarray(s)[..., None] * c
+    return out if dtype is None else out.astype(dtype, copy=False)
+
+
+def plain(value: Any) -> Any:
+    """A parameter for ``repr``: arrays as lists, textures as themselves."""
+    return value.tolist() if isinstance(value, np.ndarray) else value
 
 
 def _alpha(value: Any) -> float:
@@ -121,6 +147,23 @@ class BSDFModel(Element):
 
     kind = "bsdf"
     twosided = False
+    #: the parameters that may be textures (evaluated at the shading points by :meth:`at`)
+    TEXTURED: tuple = ()
+
+    @property
+    def textures(self) -> dict:
+        """``{parameter: texture}`` of the parameters given as textures."""
+        from ..textures import Texture
+
+        return {a: getattr(self, a) for a in self.TEXTURED if isinstance(getattr(self, a), Texture)}
+
+    def at(self, values: dict) -> "BSDFModel":
+        """A copy whose textured parameters are the per-point ``values`` (``{name: (N, 3)}``):
+        the BSDF at N points (or rows), evaluated by the same code as a constant one."""
+        out = copy.copy(self)
+        for name, v in values.items():
+            setattr(out, name, v)
+        return out
 
     @property
     def type(self) -> str:
@@ -136,8 +179,8 @@ class BSDFModel(Element):
         return False
 
     def key(self) -> tuple:
-        """Shapes whose BSDFs have equal keys are shaded in one batch."""
-        fields = tuple((k, repr(v)) for k, v in sorted(self._repr_fields().items()))
+        """Shapes whose BSDFs have equal keys are shaded in one batch (textures by identity)."""
+        fields = tuple((k, id(v) if isinstance(v, Element) else repr(v)) for k, v in sorted(self._repr_fields().items()))
         return (type(self), self.twosided, fields)
 
     def f(self, wo: np.ndarray, wi: np.ndarray) -> np.ndarray:  # pragma: no cover - interface

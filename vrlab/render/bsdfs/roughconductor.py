@@ -10,11 +10,11 @@ import numpy as np
 from ... import checks
 from ..._vec import dot as vdot
 from ..._vec import norm as vnorm
-from ..._vec import outer3, scale, side
+from ..._vec import scale, side
 from ...distributions import GGX, Beckmann
 from ...distributions.base import as_points
 from ..registry import register
-from .base import BSDFModel, alpha_param, dirs, reflect, rgb_param, shape_of
+from .base import BSDFModel, alpha_param, color_param, dirs, plain, reflect, shape_of, times_rgb
 
 __all__ = ["RoughConductor"]
 
@@ -45,6 +45,7 @@ class RoughConductor(BSDFModel):
     """
 
     DISTRIBUTIONS = ("ggx", "beckmann")
+    TEXTURED = ("specular_reflectance",)
 
     def __init__(self, alpha: float = 0.1, distribution: str = "beckmann", specular_reflectance: Any = 1.0,
                  sample_visible: bool = True):
@@ -52,14 +53,14 @@ class RoughConductor(BSDFModel):
         self.alpha = alpha_param(alpha)
         self.distribution_type = distribution
         self.normals = GGX(self.alpha) if distribution == "ggx" else Beckmann(self.alpha)
-        self.specular_reflectance = rgb_param(specular_reflectance, "specular_reflectance")
+        self.specular_reflectance = color_param(specular_reflectance, "specular_reflectance")
         self.sample_visible = checks.flag(sample_visible, "sample_visible")
 
     @classmethod
     def from_props(cls, p) -> "RoughConductor":
         p.string("material", "none", ("none",))
         return cls(alpha=p.float("alpha", 0.1), distribution=p.string("distribution", "beckmann", cls.DISTRIBUTIONS),
-                   specular_reflectance=p.color("specular_reflectance", 1.0),
+                   specular_reflectance=p.texture("specular_reflectance", 1.0),
                    sample_visible=p.bool("sample_visible", True))
 
     def D(self, m: np.ndarray) -> np.ndarray:
@@ -104,7 +105,7 @@ class RoughConductor(BSDFModel):
         ok = ok & (cos_o > 0) & (cos_i > 0)
         denom = 4.0 * np.where(ok, cos_o * cos_i, 1.0)
         val = np.where(ok, self.D(m) * self.G(wi, wo, m) / denom, 0.0)
-        return outer3(val, self.specular_reflectance, val.dtype)
+        return times_rgb(val, self.specular_reflectance, val.dtype)
 
     def pdf(self, wo, wi):
         wo, wi = dirs(wo, wi)
@@ -119,6 +120,7 @@ class RoughConductor(BSDFModel):
         return reflect(np.broadcast_to(wo, shape_of(wo, u)), m)
 
     def _repr_fields(self):
-        return {"alpha": self.alpha, "distribution": self.distribution_type}
+        return {"alpha": self.alpha, "distribution": self.distribution_type,
+                "specular_reflectance": plain(self.specular_reflectance)}
 
 

@@ -64,6 +64,13 @@ class TwoSided(BSDFModel):
     def validate(self) -> None:
         self.inner.validate()
 
+    @property
+    def textures(self) -> dict:
+        return self.inner.textures
+
+    def at(self, values: dict) -> "TwoSided":
+        return TwoSided(self.inner.at(values))
+
     def key(self) -> tuple:
         return (TwoSided,) + self.inner.key()
 

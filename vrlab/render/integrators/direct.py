@@ -1,7 +1,8 @@
 """``direct`` (Mitsuba 3): direct lighting with ``emitter_samples`` light samples and
 ``bsdf_samples`` BSDF samples per shading point (both default to ``shading_samples``,
 default 1), combined by MIS in Mitsuba (vrlab's default estimator ``"mis-power"`` does the
-same; any estimator object may replace it), and ``hide_emitters``."""
+same; any estimator object may replace it), and ``hide_emitters`` (camera rays then pass
+through emitting shapes and see what lies behind them, as in Mitsuba 3.9)."""
 from __future__ import annotations
 
 from ..registry import register

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ... import checks
-from ..._vec import norm, scale
+from ..._vec import matvec3, norm, scale
 from ..registry import Element
 from ..scene_checks import MAX_PIXELS, MAX_SIDE, matrix4
 
@@ -154,15 +154,16 @@ class Sensor(Element):
 
     def rays(self, film: np.ndarray, dtype=np.float64) -> tuple[np.ndarray, np.ndarray]:
         """World ``(origins, unit directions)`` ``(..., 3)`` of film positions ``(..., 2)`` in
-        pixel units of the whole film (column, row)."""
-        film = np.asarray(film, np.float64)
-        s = film / np.array([self.film.width, self.film.height], float)
+        pixel units of the whole film (column, row), computed in ``dtype`` from the normalised
+        positions on (float32 for the renderer, as Mitsuba's scalar variants)."""
+        s = (np.asarray(film, np.float64) / np.array([self.film.width, self.film.height], float)).astype(dtype)
         o, d = self.local_rays(s)
-        m = self.to_world
-        d = d @ m[:3, :3].T
+        m = self.to_world.astype(dtype)
+        d = matvec3(m[:3, :3], d)
         d = scale(d, 1.0 / norm(d))
-        o = o @ m[:3, :3].T + m[:3, 3]
-        return o.astype(dtype, copy=False), d.astype(dtype, copy=False)
+        o = matvec3(m[:3, :3], o)
+        o += m[:3, 3]
+        return o, d
 
     def pixel_rays(self, pixels: np.ndarray, u: np.ndarray, dtype=np.float64) -> tuple[np.ndarray, np.ndarray]:
         """Rays through image pixels ``(..., 2)`` = ``(row, column)`` at sub-pixel uniforms

@@ -36,7 +36,7 @@ class BoxFilter(ReconstructionFilter):
     def offsets(self):
         from ...distributions.filters import BoxFilter as Warp
 
-        return Warp(0.5)
+        return Warp(0.5, discretized=False)        # the same filter; its inverse CDF is affine
 
     def __repr__(self) -> str:
         return "BoxFilter()"

@@ -31,8 +31,9 @@ class OrthographicCamera(Sensor):
         affine(self.to_world, "to_world")
 
     def local_rays(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        x = 1.0 - 2.0 * s[..., 0]
-        y = (1.0 - 2.0 * s[..., 1]) / self.aspect
+        f = s.dtype.type
+        x = f(1) - 2 * s[..., 0]
+        y = (f(1) - 2 * s[..., 1]) / f(self.aspect)
         o = np.stack([x, y, np.full_like(x, self.near_clip)], -1)
         d = np.zeros_like(o)
         d[..., 2] = 1.0

@@ -102,7 +102,8 @@ class PerspectiveCamera(Sensor):
 
     def local_rays(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         t = np.tan(np.deg2rad(self.fov_x) / 2)
-        x = (1.0 - 2.0 * (s[..., 0] + self.principal_point_offset_x)) * t
-        y = (1.0 - 2.0 * (s[..., 1] + self.principal_point_offset_y)) * (t / self.aspect)
+        one = s.dtype.type(1)
+        x = (one - 2 * (s[..., 0] + s.dtype.type(self.principal_point_offset_x))) * s.dtype.type(t)
+        y = (one - 2 * (s[..., 1] + s.dtype.type(self.principal_point_offset_y))) * s.dtype.type(t / self.aspect)
         d = np.stack([x, y, np.ones_like(x)], -1)
-        return d * self.near_clip, d
+        return d * s.dtype.type(self.near_clip), d

@@ -29,6 +29,7 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 
 from ... import checks
+from ..._vec import matvec3
 from .. import transforms as tf
 from ..registry import Element
 from ..scene_checks import MAX_COORD, affine, matrix4
@@ -187,7 +188,7 @@ class Shape(Element):
     def local_points(self, p: np.ndarray) -> np.ndarray:
         """``to_world^-1`` of world points ``(N, 3)``."""
         m = self.to_world
-        return (np.asarray(p, float) - m[:3, 3]) @ np.linalg.inv(m[:3, :3]).T
+        return matvec3(np.linalg.inv(m[:3, :3]), np.asarray(p, float) - m[:3, 3])
 
     def shading_normals(self, p: np.ndarray, n: np.ndarray, prim: np.ndarray) -> np.ndarray:
         """Unit shading normals at hits ``p`` (geometric normals ``n``, primitives ``prim``)

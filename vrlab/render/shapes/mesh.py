@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ... import checks
+from ..._vec import matvec3
 from .. import transforms as tf
 from ..scene_checks import MAX_COORD
 from .base import Shape, Triangles, check_world_points
@@ -121,7 +122,8 @@ class Mesh(Shape):
     def barycentrics(self, p: np.ndarray, prim: np.ndarray) -> np.ndarray:
         """``(b1, b2)`` of world points ``p`` on triangles ``prim``: p = v0 + b1 (v1 - v0) +
         b2 (v2 - v0) (object-space vertex order; the dual basis of the edges)."""
-        v = tf.transform_points(self.to_world, self.vertices[self.faces[prim]])      # (N, 3, 3)
+        m = self.to_world
+        v = matvec3(m[:3, :3], self.vertices[self.faces[prim]]) + m[:3, 3]           # (N, 3, 3)
         e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
         m = np.cross(e1, e2)
         m2 = np.sum(m * m, -1)[:, None]
@@ -145,7 +147,7 @@ class Mesh(Shape):
         b = self.barycentrics(p, prim)
         nv = self.normals[self.faces[prim]]                                          # (N, 3, 3)
         ns = (1.0 - b[:, :1] - b[:, 1:]) * nv[:, 0] + b[:, :1] * nv[:, 1] + b[:, 1:] * nv[:, 2]
-        ns = ns @ np.linalg.inv(self.to_world[:3, :3])                               # M^-T ns as rows
+        ns = matvec3(np.linalg.inv(self.to_world[:3, :3]).T, ns)                     # M^-T ns
         ns /= np.maximum(np.linalg.norm(ns, axis=-1, keepdims=True), 1e-300)
         return (-ns if self.flip_normals else ns).astype(np.asarray(n).dtype, copy=False)
 
