@@ -267,6 +267,8 @@ class Props:
         return self._color_value(c, name, kind)
 
     def _color_value(self, c: ET.Element, name: str, kind: str) -> np.ndarray:
+        if c.tag == "spectrum" and c.get("type") is not None:
+            return self._spectrum_plugin(c, name, kind)
         if c.tag == "spectrum":
             self.ctx.check_attrs(c, ("name", "value", "filename"))
             from . import spectra
@@ -284,6 +286,38 @@ class Props:
             counts = {"rgb": (1, 3)}.get(c.tag, (1,))
             v = np.broadcast_to(self.ctx.numbers(c, "value", counts), (3,)).astype(float)
         return v
+
+    def _spectrum_plugin(self, c: ET.Element, name: str, kind: str) -> np.ndarray:
+        """``<spectrum type=...>``: ``blackbody`` (``temperature``; an emission: Mitsuba's RGB
+        variants load it but cannot render it, vrlab gives what its spectral variants render,
+        :func:`vrlab.render.spectra.blackbody_rgb`), ``regular`` (``wavelength_min``,
+        ``wavelength_max``, ``values``) and ``irregular`` (``wavelengths``, ``values``)."""
+        from . import spectra
+
+        self.ctx.check_attrs(c, ("name", "type"))
+        t = self.ctx.attr(c, "type")
+        sub = Props(self.ctx, c, lambda e: None)
+        try:
+            if t == "blackbody":
+                if kind != "emission":
+                    raise ValueError("a blackbody spectrum is an emission (radiance, irradiance, intensity)")
+                value = spectra.blackbody_rgb(sub.float("temperature"))
+            elif t == "regular":
+                vals = self.ctx.numbers(sub._prop("values", ("string",), True), "value")
+                lo, hi = sub.float("wavelength_min"), sub.float("wavelength_max")
+                value = spectra.spectrum_to_rgb(np.linspace(lo, hi, len(vals)), vals, kind=kind, warn=False)
+            elif t == "irregular":
+                wl = self.ctx.numbers(sub._prop("wavelengths", ("string",), True), "value")
+                vals = self.ctx.numbers(sub._prop("values", ("string",), True), "value")
+                value = spectra.spectrum_to_rgb(wl, vals, kind=kind, warn=False)
+            else:
+                raise ValueError(f"unsupported spectrum type {t!r}; supported: blackbody, regular, irregular")
+        except SceneError:
+            raise
+        except ValueError as exc:
+            raise self.ctx.error(c, f"'{name}': {exc}") from None
+        sub.check_unused()
+        return np.asarray(value, float)
 
     def texture(self, name: str, default: Any = None, *, kind: str = "reflectance"):
         """A colour or a texture (:meth:`color` with ``texture=True``)."""
