@@ -78,12 +78,15 @@ class DirectLighting:
         self.kd = [None if b.textures else np.asarray(b.diffuse_albedo(), float) for b in self.bsdfs]
         self.twosided = np.array([b.twosided for b in self.bsdfs], dtype=bool)
         self.is_emitter = emits
+        #: emitting shapes whose radiance is a texture (shape index -> texture)
+        self.emitter_textures = {k: s.emitter.texture for k, s in enumerate(shapes)
+                                 if s.emitter is not None and s.emitter.texture is not None}
         #: shapes whose shading normals differ from the geometric ones (meshes with vertex normals)
         self.smooth = [k for k, s in enumerate(shapes) if s.has_shading_normals]
         self.shapes = shapes
         # black BSDFs reflect nothing; with a path of depth 1 nothing is shaded
         self.shaded = np.array([self.shading and not s.bsdf.is_black() for s in shapes], dtype=bool)
-        self.radiance = np.array([s.emitter.radiance if s.emitter is not None else np.zeros(3)
+        self.radiance = np.array([s.emitter.mean_radiance if s.emitter is not None else np.zeros(3)
                                   for s in shapes], F32)
         self.eps = 1e-5              # ray offset, relative to 1 + max|p| (float32 hit decisions)
         self.lights: LightSet | None = None
@@ -122,18 +125,35 @@ class DirectLighting:
         textures = self.bsdfs[group].textures
         if not textures:
             return None
-        from .textures import SurfacePoints
-
         shape, p, prim = hits.shape[rows], hits.p[rows], hits.prim[rows]
         out = {a: np.empty((len(shape), 3)) for a in textures}
         for k in np.unique(shape):
             sel = np.flatnonzero(shape == k)
-            s = self.shapes[k]
-            bary = s.barycentrics(p[sel], prim[sel]) if hasattr(s, "barycentrics") else None
-            si = SurfacePoints(s.uv(p[sel], prim[sel]), prim[sel], bary, s)
+            si = self.surface_points(k, p[sel], prim[sel])
             for a, tex in textures.items():
                 out[a][sel] = tex.eval(si)
         return out
+
+    def surface_points(self, k: int, p: np.ndarray, prim: np.ndarray | None):
+        """The :class:`~vrlab.render.textures.SurfacePoints` of points ``p`` on shape ``k``
+        (triangles ``prim`` of a mesh): Mitsuba's uv, barycentrics and the shape."""
+        from .textures import SurfacePoints
+
+        s = self.shapes[k]
+        prim = np.zeros(len(p), np.int64) if prim is None else prim
+        bary = s.barycentrics(p, prim) if hasattr(s, "barycentrics") else None
+        return SurfacePoints(s.uv(p, prim), prim, bary, s)
+
+    def textured_radiance(self, shape: np.ndarray, p: np.ndarray, prim: np.ndarray | None,
+                          le: np.ndarray) -> np.ndarray:
+        """``le`` with the rows on emitters of textured radiance (``shape``: their shape index;
+        points ``p``) replaced by the texture's value there."""
+        for k, tex in self.emitter_textures.items():
+            rows = np.flatnonzero(shape == k)
+            if len(rows):
+                si = self.surface_points(k, np.asarray(p[rows], float), None if prim is None else prim[rows])
+                le[rows] = tex.eval(si)
+        return le
 
     def light_radiance(self, j: np.ndarray) -> np.ndarray:
         """L_e of lights ``j`` ``(R, 3)`` float32 (0 for j = -1)."""
@@ -147,7 +167,10 @@ class DirectLighting:
     def emitted(self, hits, d: np.ndarray) -> np.ndarray:
         """One-sided emitted radiance ``(N, 3)`` seen along ``d`` at ``hits``."""
         front = (hits.shape >= 0) & (dot(hits.n, d) < 0)
-        return scale(np.take(self.radiance, np.maximum(hits.shape, 0), axis=0), front)
+        le = np.take(self.radiance, np.maximum(hits.shape, 0), axis=0)
+        if self.emitter_textures:
+            le = self.textured_radiance(hits.shape, hits.p, hits.prim, le)
+        return scale(le, front)
 
     def trace(self, p: np.ndarray, n: np.ndarray, w: np.ndarray) -> tuple[Hits, np.ndarray]:
         """The emitter seen by rays leaving surface points ``p`` (normal ``n``) along ``w``

@@ -44,7 +44,8 @@ class Light:
     angle.  A shape without a surface distribution cannot be sampled (ValueError)."""
 
     def __init__(self, shape: Shape):
-        self.radiance = np.asarray(shape.emitter.radiance, float)
+        self.radiance = np.asarray(shape.emitter.mean_radiance, float)      # a texture's mean
+        self.textured = shape.emitter.texture is not None
         self.shape = shape
         self.type = shape.plugin_name
         self.sphere = shape.sphere_light
@@ -210,10 +211,11 @@ class LightSet:
         int cos dw from ``ref`` with normal ``n`` (:meth:`Light.cos_integral`); sphere
         lights are done together on ``(m, lights)`` arrays."""
         m, L = len(ref), len(self.lights)
-        out, valid = np.zeros((m, L)), np.zeros((m, L), bool)
+        out, valid = np.zeros((m, L)), np.zeros((m, L), bool)      # textured lights: no closed form
         s = np.flatnonzero(self.is_sphere)
         if len(s):                                       # (m, S) at once
             out[:, s], valid[:, s] = sphere_cos_integral(self.centers[s], self.radii[s], ref[:, None], n[:, None])
         for i in np.flatnonzero(~self.is_sphere):
             out[:, i], valid[:, i] = self.lights[i].cos_integral(ref, n)
+        valid[:, [l.textured for l in self.lights]] = False
         return out, valid

@@ -34,13 +34,16 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
 * BSDFs: ``diffuse`` (``reflectance``), ``roughconductor`` (``distribution``
   beckmann/ggx, ``alpha``, ``material`` none, ``specular_reflectance``,
   ``sample_visible``), ``twosided`` (one nested BSDF) and the *vrlab* ``phong``;
-* emitters: ``area`` (``radiance``) inside a shape;
+  ``reflectance`` and ``specular_reflectance`` may be textures;
+* emitters: ``area`` (``radiance``, a colour or a texture) inside a shape;
 * textures: ``bitmap`` (``filename``, ``filter_type``, ``wrap_mode``, ``raw``, ``to_uv``,
   ``format``), ``checkerboard`` (``color0``, ``color1``, ``to_uv``), ``mesh_attribute``
   (``name``, ``scale``) (:mod:`vrlab.render.textures`);
 * colours: ``<rgb>``, ``<float>``, ``<spectrum value="v">`` and ``<spectrum
   value="400:0.1, 500:0.5, ...">`` (converted to linear sRGB as Mitsuba's RGB variants
-  do, :mod:`vrlab.render.spectra`).
+  do, :mod:`vrlab.render.spectra`), ``<spectrum type="regular">``/``"irregular"`` (the
+  same conversion) and ``<spectrum type="blackbody">`` for emission (what Mitsuba's spectral
+  variants render: its RGB variants cannot).
 
 Elements are checked when built (their constructors, from Python or from XML: ranges in
 :mod:`vrlab.render.scene_checks`); ``Scene.validate()`` checks every element again

@@ -177,6 +177,7 @@ class ShadingIntegrand(Integrand):
             else:
                 hits, _ = lit.trace(p, n, r.w)
                 r.first = lit.light_hit(hits) == r.j
+                r.hit_p = hits.p
                 if r.front is None:
                     r.front = dot(hits.n, r.w) < 0
         return r.first
@@ -184,7 +185,15 @@ class ShadingIntegrand(Integrand):
     def emission(self, r: _Rows) -> np.ndarray:
         """L_e,j V_j reaching the points along each row ``(R, 3)``."""
         if r.le is None:
-            r.le = scale(self.lighting.light_radiance(r.j), self.first_seen(r) & r.front & (r.j >= 0))
+            lit = self.lighting
+            seen = self.first_seen(r) & r.front & (r.j >= 0)
+            le = lit.light_radiance(r.j)
+            if lit.emitter_textures:                  # textured radiance at the light's point
+                y = r.y if r.y is not None else r.hit_p
+                shape = np.where(r.j >= 0, lit.lights.shape_of_light[np.maximum(r.j, 0)], -1) \
+                    if lit.lights is not None else np.full(len(r.j), -1)
+                le = lit.textured_radiance(np.where(seen, shape, -1), np.nan_to_num(y), None, le.copy())
+            r.le = scale(le, seen)
         return r.le
 
     def light_pdf(self, r: _Rows) -> np.ndarray:

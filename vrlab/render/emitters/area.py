@@ -1,5 +1,7 @@
 """``area`` (Mitsuba 3): a diffuse emitter on the surface of the shape that carries it,
-radiance L_e(x, w) = ``radiance`` towards the side its normal faces (one-sided)."""
+radiance L_e(x, w) = ``radiance`` towards the side its normal faces (one-sided); ``radiance``
+may be a texture, looked up at the shape's uv as Mitsuba does (light selection by power then
+uses its mean)."""
 from __future__ import annotations
 
 from typing import Any
@@ -20,14 +22,34 @@ class AreaEmitter(Emitter):
     is_area = True
 
     def __init__(self, radiance: Any):
-        self.radiance = rgb(radiance, "radiance")
+        self.radiance = _radiance(radiance)
 
     @classmethod
     def from_props(cls, p) -> "AreaEmitter":
-        return cls(p.color("radiance", kind="emission"))
+        return cls(p.texture("radiance", kind="emission"))
 
     def validate(self) -> None:
-        self.radiance = rgb(self.radiance, "radiance")
+        self.radiance = _radiance(self.radiance)
+
+    @property
+    def texture(self):
+        """The radiance texture, or None for a constant radiance."""
+        from ..textures import Texture
+
+        return self.radiance if isinstance(self.radiance, Texture) else None
+
+    @property
+    def mean_radiance(self) -> np.ndarray:
+        """The radiance (3,), or its texture's mean over uv."""
+        tex = self.texture
+        return self.radiance if tex is None else np.asarray(tex.mean(), float)
 
     def __repr__(self) -> str:
-        return f"AreaEmitter(radiance={np.asarray(self.radiance).tolist()})"
+        r = self.radiance if self.texture is not None else np.asarray(self.radiance).tolist()
+        return f"AreaEmitter(radiance={r})"
+
+
+def _radiance(value: Any):
+    from ..textures import Texture
+
+    return value if isinstance(value, Texture) else rgb(value, "radiance")
