@@ -8,7 +8,8 @@ from scipy import special
 from vrlab import Integrand
 from vrlab.distributions import to_local, to_world
 from vrlab.estimators import MonteCarlo
-from vrlab.render.bsdfs import Beckmann, Diffuse, Phong, RoughConductor, mirror, reflect
+from vrlab.distributions import Beckmann
+from vrlab.render.bsdfs import Diffuse, Phong, RoughConductor, mirror, reflect
 from vrlab.testing import (
     HemisphereChart,
     SphereChart,

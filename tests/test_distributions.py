@@ -12,6 +12,14 @@ IMAGE = np.array([[0.0, 1.0, 2.0, 0.5, 0.0, 3.0],
                   [0.2, 0.2, 5.0, 0.0, 0.0, 2.0],
                   [1.0, 1.0, 1.0, 1.0, 0.0, 0.0]])
 TILT = np.array([1.0, 0.5, 0.2]) / np.linalg.norm([1.0, 0.5, 0.2])
+SKY = np.random.default_rng(11).lognormal(0.0, 1.0, (5, 8, 3))     # an environment map, 8 x 5 pixels
+SKY_TURN = np.linalg.qr(np.random.default_rng(12).normal(size=(3, 3)))[0]   # a random rotation
+
+
+def _turn_y(angle):
+    """Rotation about +y (the envmap's up axis) by ``angle``: phi -> phi + angle, u -> u + angle / 2 pi."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 # name -> (distribution, chart, chi-square bins)
 CASES = {
@@ -45,6 +53,13 @@ CASES = {
     "mixture": (D.Mixture([D.CosineHemisphere(), D.PhongLobe(30).around(TILT)], [0.3, 0.7]), SphereChart(), (30, 30)),
     "beckmann-0.2": (D.Beckmann(0.2), HemisphereChart(power=3), (40, 24)),
     "beckmann-0.7": (D.Beckmann(0.7), HemisphereChart(power=2), (30, 24)),
+    # Arvo's spherical triangle: the pole and two equator points (a lune sector of 7 pi / 12 sr),
+    # whose edges follow the chart's cells (meridians, the equator), so the quadrature is exact
+    "spherical-triangle": (D.SphericalTriangle([0, 0, 1], [1, 0, 0], [np.cos(7 * PI / 12), np.sin(7 * PI / 12), 0],
+                                               [0, 0, 0]), HemisphereChart(), (16, 24)),
+    # environment maps (Mitsuba's envmap: lat-long, +y up, density / (2 pi^2 sin theta))
+    "envmap-cdf": (D.EnvironmentMap(SKY, table="cdf"), SphereChart(), (20, 30)),
+    "envmap-alias-rotated": (D.EnvironmentMap(SKY, to_world=SKY_TURN), SphereChart(), (20, 30)),
     # pixel filters (offsets in pixel units; discretised = Mitsuba's scalar-variant weights)
     "filter-box": (D.BoxFilter(), BoxChart([(-0.5, 0.5)] * 2), (16, 16)),
     "filter-tent": (D.TentFilter(1.5), BoxChart([(-1.5, 1.5)] * 2), (24, 24)),
@@ -178,6 +193,15 @@ class _WrongPdf:
     # Mitsuba's scalar film weighs by the 31-step table, not the continuous filter
     (D.GaussianFilter(), D.GaussianFilter(discretized=False), BoxChart([(-2, 2)] * 2)),
     (D.TentFilter(), D.TentFilter(discretized=False), BoxChart([(-1, 1)] * 2)),
+    # environment maps: u mirrored, the map turned by half a texel in u, z up instead of y up
+    (D.EnvironmentMap(SKY), D.EnvironmentMap(SKY[:, ::-1]), SphereChart()),
+    (D.EnvironmentMap(SKY), D.EnvironmentMap(SKY, to_world=_turn_y(PI / SKY.shape[1])), SphereChart()),
+    (D.EnvironmentMap(SKY), D.EnvironmentMap(SKY, to_world=[[1, 0, 0], [0, 0, -1], [0, 1, 0]]), SphereChart()),
+    # directions uniform by area on the triangle, claimed uniform in solid angle (Arvo's pdf)
+    (D.SolidAngleFromArea(D.TriangleMeshSurface([[0, 0, 1], [1, 0, 0], [np.cos(7 * PI / 12), np.sin(7 * PI / 12), 0]],
+                                                [[0, 1, 2]]), [0, 0, 0]),
+     D.SphericalTriangle([0, 0, 1], [1, 0, 0], [np.cos(7 * PI / 12), np.sin(7 * PI / 12), 0], [0, 0, 0]),
+     HemisphereChart()),
 ])
 def test_harness_rejects_a_slightly_wrong_pdf(sampler, wrong, chart):
     bins = (30,) if chart.p == 1 else (30, 24)

@@ -223,3 +223,34 @@ def test_textured_emitter_radiance_agrees_with_mitsuba(tmp_path, shape):
         f'{shape}<emitter type="area"><texture type="bitmap" name="radiance"><string name="filename" '
         f'value="{tmp_path / "em.png"}"/><boolean name="raw" value="true"/></texture></emitter></shape>',
         lights=False))
+
+
+# ----------------------------------------------------------------------------- emitters
+EMITTERS = {
+    "point": '<emitter type="point"><point name="position" value="0.5, 1.5, 0.5"/><rgb name="intensity" value="3"/>'
+             '</emitter>',
+    "point to_world spectrum": '<emitter type="point"><transform name="to_world"><translate x="-0.4" y="1.2" z="0.7"/>'
+                               '</transform><spectrum name="intensity" value="450:2, 600:5, 700:3"/></emitter>',
+    "spot": '<emitter type="spot"><transform name="to_world"><lookat origin="0.2, 2, 0.1" target="0, 0, 0" up="0, 0, 1"/>'
+            '</transform><rgb name="intensity" value="5"/><float name="cutoff_angle" value="30"/>'
+            '<float name="beam_width" value="12"/></emitter>',
+    "directional": '<emitter type="directional"><vector name="direction" value="0.3, -1, -0.2"/>'
+                   '<rgb name="irradiance" value="2, 1.5, 1"/></emitter>',
+    "constant": '<emitter type="constant"><rgb name="radiance" value="0.5, 0.6, 0.7"/></emitter>',
+    "mixed with weights": '<emitter type="constant"><rgb name="radiance" value="0.3"/></emitter>'
+                          '<emitter type="point"><point name="position" value="0.5, 1.5, 0.5"/>'
+                          '<rgb name="intensity" value="3"/><float name="sampling_weight" value="3"/></emitter>',
+}
+
+
+@pytest.mark.parametrize("name", sorted(EMITTERS))
+def test_emitters_agree_with_mitsuba(name):
+    assert_agrees_with_mitsuba(scene(SHAPES["cube"] + EMITTERS[name], lights=name.startswith("mixed")))
+
+
+def test_a_point_light_off_by_3_percent_fails():
+    good = scene(SHAPES["cube"] + EMITTERS["point"], lights=False)
+    spp = 4 * max(1, sample_budget() // (W * H))
+    mean, var = mitsuba_reference(good, spp)
+    with pytest.raises(AssertionError):
+        assert_agrees_with_mitsuba(good.replace('value="3"/>', 'value="3.09"/>'), reference=(mean, var, spp))

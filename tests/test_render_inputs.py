@@ -11,7 +11,8 @@ from vrlab.render import (AreaEmitter, Scene, SceneError, builtin_scene_path, lo
                           registered, render)
 from vrlab.points import Sobol
 from vrlab.render import transforms as tf
-from vrlab.render.bsdfs import Beckmann, Diffuse, Phong, RoughConductor, TwoSided
+from vrlab.distributions import Beckmann
+from vrlab.render.bsdfs import Diffuse, Phong, RoughConductor, TwoSided
 from vrlab.render.compare import compare, compare_figure
 from vrlab.render.direct import DirectLighting
 from vrlab.render.integrators import DirectIntegrator, PathIntegrator

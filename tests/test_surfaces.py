@@ -214,6 +214,19 @@ def sheared_box():
     return BoxSurface.from_matrix(M)
 
 
+def mesh_box():
+    """``box()`` as a triangle mesh (12 triangles, outward winding): the same uniform density."""
+    from vrlab.distributions import TriangleMeshSurface
+
+    q = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    corners = np.array([0.3, -0.2, 1.0]) + (q * [0.5, 1.0, 2.0]) @ R_BOX.T
+    quads = np.array([[0, 1, 3, 2], [4, 6, 7, 5], [0, 4, 5, 1], [2, 3, 7, 6], [0, 2, 6, 4], [1, 5, 7, 3]])
+    faces = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+    tri = corners[faces]
+    out = np.sum(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]) * (tri.mean(1) - corners.mean(0)), -1) > 0
+    return TriangleMeshSurface(corners, np.where(out[:, None], faces, faces[:, ::-1]))
+
+
 # ----------------------------------------------------------------------------- area sampling
 
 AREA_CASES = [
@@ -226,6 +239,7 @@ AREA_CASES = [
     ("disk", disk, lambda: _DiskChart(C_DISK, A1_DISK, A2_DISK), (16, 24)),
     ("disk-polar", disk_polar, lambda: _DiskChart(C_DISK, A1_DISK, A2_DISK), (16, 24)),
     ("cylinder", cylinder, lambda: _CylinderChart(C_CYL, A1_CYL, A2_CYL, A3_CYL), (12, 24)),
+    ("mesh-box", mesh_box, lambda: box_surface_chart([0.3, -0.2, 1.0], [0.5, 1.0, 2.0], R_BOX), (36, 12)),
 ]
 
 
@@ -253,6 +267,23 @@ def test_wrong_ellipsoid_pdf_fails_chi_square():
 def test_wrong_disk_pdf_fails_chi_square():
     wrong = _WrongDisk(C_DISK, A1_DISK, A2_DISK)
     res = chi2_gof(wrong, _DiskChart(C_DISK, A1_DISK, A2_DISK), (16, 24), n=100_000, rng=3)
+    with pytest.raises(AssertionError):
+        assert_gof(res)
+
+
+def test_wrong_mesh_triangle_choice_fails_chi_square():
+    """Triangles of the box mesh chosen uniformly (1/12 each), not by area, with p = 1/A claimed."""
+    class Uniform(type(mesh_box())):
+        def sample(self, u):
+            u = np.asarray(u, float)
+            k = np.minimum((u[..., 0] * 12).astype(int), 11)
+            r = u[..., 0] * 12 - k
+            b1, b2 = np.sqrt(r) * (1 - u[..., 1]), np.sqrt(r) * u[..., 1]
+            return self.v0[k] + b1[..., None] * self.e1[k] + b2[..., None] * self.e2[k]
+
+    m = mesh_box()
+    res = chi2_gof(Uniform(m.vertices, m.faces), box_surface_chart([0.3, -0.2, 1.0], [0.5, 1.0, 2.0], R_BOX),
+                   (36, 12), n=100_000, rng=3)
     with pytest.raises(AssertionError):
         assert_gof(res)
 
@@ -456,7 +487,7 @@ def test_intersect_finds_the_sampled_point_and_broadcasts(make):
 def test_rectangle_and_box_directions_chi_square():
     results = []
     for k, (make, power) in enumerate([(rect, 1), (rect, 2), (box, 1), (box, 2), (sheared_box, 2), (disk, 1),
-                                       (disk, 2)]):
+                                       (disk, 2), (mesh_box, 2)]):
         d = SolidAngleFromArea(make(), REF)
         axis, z_min = _aimed(d.surface, REF)
         res, w = _chi2_refined(_InFrame(d, axis), CapChart(z_min, power), (16, 16), rng=20 + k,
@@ -481,7 +512,7 @@ def test_ellipsoid_and_sphere_directions_chi_square():
     assert_gof(results, alpha=0.01)
 
 
-@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere, disk])
+@pytest.mark.parametrize("make", [rect, box, sheared_box, ellipsoid, sphere, disk, mesh_box])
 def test_solid_angle_pdf_integrates_to_one(make):
     s = make()
     d = s.solid_angle_from(REF)

@@ -3,19 +3,17 @@
 Every distribution has ``dim_u``, ``sample(u)``, ``pdf(x)``, a ``measure`` and,
 where the warp is a bijection, ``invert(x)``.
 """
+from .._lazy import lazy_attributes
 from .base import Distribution
 from .discrete import AliasTable, CDFTable
-from .filters import FILTERS, BoxFilter, FilterWindow, GaussianFilter, ReconstructionFilter, TentFilter
 from .frames import Frame, Oriented, orthonormal_basis, to_local, to_world
 from .interval import Exponential, LinearInterval, Product, TruncatedNormal, UniformBox, UniformInterval
-from .microfacet import Beckmann
 from .mixture import Mixture
 from .planar import Disk, Rectangle, Triangle, concentric_disk
 from .spherical import GGX, CosineHemisphere, PhongLobe, UniformCone, UniformHemisphere, UniformSphere
 from .solid_angle import LightSample, SolidAngleFromArea, SphereCone
 from .quadrics import EllipsoidSurface, SphereSurface, unit_sphere_hit, unit_sphere_hits, unit_sphere_roots
 from .surfaces import BoxSurface, DiskSurface, RectangleSurface, Surface
-from .cylinder import CylinderSurface
 from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 
 __all__ = [
@@ -27,5 +25,16 @@ __all__ = [
     "LightSample", "SolidAngleFromArea", "SphereCone",
     "BoxSurface", "CylinderSurface", "DiskSurface", "EllipsoidSurface", "RectangleSurface", "SphereSurface", "Surface",
     "unit_sphere_hit", "unit_sphere_hits", "unit_sphere_roots",
+    "MeshLightSample", "SphericalTriangle", "TriangleMeshSolidAngle", "TriangleMeshSurface", "triangle_solid_angle",
+    "EnvironmentMap", "latlong_direction", "latlong_uv",
     "Beckmann", "FILTERS", "BoxFilter", "FilterWindow", "GaussianFilter", "ReconstructionFilter", "TentFilter",
 ]
+
+# the warps of the renderer's scene elements are imported on first use (start-up time)
+__getattr__, __dir__ = lazy_attributes(__name__, {
+    **{n: "filters" for n in ("FILTERS", "BoxFilter", "FilterWindow", "GaussianFilter", "ReconstructionFilter",
+                              "TentFilter")},
+    "Beckmann": "microfacet", "CylinderSurface": "cylinder",
+    **{n: "triangles" for n in ("MeshLightSample", "SphericalTriangle", "TriangleMeshSolidAngle",
+                                "TriangleMeshSurface", "triangle_solid_angle")},
+    **{n: "envmap" for n in ("EnvironmentMap", "latlong_direction", "latlong_uv")}}, __all__)

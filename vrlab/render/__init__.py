@@ -8,16 +8,10 @@ for the supported elements and :mod:`vrlab.render.transforms` for the convention
 """
 from . import transforms
 from .registry import Element, register, registered
-from .bsdfs import BSDFModel, Diffuse, Phong, RoughConductor, TwoSided
 from .builtin import (builtin_scene_path, describe_builtin_scene, export_builtin_scene, list_builtin_scenes,
                       list_mitsuba_references, mitsuba_reference)
 from .loader import load_scene
-from .meshes import read_obj
 from .scene import Scene, SceneError
-from .shapes import Shape
-from .emitters import AreaEmitter, Emitter
-from .integrators import Integrator
-from .sensors import Sensor
 from .film import render
 from .gradient import GradientDomainImage, render_gradient_domain
 from .pixels import PixelIntegrand
@@ -35,5 +29,9 @@ __all__ = ["BSDFModel", "Diffuse", "Element", "Emitter", "Phong", "RoughConducto
            "transforms"]
 
 # imported on first use: the reconstruction needs scipy.fft and scipy.sparse, which a
-# render does not (``vrlab render``'s start-up time is benchmarked)
-__getattr__, __dir__ = lazy_attributes(__name__, {"screened_poisson": "poisson"}, __all__)
+# render does not, and a scene needs only its own elements (``vrlab render``'s start-up time
+# is benchmarked; so is every worker process's)
+__getattr__, __dir__ = lazy_attributes(__name__, {
+    "screened_poisson": "poisson", "read_obj": "meshes", "Shape": "shapes", "AreaEmitter": "emitters",
+    "Emitter": "emitters", "Integrator": "integrators", "Sensor": "sensors", "BSDFModel": "bsdfs",
+    "Diffuse": "bsdfs", "Phong": "bsdfs", "RoughConductor": "bsdfs", "TwoSided": "bsdfs"}, __all__)

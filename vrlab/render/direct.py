@@ -91,21 +91,33 @@ class DirectLighting:
         self.eps = 1e-5              # ray offset, relative to 1 + max|p| (float32 hit decisions)
         self.lights: LightSet | None = None
         self.light_error = "the scene has no emitters"
-        self.light_of_shape = np.full(len(shapes), -1)
-        if emits.any():
+        free = list(scene.free_emitters)
+        envs = [e for e in free if e.is_infinite and not e.is_delta]
+        if len(envs) > 1:
+            raise ValueError(f"emitters: a scene takes at most one environment emitter (as in Mitsuba), got "
+                             f"{', '.join(e.plugin_name for e in envs)}")
+        self.env_shape = len(shapes)            # the shape index of rays that leave the scene
+        self.env_light = -1                     # the light index of the environment, if any
+        if emits.any() or free:
             try:
-                self.lights = LightSet(shapes, light_selection)
-            except ValueError as exc:            # e.g. obj emitters: no light sampling
+                self.lights = LightSet(shapes, light_selection, free, radius=max(self.geometry.scale, 1e-6))
+            except ValueError as exc:            # an emitting shape without light sampling
                 self.light_error = str(exc)
-            else:
-                self.light_of_shape = self.lights.light_of_shape
-        n_lights = int(emits.sum())
-        self._radiance_of_light = np.zeros((n_lights + 1, 3), F32)     # row 0: j = -1, none
-        self._radiance_of_light[1:] = self.radiance[emits]
-        lights_of_emitters = np.full(len(shapes), -1)
-        lights_of_emitters[emits] = np.arange(n_lights)
-        if self.lights is None:
-            self.light_of_shape = lights_of_emitters
+        if self.lights is not None:
+            self.light_of_shape = np.append(self.lights.light_of_shape, -1)
+            if envs:
+                self.env_light = int(emits.sum()) + free.index(envs[0])
+                self.light_of_shape[-1] = self.env_light
+            self._radiance_of_light = np.concatenate([np.zeros((1, 3), F32), self.lights.radiance32])
+        else:                                    # BSDF samples still see the emitting shapes
+            n_lights = int(emits.sum())
+            self._radiance_of_light = np.zeros((n_lights + 1, 3), F32)     # row 0: j = -1, none
+            self._radiance_of_light[1:] = self.radiance[emits]
+            self.light_of_shape = np.full(len(shapes) + 1, -1)
+            self.light_of_shape[np.flatnonzero(emits)] = np.arange(n_lights)
+        #: the environment emitter (constant, envmap) seen by rays that leave the scene, or None
+        self.environment = envs[0] if envs else None
+        self.radiance = np.concatenate([self.radiance, np.zeros((1, 3), F32)])      # + the environment's row
 
     def shading_normals(self, hits: Hits) -> np.ndarray | None:
         """Shading normals of camera hits (None where every shape shades with its geometric normal)."""
@@ -160,7 +172,8 @@ class DirectLighting:
         return np.take(self._radiance_of_light, np.asarray(j) + 1, axis=0)
 
     def light_hit(self, hits: Hits) -> np.ndarray:
-        """The light index of each hit (-1 on a miss or a non-emitter)."""
+        """The light index of each hit (-1 on a miss or a non-emitter; the environment's for a
+        ray that left the scene, shape ``env_shape``)."""
         return np.where(hits.shape >= 0, self.light_of_shape[np.maximum(hits.shape, 0)], -1)
 
     # ------------------------------------------------------------------ tracing
@@ -170,7 +183,20 @@ class DirectLighting:
         le = np.take(self.radiance, np.maximum(hits.shape, 0), axis=0)
         if self.emitter_textures:
             le = self.textured_radiance(hits.shape, hits.p, hits.prim, le)
+        if self.environment is not None:
+            env = np.flatnonzero(hits.shape == self.env_shape)
+            if len(env):
+                le[env] = self.environment.radiance(np.take(hits.p, env, axis=0), np.take(d, env, axis=0))
         return scale(le, front)
+
+    def escaped(self, hits: Hits, o: np.ndarray, d: np.ndarray, rows: np.ndarray) -> None:
+        """Mark the rays ``rows`` (which met nothing) as reaching the environment, in place:
+        shape ``env_shape``, normal -d (facing the ray), t = inf."""
+        if self.environment is None or not len(rows):
+            return
+        hits.shape[rows] = self.env_shape
+        hits.n[rows] = -np.take(d, rows, axis=0)
+        hits.p[rows] = np.take(o, rows, axis=0) + 1e30 * np.take(d, rows, axis=0)
 
     def trace(self, p: np.ndarray, n: np.ndarray, w: np.ndarray) -> tuple[Hits, np.ndarray]:
         """The emitter seen by rays leaving surface points ``p`` (normal ``n``) along ``w``
@@ -182,6 +208,8 @@ class DirectLighting:
         surface to ``w``'s side."""
         o = self._origin(p, n, w)
         hits = self.emitter_geometry.intersect(o, w)
+        if self.environment is not None:         # rays that meet no emitter may reach the environment
+            self.escaped(hits, o, w, np.flatnonzero(hits.shape < 0))
         le = self.emitted(hits, w)
         seen = np.flatnonzero(hits.shape >= 0)
         if len(seen) and self.blocker_geometry.n_shapes:
@@ -216,7 +244,8 @@ class DirectLighting:
         visible = np.ones(len(o), bool)
         if self.blocker_geometry.n_shapes:
             visible &= self.blocker_geometry.distance(o, w) >= t_max
-        if self.emitter_geometry.n_shapes > 1:      # another emitter in front of light j
+        if self.emitter_geometry.n_shapes > 1 or (self.emitter_geometry.n_shapes and self.lights.is_emitter.any()):
+            # another emitter in front of light j
             te, se = self.emitter_geometry.distance(o, w, with_shape=True)
             visible &= (se == self.lights.shape_of_light[j]) | (te >= t_max)
         return visible

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import checks
-from .._vec import dot, norm
+from .._vec import dot, norm, scale
 from ..distributions import AliasTable, SphereCone
 from ..distributions.base import uniforms32
 from ..distributions.surfaces import Surface
@@ -102,6 +102,41 @@ class Light:
         return self.shape.cos_integral(ref, n)
 
 
+class EmitterLight:
+    """An emitter that is not a shape (point, spot, directional, constant, envmap, ...) in
+    the light set: its ``sample``/``pdf``/``radiance`` (:mod:`vrlab.render.emitters.base`)
+    with the light set's calling conventions.  Delta lights have density 1 in the counting
+    measure (times P_j); ``y`` is the light's point (far along w for lights at infinity)."""
+
+    FAR = 1e30                   # the distance used for lights at infinity (finite in float32)
+
+    def __init__(self, emitter, radius: float):
+        self.emitter = emitter
+        self.sphere, self.planar, self.sign, self.textured = None, True, 1.0, False
+        self.is_delta, self.is_infinite = emitter.is_delta, emitter.is_infinite
+        self.power = float(emitter.power(radius))
+        self.radiance = np.zeros(3)          # no constant radiance: ``le`` comes with each sample
+
+    def sample(self, ref, u):
+        w, pdf, le, dist = self.emitter.sample(ref, u)
+        w = np.asarray(w, ref.dtype)
+        y = ref + scale(w, np.where(np.isfinite(dist), dist, self.FAR).astype(ref.dtype))
+        return w, np.where(self.is_delta, 1.0, pdf), np.ones(len(ref), bool), y, le
+
+    def first_point(self, ref, w):
+        """The light's point along ``w`` from ``ref`` (far along w for lights at infinity)."""
+        dist = self.emitter.sample(ref, np.zeros((len(ref), 2)))[3]
+        return ref + scale(w, np.where(np.isfinite(dist), dist, self.FAR).astype(ref.dtype))
+
+    def pdf(self, ref, w, hit_p=None):
+        if self.is_delta:                    # counting measure: the light's one direction
+            return np.ones(len(ref))
+        return self.emitter.pdf(ref, w)
+
+    def cos_integral(self, ref, n):
+        return np.zeros(len(ref)), np.zeros(len(ref), bool)
+
+
 def _rows_by_light(j: np.ndarray, which: np.ndarray):
     """``(i, rows)`` for each light i with ``which[i]`` that occurs in ``j`` (-1: none);
     rows is ``slice(None)`` when every row is light i (no gathers)."""
@@ -111,36 +146,51 @@ def _rows_by_light(j: np.ndarray, which: np.ndarray):
 
 
 class LightSet:
-    """All lights of a scene and the selection probabilities P_j (see the module docstring)."""
+    """All lights of a scene and the selection probabilities P_j (see the module docstring):
+    the emitting shapes (indices 0.. in shape order) then the other ``emitters`` (point, spot,
+    directional, constant, envmap, ...); ``radius``: of a sphere around the scene (power of
+    lights at infinity).  Selection weights are multiplied by each emitter's
+    ``sampling_weight``."""
 
-    def __init__(self, shapes: list[Shape], selection: str = "uniform"):
+    def __init__(self, shapes: list[Shape], selection: str = "uniform", emitters=(), radius: float = 1.0):
         checks.choice(selection, "light_selection", LIGHT_SELECTIONS)
         if isinstance(shapes, (str, bytes)) or not all(isinstance(s, Shape) for s in shapes):
             raise TypeError(f"shapes must be a list of vrlab.render.Shape, got {shapes!r:.60}")
         self.light_of_shape = np.full(len(shapes), -1)
-        self.lights: list[Light] = []
+        self.lights: list = []
+        weights = []
         for k, s in enumerate(shapes):
             if s.emitter is not None:
                 self.light_of_shape[k] = len(self.lights)
                 self.lights.append(Light(s))
+                weights.append(s.emitter.sampling_weight)
         self.shape_of_light = np.flatnonzero(self.light_of_shape >= 0)
+        for e in emitters:
+            self.lights.append(EmitterLight(e, radius))
+            weights.append(e.sampling_weight)
+        self.shape_of_light = np.concatenate([self.shape_of_light, np.full(len(emitters), -1)]).astype(np.int64)
         if not self.lights:
             raise ValueError("the scene has no emitters to sample")
         self.radiance = np.array([l.radiance for l in self.lights])
         self.radiance32 = self.radiance.astype(np.float32)
         self.is_sphere = np.array([l.sphere is not None for l in self.lights])
+        self.is_delta = np.array([getattr(l, "is_delta", False) for l in self.lights])
+        self.is_emitter = np.array([isinstance(l, EmitterLight) for l in self.lights])
         self.centers = np.array([l.sphere[0] if l.sphere is not None else np.zeros(3) for l in self.lights])
         self.radii = np.array([l.sphere[1] if l.sphere is not None else 1.0 for l in self.lights])
         self.signs = np.array([l.sign for l in self.lights])
         self.centers32, self.radii32 = self.centers.astype(np.float32), self.radii.astype(np.float32)
-        #: every light is a sphere, rectangle or disk: ``sample`` gives the first point y
+        #: every light gives its first point y along a sampled w (spheres, planar and non-shape lights)
         self.simple = all(l.sphere is not None or l.planar for l in self.lights)
-        if selection == "uniform":
-            weights = np.ones(len(self.lights))
-        else:
-            weights = np.array([max(l.radiance.mean(), 0.0) * l.area for l in self.lights])
-            if not weights.sum() > 0:            # every emitter is black: nothing to weigh
-                weights = np.ones(len(self.lights))
+        weights = np.array(weights, float)
+        if selection == "power":
+            power = np.array([l.power if isinstance(l, EmitterLight) else max(l.radiance.mean(), 0.0) * l.area
+                              for l in self.lights])
+            if power.sum() > 0:                  # every emitter black: nothing to weigh, uniform
+                weights = weights * power
+        if not weights.sum() > 0:
+            raise ValueError("sampling_weight: every emitter has sampling_weight 0 (or no power): none can be "
+                             "sampled")
         self.selection = AliasTable(weights)
 
     def __len__(self) -> int:
@@ -149,23 +199,25 @@ class LightSet:
     def __iter__(self):
         return iter(self.lights)
 
-    def __getitem__(self, j: int) -> Light:
+    def __getitem__(self, j: int):
         return self.lights[j]
 
     def sample(self, ref: np.ndarray, u3: np.ndarray) -> tuple[np.ndarray, ...]:
-        """``(j, w, pdf, front, y)`` for uniforms ``u3 (m, 3)``: light j ~ P (``u3[:, 0]``),
-        a direction towards it (``u3[:, 1:3]``), pdf = P_j p_j(w) in solid angle, whether
-        light j emits towards ``ref`` there and its first point y along w (see
-        :meth:`Light.sample`)."""
+        """``(j, w, pdf, front, y, le)`` for uniforms ``u3 (m, 3)``: light j ~ P (``u3[:, 0]``),
+        a direction towards it (``u3[:, 1:3]``), pdf = P_j p_j(w) (solid angle; P_j for a
+        delta light), whether light j emits towards ``ref`` there, its first point y along w
+        (see :meth:`Light.sample`; NaN where unknown) and ``le``, the radiance arriving along
+        w (None when every light is a shape with a constant radiance: the caller's table)."""
         j = self.selection.sample(u3[:, 0])
         n = len(ref)
-        if len(self.lights) == 1 and not self.is_sphere[0]:     # no gathers
+        if len(self.lights) == 1 and not self.is_sphere[0] and not self.is_emitter[0]:     # no gathers
             w, pdf, front, y = self.lights[0].sample(ref, u3[:, 1:3])
-            return j, w.astype(ref.dtype, copy=False), pdf * self.selection.pmf(j), front, y
+            return j, w.astype(ref.dtype, copy=False), pdf * self.selection.pmf(j), front, y, None
         w = np.zeros_like(ref)
         pdf = np.zeros(n)
         front = np.ones(n, bool)
         y = np.full((n, 3), np.nan, ref.dtype)
+        le = None
         sph = self.is_sphere[j]
         if sph.any():                            # all sphere lights in one batched cone
             m = slice(None) if sph.all() else np.flatnonzero(sph)
@@ -175,13 +227,18 @@ class LightSet:
             w[m], pdf[m], y[m] = s.w, s.pdf, s.y
             front[m] = self.signs[jm] * dot(s.y - cone.center, s.w) < 0
         for i, m in _rows_by_light(j, ~self.is_sphere):
-            w[m], pdf[m], front[m], y[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
-        return j, w, pdf * self.selection.pmf(j), front, y
+            if self.is_emitter[i]:
+                if le is None:
+                    le = np.take(self.radiance32, j, axis=0)
+                w[m], pdf[m], front[m], y[m], le[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
+            else:
+                w[m], pdf[m], front[m], y[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
+        return j, w, pdf * self.selection.pmf(j), front, y, le
 
     def pdf(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray, hit_p: np.ndarray | None = None) -> np.ndarray:
-        """P_j p_j(w) for light indices ``j`` (-1: no light, density 0); ``hit_p``: where
-        each ray met light j, if known (see :meth:`Light.pdf`; for a sphere it means w is
-        in its cone, so only the cone's solid angle is needed)."""
+        """P_j p_j(w) for light indices ``j`` (-1: no light, density 0; a delta light: P_j);
+        ``hit_p``: where each ray met light j, if known (see :meth:`Light.pdf`; for a sphere
+        it means w is in its cone, so only the cone's solid angle is needed)."""
         out = np.zeros(len(ref))
         has = j >= 0
         sph = has & self.is_sphere[np.maximum(j, 0)]
@@ -195,6 +252,21 @@ class LightSet:
         for i, m in _rows_by_light(j, ~self.is_sphere):
             out[m] = self.lights[i].pdf(ref[m], w[m], None if hit_p is None else hit_p[m])
         return out * np.where(has, self.selection.pmf(np.maximum(j, 0)), 0.0)
+
+    def first_points(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """The first point along ``w`` of the non-shape lights ``j`` (NaN for other rows): a
+        delta light is reached only along its direction, which no traced ray can hit."""
+        y = np.full_like(ref, np.nan)
+        for i, m in _rows_by_light(j, self.is_emitter):
+            y[m] = self.lights[i].first_point(ref[m], w[m])
+        return y
+
+    def emitter_radiance(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray, le: np.ndarray) -> np.ndarray:
+        """``le`` (area lights' constant radiance by ``j``) with the rows of non-shape lights
+        replaced by their radiance arriving at ``ref`` along ``w``."""
+        for i, m in _rows_by_light(j, self.is_emitter):
+            le[m] = self.lights[i].emitter.radiance(ref[m], w[m])
+        return le
 
     def _spheres(self, j: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Centres and radii of sphere lights ``j`` in ``ref``'s precision (float32 for the
@@ -217,5 +289,6 @@ class LightSet:
             out[:, s], valid[:, s] = sphere_cos_integral(self.centers[s], self.radii[s], ref[:, None], n[:, None])
         for i in np.flatnonzero(~self.is_sphere):
             out[:, i], valid[:, i] = self.lights[i].cos_integral(ref, n)
-        valid[:, [l.textured for l in self.lights]] = False
+        valid[:, self.is_emitter] = False
+        valid[:, [getattr(l, 'textured', False) for l in self.lights]] = False
         return out, valid

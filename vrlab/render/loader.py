@@ -24,12 +24,12 @@ from typing import Any
 import numpy as np
 
 from .. import checks
-from .meshes import read_obj
-from .registry import KINDS, registered
+
+from .registry import KINDS, element_class, registered
 from .scene import Scene, SceneError
 from .xml_props import Ctx, Props, check_version, parse_xml
 
-__all__ = ["load_scene", "read_obj"]
+__all__ = ["load_scene"]
 
 # plugins of Mitsuba 3 that vrlab does not render, with the reason (named in the error)
 _REFUSED = {
@@ -69,11 +69,10 @@ def build(ctx: Ctx, el: ET.Element):
     if el.get("type") is None:
         raise ctx.error(el, "missing required attribute 'type'", sorted(registered(kind)))
     t = ctx.attr(el, "type")
-    table = registered(kind)
-    cls = table.get(t)
+    cls = element_class(kind, t)
     if cls is None:
         why = _REFUSED.get((kind, t))
-        raise ctx.error(el, f"unsupported {kind} type '{t}'" + (f" ({why})" if why else ""), sorted(table))
+        raise ctx.error(el, f"unsupported {kind} type '{t}'" + (f" ({why})" if why else ""), sorted(registered(kind)))
     props = Props(ctx, el, lambda c: build(ctx, c))
     obj = _make(ctx, el, props, lambda: cls.from_props(props))
     props.check_unused()

@@ -82,10 +82,26 @@ class PixelIntegrand:
         probe = self.shading(0, *(np.zeros((0, 3), np.float32) for _ in range(3)))
         self.estimator.check(probe)
         self.unit_dim = int(self.estimator.unit_dim(probe))
+        self._check_reach(probe.used)
         self.dim = 2 + self.units * self.unit_dim
         evals = int(getattr(self.estimator, "evals_per_unit", 1))
         #: rays (and RIS candidates) per pixel sample: the memory of a block is about this x 4 x 12 bytes
         self.work_per_sample = 1 + self.units * (evals + int(getattr(self.estimator, "m", 0))) + self.dim // 4
+
+    def _check_reach(self, used: set) -> None:
+        """Refuse an estimator whose techniques cannot reach some emitter: delta lights (point,
+        spot, directional) only through ``"light"``; an emitter the light technique cannot
+        sample (``lighting.light_error``) must not be left to it."""
+        lit = self.lighting
+        if not used:                       # an estimator that does not name its techniques: unknown
+            return
+        if "light" in used and lit.lights is None and lit.light_error != "the scene has no emitters":
+            raise ValueError(f"estimator: {self.estimator.label} samples lights, but {lit.light_error}")
+        if "light" not in used and lit.lights is not None and lit.lights.is_delta.any():
+            names = sorted({lit.lights[i].emitter.plugin_name for i in np.flatnonzero(lit.lights.is_delta)})
+            raise ValueError(f"estimator: {self.estimator.label} samples only {', '.join(sorted(used))}, which never "
+                             f"reach the scene's delta emitters ({', '.join(names)}): its image would miss their "
+                             "light; use an estimator with the 'light' technique (e.g. 'light', 'mis-power')")
 
     @property
     def label(self) -> str:
@@ -114,7 +130,11 @@ class PixelIntegrand:
         # hide_emitters: camera rays pass through emitting shapes (Mitsuba 3.9 draws what lies
         # behind them), so they meet the other shapes only
         hits = (lit.blocker_geometry if lit.hide_emitters else lit.geometry).intersect(o, d)
+        if lit.environment is not None and not lit.hide_emitters:       # the environment behind it all
+            lit.escaped(hits, o, d, np.flatnonzero(hits.shape < 0))
         le = lit.emitted(hits, d)
+        if lit.environment is not None:                                # nothing to shade out there
+            hits.shape[hits.shape == lit.env_shape] = -1
         shape = np.maximum(hits.shape, 0)
         group = np.where((hits.shape >= 0) & lit.shaded[shape], lit.group_of_shape[shape], -1)
         counts = np.bincount(group + 1, minlength=len(lit.bsdfs) + 1)[1:]

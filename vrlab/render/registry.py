@@ -24,9 +24,11 @@ from __future__ import annotations
 
 import importlib
 import re
+import sys
+from pathlib import Path
 from typing import Any, ClassVar
 
-__all__ = ["KINDS", "Element", "register", "registered", "element_class"]
+__all__ = ["KINDS", "Element", "element_class", "lazy_package", "register", "registered"]
 
 KINDS = ("shape", "emitter", "bsdf", "texture", "sensor", "film", "rfilter", "sampler", "integrator")
 
@@ -83,8 +85,7 @@ def register(kind: str, name: str, *, replace: bool = False):
         if cls.kind != kind:
             raise TypeError(f"register({kind!r}, {name!r}): {cls.__name__} is a {cls.kind or 'kind-less'} element; "
                             f"subclass the {kind} base class")
-        _load_builtins(kind)
-        old = _TABLE[kind].get(name)
+        old = element_class(kind, name) if name not in _TABLE[kind] else _TABLE[kind][name]
         if old is not None and old is not cls and not replace and old.__qualname__ != cls.__qualname__:
             raise ValueError(f"name: the {kind} {name!r} is already registered ({old.__module__}.{old.__qualname__}); "
                              "pass replace=True to replace it")
@@ -95,14 +96,66 @@ def register(kind: str, name: str, *, replace: bool = False):
     return decorate
 
 
+_ALL = re.compile(r"^__all__\s*=\s*\[(.*?)\]", re.S | re.M)
+_REGISTER = re.compile(r"^@register\(\s*\"(\w+)\"\s*,\s*\"(\w+)\"", re.M)
+_INDEX: dict[str, tuple[dict[str, str], dict[tuple[str, str], str]]] = {}
+
+
+def _index(package: str) -> tuple[dict[str, str], dict[tuple[str, str], str]]:
+    """``({public name: module}, {(kind, plugin name): module})`` of an element package, read
+    from its modules' ``__all__`` and ``@register`` lines without importing them (importing
+    every element of a kind costs start-up time that a scene using three of them, and every
+    worker process, would pay)."""
+    if package not in _INDEX:
+        names: dict[str, str] = {}
+        plugins: dict[tuple[str, str], str] = {}
+        folder = Path(sys.modules[package].__file__).parent
+        for f in sorted(folder.glob("*.py")):
+            if f.name == "__init__.py":
+                continue
+            text = f.read_text(encoding="utf-8")
+            m = _ALL.search(text)
+            for name in re.findall(r"[\"'](\w+)[\"']", m.group(1)) if m else ():
+                names[name] = f.stem
+            for kind, plugin in _REGISTER.findall(text):
+                plugins[(kind, plugin)] = f.stem
+        _INDEX[package] = (names, plugins)
+    return _INDEX[package]
+
+
+def lazy_package(package: str):
+    """``(__getattr__, __dir__)`` for an element package: every public name of its modules
+    (and ``__all__``), imported from its module on first use (:func:`_index`, itself read on
+    first use: a worker process that unpickles two elements reads no other module)."""
+
+    def __getattr__(name: str):
+        names = _index(package)[0]
+        if name == "__all__":
+            return sorted(names)
+        if name in names:
+            value = getattr(importlib.import_module(f"{package}.{names[name]}"), name)
+            setattr(sys.modules[package], name, value)
+            return value
+        raise AttributeError(f"module {package!r} has no attribute {name!r}")
+
+    def __dir__() -> list[str]:
+        return sorted(set(vars(sys.modules[package])) | set(_index(package)[0]))
+
+    return __getattr__, __dir__
+
+
 _LOADED: set[str] = set()
 
 
 def _load_builtins(kind: str) -> None:
-    pkg = _PACKAGES[kind]
-    if pkg not in _LOADED:
-        _LOADED.add(pkg)
-        importlib.import_module(f"vrlab.render.{pkg}")
+    """Import every built-in element module of ``kind`` (their ``@register`` runs)."""
+    pkg = f"vrlab.render.{_PACKAGES[kind]}"
+    if (pkg, kind) not in _LOADED:
+        _LOADED.add((pkg, kind))
+        importlib.import_module(pkg)
+        for (k, _), module in _index(pkg)[1].items():
+            if k == kind:
+                importlib.import_module(f"{pkg}.{module}")
 
 
 def registered(kind: str) -> dict[str, type]:
@@ -114,5 +167,14 @@ def registered(kind: str) -> dict[str, type]:
 
 
 def element_class(kind: str, name: str) -> type | None:
-    """The class registered as ``name`` of ``kind``, or None."""
-    return registered(kind).get(name)
+    """The class registered as ``name`` of ``kind``, or None; a built-in element's module is
+    imported on first use, alone."""
+    if kind not in KINDS:
+        raise ValueError(f"kind: unknown element kind {kind!r}; allowed: {', '.join(KINDS)}")
+    if name not in _TABLE[kind]:
+        pkg = f"vrlab.render.{_PACKAGES[kind]}"
+        importlib.import_module(pkg)
+        module = _index(pkg)[1].get((kind, name))
+        if module is not None:
+            importlib.import_module(f"{pkg}.{module}")
+    return _TABLE[kind].get(name)

@@ -35,7 +35,11 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
   beckmann/ggx, ``alpha``, ``material`` none, ``specular_reflectance``,
   ``sample_visible``), ``twosided`` (one nested BSDF) and the *vrlab* ``phong``;
   ``reflectance`` and ``specular_reflectance`` may be textures;
-* emitters: ``area`` (``radiance``, a colour or a texture) inside a shape;
+* emitters: ``area`` (``radiance``, a colour or a texture) inside a shape; the delta
+  lights ``point`` (``position`` or ``to_world``, ``intensity``), ``spot`` (``to_world``,
+  ``intensity``, ``cutoff_angle``, ``beam_width``) and ``directional`` (``direction`` or
+  ``to_world``, ``irradiance``); the environment ``constant`` (``radiance``); every
+  emitter takes ``sampling_weight`` (:mod:`vrlab.render.emitters`);
 * textures: ``bitmap`` (``filename``, ``filter_type``, ``wrap_mode``, ``raw``, ``to_uv``,
   ``format``), ``checkerboard`` (``color0``, ``color1``, ``to_uv``), ``mesh_attribute``
   (``name``, ``scale``) (:mod:`vrlab.render.textures`);

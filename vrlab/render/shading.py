@@ -50,11 +50,11 @@ _WARPS = {"cosine": CosineHemisphere(), "uniform": UniformHemisphere()}
 class _Rows:
     """What is known about the rows (samples) of one point array: directions, lights, rays."""
 
-    __slots__ = ("x", "w", "wl", "j", "first", "front", "le", "y", "hit_p", "pdfs")
+    __slots__ = ("x", "w", "wl", "j", "first", "front", "le", "le_raw", "y", "hit_p", "pdfs")
 
     def __init__(self, x, w, wl, j):
         self.x, self.w, self.wl, self.j = x, w, wl, j
-        self.first = self.front = self.le = self.y = self.hit_p = None
+        self.first = self.front = self.le = self.le_raw = self.y = self.hit_p = None
         self.pdfs: dict = {}
 
 
@@ -87,6 +87,7 @@ class ShadingIntegrand(Integrand):
         self.bounds, self.exact, self.f2, self.theory = None, None, None, {}
         self._valid = self._lambertian_value = None            # the control's integral: on first use
         self._cache: dict[int, _Rows] = {}
+        self.used: set[str] = set()
 
     # Techniques, controls and targets are built on access.  Stored, they would close reference
     # cycles (integrand -> technique -> integrand) that keep every batch's rays alive until the
@@ -103,6 +104,13 @@ class ShadingIntegrand(Integrand):
     @property
     def targets(self) -> dict:
         return {"unshadowed": self._unshadowed}
+
+    def technique(self, name: str, arg: str = "distribution"):
+        """The technique ``name`` (see :attr:`techniques`), remembering that it was asked for
+        (``used``: the renderer refuses an estimator whose techniques miss some emitter)."""
+        tech = super().technique(name, arg)
+        self.used.add(name)
+        return tech
 
     def f(self, x: np.ndarray) -> np.ndarray:
         r = self.rows(x)
@@ -168,28 +176,68 @@ class ShadingIntegrand(Integrand):
         return r
 
     def first_seen(self, r: _Rows) -> np.ndarray:
-        """[light j (-1: none) is the first thing seen along w] per row: one ray, cached."""
+        """[light j (-1: none) is the first thing seen along w] per row: one ray, cached.  Rows
+        with a known first point y of their light (light samples; points on non-shape lights,
+        which a traced ray cannot meet: a delta light) take a shadow ray to it; the others
+        trace the ray."""
         if r.first is None:
             x, lit = r.x, self.lighting
             p, n = self.rep(self.p, x), self.rep(self.n, x)
-            if r.y is not None:                                  # a light sample: shadow ray to y
+            front_known = r.front is not None
+            if r.y is None and lit.lights is not None and lit.lights.is_emitter.any():
+                r.y = lit.lights.first_points(p, r.w, r.j)          # NaN for the other rows
+            known = np.zeros(len(r.j), bool) if r.y is None else ~np.isnan(r.y[:, 0])
+            if known.all():                                          # shadow rays only
                 r.first = lit.unblocked(p, n, r.w, r.y, r.j)
-            else:
-                hits, _ = lit.trace(p, n, r.w)
-                r.first = lit.light_hit(hits) == r.j
+                if not front_known:
+                    r.front = np.ones(len(r.j), bool)
+                return r.first
+            whole = not known.any()
+            rows = slice(None) if whole else np.flatnonzero(~known)
+            hits, _ = lit.trace(p[rows], n[rows], r.w[rows])
+            first = lit.light_hit(hits) == r.j[rows]
+            if whole:
                 r.hit_p = hits.p
-                if r.front is None:
-                    r.front = dot(hits.n, r.w) < 0
+            else:
+                if r.hit_p is None:
+                    r.hit_p = np.full((len(r.j), 3), np.nan, p.dtype)
+                r.hit_p[rows] = hits.p
+            if not front_known:
+                front = dot(hits.n, r.w[rows]) < 0
+                if whole:
+                    r.front = front
+                else:
+                    r.front = np.ones(len(r.j), bool)
+                    r.front[rows] = front
+            if not whole:
+                k = np.flatnonzero(known)
+                all_first = np.zeros(len(r.j), bool)
+                all_first[rows] = first
+                all_first[k] = lit.unblocked(p[k], n[k], r.w[k], r.y[k], r.j[k])
+                first = all_first
+            r.first = first
         return r.first
+
+    def unshadowed_emission(self, r: _Rows) -> np.ndarray:
+        """L_e,j arriving along each row's w, without visibility: a light sample's own value,
+        else the light's radiance (non-shape lights: their radiance along w, e.g. I / d^2)."""
+        if r.le_raw is not None:
+            return r.le_raw
+        lit = self.lighting
+        le = lit.light_radiance(r.j)
+        if lit.lights is not None and lit.lights.is_emitter.any():
+            le = lit.lights.emitter_radiance(self.rep(self.p, r.x), r.w, r.j, le.copy())
+        return le
 
     def emission(self, r: _Rows) -> np.ndarray:
         """L_e,j V_j reaching the points along each row ``(R, 3)``."""
         if r.le is None:
             lit = self.lighting
             seen = self.first_seen(r) & r.front & (r.j >= 0)
-            le = lit.light_radiance(r.j)
+            le = self.unshadowed_emission(r)
             if lit.emitter_textures:                  # textured radiance at the light's point
-                y = r.y if r.y is not None else r.hit_p
+                y = r.y if r.hit_p is None else r.hit_p if r.y is None else \
+                    np.where(np.isnan(r.y[:, :1]), r.hit_p, r.y)            # the light's point along w
                 shape = np.where(r.j >= 0, lit.lights.shape_of_light[np.maximum(r.j, 0)], -1) \
                     if lit.lights is not None else np.full(len(r.j), -1)
                 le = lit.textured_radiance(np.where(seen, shape, -1), np.nan_to_num(y), None, le.copy())
@@ -232,7 +280,7 @@ class ShadingIntegrand(Integrand):
         if r.front is None:          # not a sample of a technique: the traced ray decides the facing
             self.first_seen(r)
         fr = self.bsdf_for(x.shape[-2]).eval(self.rep(self.wo_l, x), r.wl)
-        t = luminance(fr) * luminance(self.lighting.light_radiance(r.j))
+        t = luminance(fr) * luminance(self.unshadowed_emission(r))
         return np.where(r.front & (r.j >= 0), np.maximum(t, 0.0), 0.0).reshape(x.shape[:-1])
 
 
@@ -277,7 +325,11 @@ class _Directional:
         s = self.s
         r = s.rows(x)
         if self.key not in r.pdfs:
-            r.pdfs[self.key] = np.where(s.first_seen(r), self._local_pdf(s.rep(s.wo_l, x), r.wl), 0.0)
+            ok = s.first_seen(r)
+            lights = s.lighting.lights
+            if lights is not None and lights.is_delta.any():       # no direction sample hits a delta light
+                ok = ok & ~lights.is_delta[np.maximum(r.j, 0)]
+            r.pdfs[self.key] = np.where(ok, self._local_pdf(s.rep(s.wo_l, x), r.wl), 0.0)
         return r.pdfs[self.key].reshape(x.shape[:-1])
 
 
@@ -301,11 +353,9 @@ class _LightTechnique:
             x, r = s.new_points(s.rep(s.n, u), np.full(len(p), -1), shape)
             r.pdfs["light"], r.first, r.front = np.zeros(len(p), F32), np.zeros(len(p), bool), np.zeros(len(p), bool)
             return x
-        j, w, pdf, front, y = lit.lights.sample(p, u.reshape(-1, 3))
+        j, w, pdf, front, y, le = lit.lights.sample(p, u.reshape(-1, 3))
         x, r = s.new_points(w, j, shape)
-        r.pdfs["light"], r.front = pdf.astype(F32), front
-        if lit.lights.simple:
-            r.y = y
+        r.pdfs["light"], r.front, r.y, r.le_raw = pdf.astype(F32), front, y, le
         return x
 
     def pdf(self, x: np.ndarray) -> np.ndarray:

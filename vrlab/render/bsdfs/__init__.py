@@ -1,13 +1,7 @@
 """BSDF elements, one module per Mitsuba 3 plugin (``diffuse``, ``roughconductor``,
 ``twosided``) and vrlab's ``phong``; the base class :class:`BSDFModel` and the shared
 conventions (local frame, ``eval`` = f cos, ``pdf`` on the whole sphere) are in
-:mod:`.base`."""
-from .base import BSDFDirections, BSDFModel, mirror, reflect
-from .diffuse import Diffuse
-from .phong import Phong
-from ...distributions import Beckmann
-from .roughconductor import RoughConductor
-from .twosided import TwoSided
+:mod:`.base`.  Names are imported from their modules on first use."""
+from ..registry import lazy_package
 
-__all__ = ["BSDFDirections", "BSDFModel", "Beckmann", "Diffuse", "Phong", "RoughConductor", "TwoSided", "mirror",
-           "reflect"]
+__getattr__, __dir__ = lazy_package(__name__)

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..registry import register
 from ..scene_checks import rgb
-from .base import Emitter
+from .base import Emitter, weight_param
 
 __all__ = ["AreaEmitter"]
 
@@ -21,12 +21,13 @@ class AreaEmitter(Emitter):
 
     is_area = True
 
-    def __init__(self, radiance: Any):
+    def __init__(self, radiance: Any, sampling_weight: float = 1.0):
         self.radiance = _radiance(radiance)
+        self.sampling_weight = weight_param(sampling_weight)
 
     @classmethod
     def from_props(cls, p) -> "AreaEmitter":
-        return cls(p.texture("radiance", kind="emission"))
+        return cls(p.texture("radiance", kind="emission"), p.float("sampling_weight", 1.0))
 
     def validate(self) -> None:
         self.radiance = _radiance(self.radiance)

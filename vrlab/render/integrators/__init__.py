@@ -1,7 +1,5 @@
-"""Integrator elements: ``direct``, ``path``/``volpath`` (depth 1 or 2) and ``moment``."""
-from .base import Integrator
-from .direct import DirectIntegrator
-from .moment import MomentIntegrator
-from .path import PathIntegrator, VolumetricPathIntegrator
+"""Integrator elements: ``direct``, ``path``/``volpath`` (depth 1 or 2) and ``moment``.
+Names are imported from their modules on first use."""
+from ..registry import lazy_package
 
-__all__ = ["DirectIntegrator", "Integrator", "MomentIntegrator", "PathIntegrator", "VolumetricPathIntegrator"]
+__getattr__, __dir__ = lazy_package(__name__)

@@ -16,10 +16,7 @@ from __future__ import annotations
 import os
 
 from .data import MeshData, vertex_normals
-from .obj import read_obj
-from .ply import read_ply
-from .ply_write import write_ply
-from .serialized import read_serialized, write_serialized
+from ..._lazy import lazy_attributes
 
 __all__ = ["MeshData", "read_mesh", "read_obj", "read_ply", "read_serialized",
            "vertex_normals", "write_ply", "write_serialized", "FORMATS"]
@@ -49,9 +46,20 @@ def read_mesh(path: str | os.PathLike, *, format: str | None = None,
                          f"(.{', .'.join(sorted(FORMATS))}); pass format= one of {known}")
     flip = FORMATS[fmt] if flip_tex_coords is None else flip_tex_coords
     if fmt == "serialized":
+        from .serialized import read_serialized
+
         return read_serialized(p, shape_index, face_normals=face_normals, flip_tex_coords=flip)
     if shape_index != 0:
         raise ValueError(f"shape_index applies to serialized files only, got {shape_index!r} "
                          f"for {p!r}")
+    from .obj import read_obj
+    from .ply import read_ply
+
     reader = read_obj if fmt == "obj" else read_ply
     return reader(p, face_normals=face_normals, flip_tex_coords=flip)
+
+
+# the readers are imported on first use (start-up time of scenes without meshes)
+__getattr__, __dir__ = lazy_attributes(__name__, {"read_obj": "obj", "read_ply": "ply", "write_ply": "ply_write",
+                                                  "read_serialized": "serialized",
+                                                  "write_serialized": "serialized"}, __all__)

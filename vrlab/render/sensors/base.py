@@ -41,6 +41,10 @@ class ReconstructionFilter(Element):
     def offsets(self):  # pragma: no cover - every filter overrides it
         raise NotImplementedError
 
+    def sample_offsets(self, u: np.ndarray) -> np.ndarray:
+        """Sub-pixel offsets of uniforms ``u (..., 2)``: ``offsets.sample(u)``."""
+        return self.offsets.sample(u)
+
 
 class Sampler(Element):
     """Base of the ``sampler`` elements: ``sample_count`` (spp, >= 1), ``seed`` (>= 0; vrlab
@@ -172,13 +176,14 @@ class Sensor(Element):
         the film's edge)."""
         pixels = np.asarray(pixels)
         f = self.film
-        offsets = f.rfilter.offsets
         if f.rfilter.radius > 0.5:
             # the image-plane samples stay on the (crop) film, so an edge pixel's filter is cut
             # there (Mitsuba's sample_border=false): offsets from the window [-c, size - c]
             centre = pixels[..., ::-1] + 0.5
-            offsets = offsets.window(-centre, np.array([self.width, self.height], float) - centre)
-        delta = offsets.sample(np.asarray(u, np.float64))
+            delta = f.rfilter.offsets.window(-centre, np.array([self.width, self.height], float) - centre).sample(
+                np.asarray(u, np.float64))
+        else:
+            delta = f.rfilter.sample_offsets(np.asarray(u, np.float64))
         film = np.stack([pixels[..., 1] + (f.crop_offset_x + 0.5) + delta[..., 0],
                          pixels[..., 0] + (f.crop_offset_y + 0.5) + delta[..., 1]], -1)
         return self.rays(film, dtype)

@@ -1,19 +1,7 @@
 """Shape elements, one module per Mitsuba 3 plugin (``rectangle``, ``disk``, ``sphere``,
-``cube``, ``obj``, ...) and vrlab's ``ellipsoid``; the base class :class:`Shape` and the
-primitive parts the ray tracer intersects live in :mod:`.base`."""
-from .base import CustomPart, DiskPart, Parallelograms, Quadric, Shape, Triangles
-from .cube import Cube
-from .cylinder import Cylinder
-from .disk import Disk
-from .ellipsoid import Ellipsoid
-from .instance import Instance
-from .mesh import Mesh
-from .obj import OBJMesh
-from .ply import PLYMesh
-from .rectangle import Rectangle
-from .serialized import SerializedMesh
-from .shapegroup import ShapeGroup
-from .sphere import Sphere
+``cube``, ``cylinder``, ``obj``, ``ply``, ``serialized``, ``shapegroup``, ``instance``) and
+vrlab's ``ellipsoid``; the base class :class:`Shape` and the primitive parts the ray tracer
+intersects live in :mod:`.base`.  Names are imported from their modules on first use."""
+from ..registry import lazy_package
 
-__all__ = ["Cube", "CustomPart", "Cylinder", "Disk", "DiskPart", "Ellipsoid", "Instance", "Mesh", "OBJMesh", "PLYMesh", "Parallelograms", "Quadric",
-           "Rectangle", "SerializedMesh", "Shape", "ShapeGroup", "Sphere", "Triangles"]
+__getattr__, __dir__ = lazy_package(__name__)

@@ -1,0 +1,77 @@
+"""``spot`` (Mitsuba 3): a point light at the origin of ``to_world`` shining along its local +z,
+``intensity`` I (default 1), ``cutoff_angle`` (degrees, default 20) and ``beam_width``
+(default 3/4 of the cutoff).  With theta the angle between the local +z and the direction
+from the light to p, the contribution is I f(theta) / d^2, f = 1 inside the beam, the linear
+ramp (cutoff - theta) / (cutoff - beam_width) between beam and cutoff, 0 beyond (Mitsuba 3
+``SpotLight::falloff_curve``).  A delta light (:mod:`.base`).  A projected ``texture`` is not
+supported yet (refused)."""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ... import checks
+from ..._vec import matvec3
+from ..registry import register
+from ..scene_checks import matrix4, rgb
+from .base import Emitter, weight_param
+from .point import delta_towards
+
+__all__ = ["SpotLight"]
+
+
+@register("emitter", "spot")
+class SpotLight(Emitter):
+    """``SpotLight(to_world=None, intensity=1, cutoff_angle=20, beam_width=None, sampling_weight=1)``."""
+
+    is_delta = True
+
+    def __init__(self, *, to_world: Any = None, intensity: Any = 1.0, cutoff_angle: float = 20.0,
+                 beam_width: float | None = None, sampling_weight: float = 1.0):
+        m = matrix4(np.eye(4) if to_world is None else to_world, "to_world")
+        if abs(np.linalg.det(m[:3, :3])) < 1e-300:
+            raise ValueError("to_world is singular")
+        self.to_world = m
+        self.intensity = rgb(intensity, "intensity")
+        self.cutoff_angle = checks.real(cutoff_angle, "cutoff_angle", low=0, high=180, low_open=True)
+        bw = 0.75 * self.cutoff_angle if beam_width is None else beam_width
+        self.beam_width = checks.real(bw, "beam_width", low=0, high=self.cutoff_angle)
+        self.sampling_weight = weight_param(sampling_weight)
+        self._inv = np.linalg.inv(m[:3, :3])
+        self._cut, self._beam = np.deg2rad(self.cutoff_angle), np.deg2rad(self.beam_width)
+
+    @classmethod
+    def from_props(cls, p) -> "SpotLight":
+        kw = {"beam_width": p.float("beam_width")} if p.has("beam_width") else {}
+        return cls(to_world=p.transform("to_world"), intensity=p.color("intensity", 1.0, kind="emission"),
+                   cutoff_angle=p.float("cutoff_angle", 20.0), sampling_weight=p.float("sampling_weight", 1.0), **kw)
+
+    @property
+    def position(self) -> np.ndarray:
+        return self.to_world[:3, 3]
+
+    def falloff(self, d_local: np.ndarray) -> np.ndarray:
+        """f(theta) of local directions (not necessarily unit) from the light."""
+        d = d_local / np.maximum(np.linalg.norm(d_local, axis=-1, keepdims=True), 1e-300)
+        cos = d[..., 2]
+        ramp = (self._cut - np.arccos(np.clip(cos, -1.0, 1.0))) / max(self._cut - self._beam, 1e-300)
+        inner = np.where(cos >= np.cos(self._beam), 1.0, ramp)
+        return np.where(cos > np.cos(self._cut), inner, 0.0)
+
+    def sample(self, ref, u):
+        w, dist = delta_towards(ref, self.position)
+        return w, np.ones(len(ref)), self.radiance(ref, w), dist
+
+    def pdf(self, ref, w):
+        return np.zeros(len(ref))
+
+    def radiance(self, ref, w):
+        w, dist = delta_towards(ref, self.position)
+        f = self.falloff(matvec3(self._inv, -np.asarray(w, float)))
+        return self.intensity[None, :] * (f / np.maximum(dist * dist, 1e-30))[:, None]
+
+    def power(self, radius: float) -> float:
+        # the cone's solid angle out to the middle of the ramp
+        half = 0.5 * (self._cut + self._beam)
+        return float(2 * np.pi * (1 - np.cos(half)) * self.intensity.mean())
