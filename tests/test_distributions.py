@@ -14,6 +14,14 @@ IMAGE = np.array([[0.0, 1.0, 2.0, 0.5, 0.0, 3.0],
 TILT = np.array([1.0, 0.5, 0.2]) / np.linalg.norm([1.0, 0.5, 0.2])
 SKY = np.random.default_rng(11).lognormal(0.0, 1.0, (5, 8, 3))     # an environment map, 8 x 5 pixels
 SKY_TURN = np.linalg.qr(np.random.default_rng(12).normal(size=(3, 3)))[0]   # a random rotation
+# vertex values of a piecewise-bilinear density: 4 x 3 cells, zero corners (a cell of zero mass in the top right)
+BILINEAR = np.array([[0.0, 1.0, 2.0, 0.0],
+                     [1.0, 0.5, 4.0, 0.0],
+                     [0.2, 0.0, 0.0, 0.0],
+                     [3.0, 1.0, 0.0, 2.0],
+                     [0.5, 2.0, 1.0, 0.3]])
+SMOOTH = np.array([[0.5, 1.0, 2.0, 1.5], [1.0, 0.6, 1.2, 2.0], [2.0, 1.0, 0.5, 1.0], [1.5, 2.0, 1.0, 0.7],
+                   [1.0, 0.8, 1.6, 1.2]])
 
 
 def _turn_y(angle):
@@ -34,6 +42,9 @@ CASES = {
                                 BoxChart([(0, 1), (0, 1)]), (16, 16)),
     "piecewise-1d": (D.PiecewiseConstant1D([1, 0, 3, 2, 0.5], (0, 2)), IntervalChart(0, 2), (50,)),
     "piecewise-2d": (D.PiecewiseConstant2D(IMAGE, ((0, 3), (0, 2))), BoxChart([(0, 3), (0, 2)]), (24, 24)),
+    # bins aligned with the 3 x 4 cells: the quadrature of each bin is exact for a bilinear pdf
+    "bilinear-2d-cdf": (D.BilinearPiecewise2D(BILINEAR), BoxChart([(0, 1), (0, 1)]), (24, 24)),
+    "bilinear-2d-alias": (D.BilinearPiecewise2D(BILINEAR, table="alias"), BoxChart([(0, 1), (0, 1)]), (24, 24)),
     "box-2d": (D.UniformBox([(0, 1), (2, 5)]), BoxChart([(0, 1), (2, 5)]), (16, 16)),
     "rectangle": (D.Rectangle((-1, 2), (0, 0.5)), BoxChart([(-1, 2), (0, 0.5)]), (16, 16)),
     "disk-concentric": (D.Disk(2.0, (1, -1)), DiskChart(2.0, (1, -1)), (16, 24)),
@@ -152,6 +163,12 @@ def test_closed_form_pdf_values():
     pw2 = D.PiecewiseConstant2D(IMAGE, ((0, 3), (0, 2)))
     # x = 1.2 -> column 2, y = 1.1 -> row 2 (cells are 0.5 x 0.5): IMAGE[2, 2] = 5
     assert pw2.pdf([[1.2, 1.1], [2.2, 1.1]]) == pytest.approx([5.0 / (IMAGE.sum() * 0.25), 0.0])
+    # bilinear: corners 1, 2 (bottom), 3, 4 (top) on one cell: mass 2.5, at (s, t) = (0.25, 0.5)
+    # f = 0.5 (0.75 + 0.5) + 0.5 (2.25 + 1) = 2.25, and 0 outside the square
+    assert D.BilinearPiecewise2D([[1, 2], [3, 4]]).pdf([[0.25, 0.5], [1.5, 0.5]]) == pytest.approx([0.9, 0.0])
+    # 2 x 1 cells: masses 1 and 0.75 (mean 0.875); (0.75, 0.5) is (s, t) = (0.5, 0.5) in the second,
+    # f = 0.5 (0.5 + 0) + 0.5 (0.5 + 0.5) = 0.75
+    assert D.BilinearPiecewise2D([[1, 1, 0], [1, 1, 1]]).pdf([[0.75, 0.5]])[0] == pytest.approx(0.75 / 0.875)
 
 
 def test_piecewise_2d_follows_image_orientation():
@@ -197,6 +214,11 @@ class _WrongPdf:
     (D.EnvironmentMap(SKY), D.EnvironmentMap(SKY[:, ::-1]), SphereChart()),
     (D.EnvironmentMap(SKY), D.EnvironmentMap(SKY, to_world=_turn_y(PI / SKY.shape[1])), SphereChart()),
     (D.EnvironmentMap(SKY), D.EnvironmentMap(SKY, to_world=[[1, 0, 0], [0, 0, -1], [0, 1, 0]]), SphereChart()),
+    # bilinear samples, claimed piecewise constant with the same cell masses; the density of
+    # vertex values with one column scaled by 1.1
+    (D.BilinearPiecewise2D(SMOOTH), D.PiecewiseConstant2D(D.BilinearPiecewise2D(SMOOTH).masses),
+     BoxChart([(0, 1), (0, 1)])),
+    (D.BilinearPiecewise2D(SMOOTH), D.BilinearPiecewise2D(SMOOTH * [1, 1, 1, 1.1]), BoxChart([(0, 1), (0, 1)])),
     # directions uniform by area on the triangle, claimed uniform in solid angle (Arvo's pdf)
     (D.SolidAngleFromArea(D.TriangleMeshSurface([[0, 0, 1], [1, 0, 0], [np.cos(7 * PI / 12), np.sin(7 * PI / 12), 0]],
                                                 [[0, 1, 2]]), [0, 0, 0]),
@@ -266,6 +288,10 @@ def test_mixture_selection_and_zero_probability():
     (lambda: D.PiecewiseConstant1D([0, 0]), "zero"),
     (lambda: D.PiecewiseConstant1D([1, np.nan]), "NaN"),
     (lambda: D.PiecewiseConstant2D([1, 2]), "2-D"),
+    (lambda: D.BilinearPiecewise2D([[1, 2, 3]]), "values.*at least 2 x 2"),
+    (lambda: D.BilinearPiecewise2D([[1, 2], [3, -1]]), "values.*negative"),
+    (lambda: D.BilinearPiecewise2D(np.zeros((3, 3))), "values.*zero"),
+    (lambda: D.BilinearPiecewise2D(np.ones((3, 3)), table="hierarchical"), "table"),
     (lambda: D.Disk(0), "radius"),
     (lambda: D.Triangle((0, 0), (1, 1), (2, 2)), "collinear"),
     (lambda: D.Mixture([]), "components"),

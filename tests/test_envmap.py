@@ -1,5 +1,5 @@
 """EnvironmentMap (Mitsuba 3's envmap): closed-form conventions, chi-square of sample vs pdf,
-normalisation, and agreement with Mitsuba 3.9 scalar_rgb (eval, pdf cell masses, its samples)."""
+normalisation, and agreement with Mitsuba 3.9 scalar_rgb (eval, pdf pointwise, its samples)."""
 import numpy as np
 import pytest
 
@@ -73,17 +73,39 @@ def test_eval_at_texel_centres_and_across_the_seam():
     np.testing.assert_allclose(seam[1], 2.5 * (0.25 * rows[-1] + 0.75 * rows[0]), rtol=1e-12)
 
 
-def test_pdf_is_cell_weight_over_jacobian():
-    # p(w) = p_uv / (2 pi^2 sin theta), p_uv = c / mean(c) in the cell (u_w, v) of the direction
+def _vertex_weights(image):
+    """Mitsuba's q[j, i] = luminance x sin(pi j / (H - 1)), written out (column W = column 0)."""
+    h = image.shape[0]
+    q = (image @ [0.212671, 0.715160, 0.072169]) * np.sin(PI * np.arange(h) / (h - 1))[:, None]
+    q[-1] = 0.0                                          # sin(pi) is 0, not 1e-16
+    return np.concatenate([q, q[:, :1]], 1)
+
+
+def test_pdf_is_bilinear_over_jacobian():
+    # p(w) = p_uv / (2 pi^2 sin theta), p_uv the bilinear interpolant of q over the cell
+    # (u_w, v) of the direction, over the mean cell mass (mean of each cell's 4 corners)
     env = EnvironmentMap(IMAGE)
     h, w = IMAGE.shape[:2]
-    lum = IMAGE @ [0.212671, 0.715160, 0.072169]
-    q = lum * np.sin(PI * np.arange(h) / (h - 1))[:, None]
-    c = (q[:-1] + q[1:] + np.roll(q[:-1], -1, 1) + np.roll(q[1:], -1, 1)) / 4
-    iy, ix = 3, 9                                         # the cell that wraps across the seam
-    uv = np.array([(ix + 0.3) / w + 0.5 / w, (iy + 0.6) / (h - 1)])
-    expected = c[iy, ix] / c.mean() / (2 * PI**2 * np.sin(PI * uv[1]))
+    q = _vertex_weights(IMAGE)
+    c = (q[:-1, :-1] + q[1:, :-1] + q[:-1, 1:] + q[1:, 1:]) / 4
+    iy, ix, s, t = 3, 9, 0.3, 0.6                        # the cell that wraps across the seam
+    uv = np.array([(ix + s) / w + 0.5 / w, (iy + t) / (h - 1)])
+    f = (1 - t) * ((1 - s) * q[iy, ix] + s * q[iy, 0]) + t * ((1 - s) * q[iy + 1, ix] + s * q[iy + 1, 0])
+    expected = f / c.mean() / (2 * PI**2 * np.sin(PI * uv[1]))
     assert env.pdf(env.direction(uv)) == pytest.approx(expected, rel=1e-12)
+
+
+def test_pdf_is_finite_at_the_poles():
+    # q is 0 on the pole rows, so p_uv ~ t q[1] (or (1 - t) q[H-2]) and sin theta ~ pi t / (H - 1):
+    # p -> lerp(q[1]) (H - 1) / (pi mean(c) 2 pi^2) along a meridian
+    env = EnvironmentMap(IMAGE)
+    h, w = IMAGE.shape[:2]
+    q = _vertex_weights(IMAGE)
+    c = (q[:-1, :-1] + q[1:, :-1] + q[:-1, 1:] + q[1:, 1:]) / 4
+    s, eps = 0.25, 1e-7
+    uv = np.array([[(2 + s + 0.5) / w, eps], [(5 + s + 0.5) / w, 1 - eps]])
+    rows = np.array([(1 - s) * q[1, 2] + s * q[1, 3], (1 - s) * q[h - 2, 5] + s * q[h - 2, 6]])
+    np.testing.assert_allclose(env.pdf(env.direction(uv)), rows * (h - 1) / (PI * c.mean() * 2 * PI**2), rtol=1e-6)
 
 
 # -- sampling ------------------------------------------------------------------------------------
@@ -221,33 +243,48 @@ def test_eval_matches_mitsuba(maps, mi, name):
     np.testing.assert_allclose(env.eval(w), theirs, rtol=1e-4, atol=1e-6 * theirs.max())
 
 
-@pytest.mark.parametrize("name", MAPS)
-def test_pdf_cell_masses_match_mitsuba(maps, mi, name):
-    """Mitsuba's uv density is bilinear in each cell (between pixel centres), ours constant with
-    the same mass: 2 x 2 Gauss nodes integrate a bilinear function exactly, so the cell means of
-    p(w) 2 pi^2 sin(theta) agree, and each checks the Jacobian, the uv mapping and the offsets."""
-    env, em = maps[name]
-    nx, ny = env.width, env.height - 1
-    g = (1.0 + np.array([-1.0, 1.0]) / np.sqrt(3.0)) / 2.0
-    ix, iy, gx, gy = np.meshgrid(np.arange(nx), np.arange(ny), g, g, indexing="ij")
-    uv = np.stack([(ix + gx + 0.5) / nx, (iy + gy) / ny], -1).reshape(-1, 2)
-    w = env.direction(uv).astype(np.float32).astype(float)
-    it, theirs = mi.Interaction3f(), []
+def _mitsuba_pdf(mi, em, w):
+    it, out = mi.Interaction3f(), []
     for d in w:
         ds = mi.DirectionSample3f()
         ds.d = mi.Vector3f(*d)
-        theirs.append(em.pdf_direction(it, ds))
-    jac = 2 * PI**2 * np.sin(PI * env.uv(w)[:, 1])         # d(omega) = 2 pi^2 sin(theta) du dv
-    mean_theirs = (np.array(theirs) * jac).reshape(nx, ny, 4).mean(-1)
-    mean_ours = (env.pdf(w) * jac).reshape(nx, ny, 4).mean(-1)
-    # Mitsuba's float32 sin(pi) at the last row is -9e-8, not 0: a few 1e-7 on dark cells
-    np.testing.assert_allclose(mean_ours, mean_theirs, rtol=1e-4, atol=1e-6)
+        out.append(em.pdf_direction(it, ds))
+    return np.array(out)
 
 
 @pytest.mark.parametrize("name", MAPS)
-def test_mitsuba_samples_follow_our_cells(maps, mi, name):
+def test_pdf_matches_mitsuba_pointwise(maps, mi, name):
+    """Our pdf is Mitsuba's pdf_direction at every direction (bilinear inside the cells, not
+    only the same cell masses): random directions, 3 x 3 points in every cell and directions
+    near both poles.  Mitsuba takes theta = acos(d_y) in float32 of the float32 local direction
+    (rounded, of length 1 +- 6e-8, rotated in float32): an error of ~1e-7 in d_y shifts theta by
+    a relative 1e-7 / sin^2 theta, so directions with sin theta < 0.1 (where that passes 1e-5,
+    the float32 rounding of the poles) are left out.  The absolute floor
+    covers Mitsuba's float32 lookups where the density nears 0 (its last row's weights are
+    float32 sin(pi) = -9e-8, so it even returns -3e-7 there)."""
+    env, em = maps[name]
+    nx, ny = env.width, env.height - 1
+    g = np.array([0.1, 0.5, 0.85])
+    ix, iy, gx, gy = np.meshgrid(np.arange(nx), np.arange(ny), g, g, indexing="ij")
+    grid = np.stack([(ix + gx + 0.5) / nx, (iy + gy) / ny], -1).reshape(-1, 2)
+    rng = np.random.default_rng(3)
+    theta = np.geomspace(0.1, 0.4, 100)
+    poles = np.stack([rng.random(200), np.concatenate([theta, PI - theta]) / PI], -1)
+    w = np.concatenate([_unit32(1000, 4), env.direction(np.concatenate([grid, poles]))])
+    w = w.astype(np.float32).astype(float)
+    w = w[np.sin(PI * env.uv(w)[:, 1]) >= 0.1]
+    theirs, ours = _mitsuba_pdf(mi, em, w), env.pdf(w)
+    assert (theirs > 0).mean() > 0.4
+    np.testing.assert_allclose(ours, theirs, rtol=1e-4, atol=1e-6 * theirs.max())
+
+
+@pytest.mark.parametrize("name", MAPS)
+def test_mitsuba_samples_follow_our_pdf(maps, mi, name):
     """Mitsuba's own sample_direction: its weight x pdf is our radiance at its direction, and
-    its samples fall in our cells with our cell probabilities (chi-square)."""
+    its samples fall in the quarters of our cells (2 x 2 bins per cell in (u_w, v)) with our
+    probabilities (chi-square): the integral of a bilinear density over a bin inside one cell
+    is the bin's area times the mean of its 4 corner values, exactly.  A piecewise-constant
+    density with the same cell masses fails it."""
     env, em = maps[name]
     n = 20_000
     u = np.random.default_rng(2).random((n, 2))
@@ -261,8 +298,12 @@ def test_mitsuba_samples_follow_our_cells(maps, mi, name):
                                atol=1e-6 * weight[keep].max())
     uv = env.uv(d)
     uw = np.mod(uv[:, 0] - 0.5 / env.width, 1.0)          # cells start half a texel after u = 0
-    cells = np.minimum((np.stack([uw, uv[:, 1]], -1) * [env.width, env.height - 1]).astype(int),
-                       [env.width - 1, env.height - 2])
-    counts = np.bincount(cells[:, 1] * env.width + cells[:, 0], minlength=env.weights.size)
-    res = pooled_chi2(counts, n * env.weights.ravel() / env.weights.sum(), name=f"mitsuba {name}")
+    nb = np.array([2 * env.width, 2 * (env.height - 1)])  # bins along u_w, v
+    bins = np.minimum((np.stack([uw, uv[:, 1]], -1) * nb).astype(int), nb - 1)
+    counts = np.bincount(bins[:, 1] * nb[0] + bins[:, 0], minlength=nb.prod())
+    by, bx = np.meshgrid(np.arange(nb[1]), np.arange(nb[0]), indexing="ij")
+    corners = [np.stack([(bx + a) / nb[0], (by + b) / nb[1]], -1) for a in (0, 1) for b in (0, 1)]
+    mass = sum(env.warp.pdf(c) for c in corners) / 4 / nb.prod()
+    assert mass.sum() == pytest.approx(1.0, rel=1e-12)
+    res = pooled_chi2(counts, n * mass.ravel(), name=f"mitsuba {name}")
     assert_gof(res, alpha=0.01, m=len(MAPS))

@@ -101,8 +101,8 @@ def mesh_chart(surface):
 def test_solid_angle_closed_forms():
     """Octant: pi/2; Girard: Omega = alpha + beta + gamma - pi; int cos / d^2 dA over the
     triangle (Gauss quadrature on its chart); batched triangles; 0 from a point in the plane."""
-    assert triangle_solid_angle([1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 0]) == pytest.approx(np.pi / 2, rel=1e-15)
-    assert triangle_solid_angle([5, 0, 0], [0, 7, 0], [0, 0, 2], [0, 0, 0]) == pytest.approx(np.pi / 2, rel=1e-15)
+    assert triangle_solid_angle([1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 0]) == pytest.approx(np.pi / 2, rel=1e-14)
+    assert triangle_solid_angle([5, 0, 0], [0, 7, 0], [0, 0, 2], [0, 0, 0]) == pytest.approx(np.pi / 2, rel=1e-14)
     rng = np.random.default_rng(1)
     a, b, c, ref = rng.normal(size=(4, 50, 3))
     A, B, C = (v / np.linalg.norm(v, axis=-1, keepdims=True) for v in (a - ref, b - ref, c - ref))
@@ -177,7 +177,7 @@ def _split_z(V, ref, n=200_000, rng=4, **kw):
 
 
 @pytest.mark.parametrize("V, ref", [
-    (TRI * 1e-6 + [0.0, 0.0, 1.0], np.zeros(3)),                                   # 1e-12 sr
+    (TRI * 1e-7 + [0.0, 0.0, 1.0], np.zeros(3)),                                   # 1.3e-14 sr
     (np.array([[1.0, 0, 1e-7], [2, 1, 1e-7], [1.5, -1, 1e-7]]), np.zeros(3)),      # grazing sliver, 2e-8 sr
     (np.array([[1.0, 0, 0], [-0.5, 0.8, 0], [-0.5, -0.8, 0]]), np.array([0, 0, 1e-4])),   # 2 pi - 1e-3 sr
 ], ids=["tiny", "grazing", "almost-hemisphere"])
@@ -233,7 +233,7 @@ def test_mesh_area_sampling(name):
 
 def test_mesh_hits_and_normals():
     m = octahedron()
-    c = OCTA_V.mean(0) * 0 + [0.1, 0.2, 0.3]                    # the octahedron's centre (its axes cross there)
+    c = np.array([0.1, 0.2, 0.3])                              # where the octahedron's axes cross
     t, k = m.hits(c + [0.01, 0.02, -5.0], [0, 0, 1.0])          # near both apexes: faces 7 and 0
     np.testing.assert_allclose(t, [5 - 0.7 * (1 - 0.01 / 1.2 - 0.02), 5 + 1.5 * (1 - 0.01 / 1.2 - 0.02)], rtol=1e-12)
     assert k.tolist() == [4, 0]
@@ -250,7 +250,8 @@ def test_mesh_hits_and_normals():
     centroids = OCTA_V[OCTA_F].mean(1)
     assert np.all(np.sum(n * (centroids - c), -1) > 0)
     np.testing.assert_allclose(m.normal(centroids), n, atol=1e-15)
-    assert m.max_hits == 8 and m.bounding_sphere()[1] == pytest.approx(np.max(np.linalg.norm(OCTA_V - m.bounding_sphere()[0], axis=1)))
+    center, radius = m.bounding_sphere()
+    assert m.max_hits == 8 and radius == pytest.approx(np.max(np.linalg.norm(OCTA_V - center, axis=1)))
 
 
 # ----------------------------------------------------------------------------- directions to a mesh
@@ -296,7 +297,7 @@ def test_area_method_matches_solid_angle_from_area():
     m = octahedron()
     u = np.random.default_rng(12).random((3000, 2))
     fast, slow = m.solid_angle_from(NEAR), SolidAngleFromArea(m, NEAR)
-    np.testing.assert_allclose(fast.sample(u), slow.sample(u), atol=1e-15)
+    np.testing.assert_allclose(fast.sample(u), slow.sample(u), atol=1e-13)
     np.testing.assert_allclose(fast.pdf(fast.sample(u)), slow.pdf(slow.sample(u)), rtol=1e-12)
 
 
@@ -362,7 +363,7 @@ def test_mesh_agrees_with_mitsuba(tmp_path):
         w = np.array(ds.d, float)
         assert np.isfinite(m.intersect(ref, w)).sum() == 1
         rel.append(d.pdf(w) / ds.pdf - 1.0)
-    assert np.max(np.abs(rel)) < 1e-4
+    assert np.max(np.abs(rel)) < 1e-5                  # float32 in Mitsuba: 5e-7 seen
 
 
 # ----------------------------------------------------------------------------- bad input

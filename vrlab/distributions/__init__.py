@@ -26,7 +26,7 @@ __all__ = [
     "BoxSurface", "CylinderSurface", "DiskSurface", "EllipsoidSurface", "RectangleSurface", "SphereSurface", "Surface",
     "unit_sphere_hit", "unit_sphere_hits", "unit_sphere_roots",
     "MeshLightSample", "SphericalTriangle", "TriangleMeshSolidAngle", "TriangleMeshSurface", "triangle_solid_angle",
-    "EnvironmentMap", "latlong_direction", "latlong_uv",
+    "EnvironmentMap", "latlong_direction", "latlong_uv", "BilinearPiecewise2D",
     "Beckmann", "FILTERS", "BoxFilter", "FilterWindow", "GaussianFilter", "ReconstructionFilter", "TentFilter",
 ]
 
@@ -37,4 +37,5 @@ __getattr__, __dir__ = lazy_attributes(__name__, {
     "Beckmann": "microfacet", "CylinderSurface": "cylinder",
     **{n: "triangles" for n in ("MeshLightSample", "SphericalTriangle", "TriangleMeshSolidAngle",
                                 "TriangleMeshSurface", "triangle_solid_angle")},
-    **{n: "envmap" for n in ("EnvironmentMap", "latlong_direction", "latlong_uv")}}, __all__)
+    **{n: "envmap" for n in ("EnvironmentMap", "latlong_direction", "latlong_uv")},
+    "BilinearPiecewise2D": "bilinear"}, __all__)

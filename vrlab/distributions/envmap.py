@@ -29,23 +29,26 @@ Conventions (Mitsuba 3 convention, src/emitters/envmap.cpp; checked against Mits
   ``Y <- max(Y - mean(Y), 0)`` with the plain mean over the W x H pixels (Mitsuba's choice,
   not weighted by solid angle), unless ``mean - min(Y) <= 0.01 mean`` (a near-constant map:
   no compensation).  Vertex weight ``q[j, i] = Y[j, i] sin(pi j / (H - 1))`` (exactly 0 on
-  the pole rows).  Mitsuba's ``Hierarchical2D`` warp interpolates q bilinearly between the
-  vertices (cells of W x (H - 1) between pixel centres, shifted by half a texel in u).
-  Here the same cells carry a **piecewise-constant** density (``PiecewiseConstant2D``)
-  with cell weight ``c[j, i] = (q[j, i] + q[j, i+1] + q[j+1, i] + q[j+1, i+1]) / 4``, the
-  integral of Mitsuba's bilinear interpolant over the cell: every cell has exactly
-  Mitsuba's probability, only the distribution inside a cell differs (uniform here, bilinear
-  there).  The cell choice is an alias table (``table="alias"``, O(1)) or the marginal and
-  conditional CDFs of ``PiecewiseConstant2D`` (``"cdf"``, O(log n), invertible).
-* **Density.**  With ``u_w = frac(u - 1/(2W))`` the warp's coordinate, the uv density is
-  ``p_uv = c[j, i] / (sum(c) / (W (H - 1)))`` in cell ``(floor(u_w W), floor(v (H - 1)))``
-  and, since ``d(omega) = sin theta d(theta) d(phi) = 2 pi^2 sin theta du dv``,
-  ``p(w) = p_uv(u, v) / (2 pi^2 sin theta)`` per steradian (Mitsuba's Jacobian), with
-  ``sin theta`` clamped below at 2^-24 as Mitsuba clamps it (``dr::Epsilon<float>``).  The
-  density grows like 1 / sin theta towards the poles (integrable; L / p -> 0 there).
-  It is zero on cells of zero weight: with ``mis_compensation`` on all cells dimmer than
-  the mean (unbiased only under MIS with a technique that covers them), and on the cells
-  of a pole whose neighbouring row is black (Mitsuba's bilinear warp is zero there too).
+  the pole rows), on the (H, W + 1) grid of vertices ``u_w = i / W``, ``v = j / (H - 1)``
+  whose column W repeats column 0 (the seam): Mitsuba's ``Hierarchical2D`` data.
+* **Density.**  As Mitsuba's warp, the uv density is **bilinear** inside each of the
+  W x (H - 1) cells between pixel centres (``BilinearPiecewise2D(q)`` in the warp's
+  coordinates ``(u_w, v)``, ``u_w = frac(u - 1/(2W))``): in cell (j, i) with
+  ``s = u_w W - i``, ``t = v (H - 1) - j``,
+  ``p_uv = [(1 - t) ((1 - s) q[j, i] + s q[j, i+1]) + t ((1 - s) q[j+1, i] + s q[j+1, i+1])]
+  / mean(c)``, ``c[j, i]`` the mean of the cell's four vertex weights (its mass); since
+  ``d(omega) = sin theta d(theta) d(phi) = 2 pi^2 sin theta du dv``,
+  ``p(w) = p_uv(u_w, v) / (2 pi^2 sin theta)`` per steradian (Mitsuba's Jacobian), with
+  ``sin theta`` clamped below at 2^-24 as Mitsuba clamps it (``dr::Epsilon<float>``).  So
+  ``pdf`` equals Mitsuba's ``pdf_direction`` pointwise.  Towards the poles p_uv falls like
+  sin theta (q is 0 on the pole rows), so p(w) stays bounded there.  It is zero where the
+  four vertex weights of a cell vanish: with ``mis_compensation`` on all parts of the map
+  dimmer than the mean (unbiased only under MIS with a technique that covers them).
+* **Sampling.**  ``BilinearPiecewise2D`` picks a cell by its mass c (``table="alias"``: an
+  alias table, O(1); ``"cdf"``: the marginal and conditional CDFs, O(log n), invertible), then
+  inverts the cell's linear marginal in v and linear conditional in u exactly; the direction
+  is ``latlong_direction(u_w + 1/(2W), v)``.  The map from uniforms to directions differs from
+  Mitsuba's hierarchical one; the density is the same.
 
 The ``constant`` emitter (src/emitters/constant.cpp) samples directions uniformly on the
 sphere, pdf 1 / (4 pi): use ``vrlab.distributions.UniformSphere`` (Mitsuba's
@@ -65,9 +68,8 @@ import numpy as np
 
 from .. import checks
 from ..checks import describe as _describe
-from .base import Distribution, as_float, as_points, as_uniforms
-from .discrete import AliasTable
-from .tabulated import PiecewiseConstant2D
+from .base import Distribution, as_float, as_points
+from .bilinear import BilinearPiecewise2D
 
 __all__ = ["EnvironmentMap", "MITSUBA_LUMINANCE", "SIN_THETA_MIN", "TABLES", "latlong_direction", "latlong_uv"]
 
@@ -75,7 +77,7 @@ __all__ = ["EnvironmentMap", "MITSUBA_LUMINANCE", "SIN_THETA_MIN", "TABLES", "la
 MITSUBA_LUMINANCE = (0.212671, 0.715160, 0.072169)
 #: The floor of sin(theta) in the Jacobian (Mitsuba's ``dr::Epsilon<float>``, 2^-24).
 SIN_THETA_MIN = 2.0 ** -24
-TABLES = ("alias", "cdf")
+TABLES = ("alias", "cdf")   # the cell choice of ``BilinearPiecewise2D``
 _INV_2PI2 = 1.0 / (2.0 * np.pi ** 2)
 _ONE_MINUS = float(np.nextafter(1.0, 0.0))
 
@@ -149,7 +151,8 @@ def _apply(m: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 class EnvironmentMap(Distribution):
     """Mitsuba 3's ``envmap``: radiance ``eval(w)`` and importance sampling of directions
-    (measure: solid angle); formulas in the module docstring.
+    (measure: solid angle) with Mitsuba's piecewise-bilinear density; formulas in the module
+    docstring.
 
     ``EnvironmentMap(image, to_world=None, scale=1.0, mis_compensation=False, table="alias")``
     with ``image`` (H, W, 3) linear RGB (row 0 = top = +y).  ``sample(u (..., 2)) -> w (..., 3)``
@@ -157,7 +160,8 @@ class EnvironmentMap(Distribution):
     ``eval(w) -> (..., 3)``, ``uv(w) -> (..., 2)``, ``direction(uv) -> (..., 3)``; ``invert(w)``
     only with ``table="cdf"`` (an alias table is not a bijection: ``hasattr`` is False).
     Attributes: ``image``, ``width`` W, ``height`` H, ``rotation`` (3x3), ``scale``,
-    ``luminance`` (H, W) after compensation, ``weights`` (H - 1, W) cell weights ``c``,
+    ``luminance`` (H, W) after compensation, ``vertex_weights`` (H, W + 1) q, ``weights``
+    (H - 1, W) cell masses ``c``, ``warp`` (the ``BilinearPiecewise2D`` of q in ``(u_w, v)``),
     ``offset`` (the subtracted mean, 0 without compensation).
     """
 
@@ -186,13 +190,15 @@ class EnvironmentMap(Distribution):
         rows = np.arange(h)
         sin_rows = np.sin(np.pi * np.minimum(rows, h - 1 - rows) / (h - 1))   # exactly 0 at both poles
         q = lum * sin_rows[:, None]
-        q = q + np.roll(q, -1, axis=1)                   # columns i and i + 1 (column W is column 0)
-        self.weights = 0.25 * (q[:-1] + q[1:])           # (H - 1, W): mean of the cell's 4 vertex weights
-        if not self.weights.sum() > 0:
+        if not q.sum() > 0:
             raise ValueError("image: the sampling weights (luminance x sin theta) are all zero: the map is black "
                              "(or lit only on its first and last rows, the poles, where sin theta = 0)")
-        self._table = PiecewiseConstant2D(self.weights)  # x = u_w (columns), y = v (rows) on [0, 1]^2
-        self._alias = AliasTable(self.weights.ravel()) if self.table == "alias" else None
+        self.vertex_weights = np.concatenate([q, q[:, :1]], axis=1)   # column W is column 0 (the seam)
+        try:
+            self.warp = BilinearPiecewise2D(self.vertex_weights, table=self.table)  # x = u_w, y = v on [0, 1]^2
+        except ValueError as exc:   # only for weights at the edge of float range
+            raise ValueError(f"image: its sampling weights cannot be tabulated ({exc})") from None
+        self.weights = self.warp.masses                  # (H - 1, W): mean of each cell's 4 vertex weights
         self._half = 0.5 / w
 
     # -- mapping -----------------------------------------------------------------------------
@@ -221,8 +227,8 @@ class EnvironmentMap(Distribution):
         wd, ht = self.width, self.height
         x = np.mod(uv[..., 0] - self._half, 1.0) * wd
         y = uv[..., 1] * (ht - 1)
-        i = np.clip(np.floor(x), 0, wd - 1).astype(np.intp)
-        j = np.clip(np.floor(y), 0, ht - 2).astype(np.intp)
+        i = np.fmin(np.fmax(np.floor(x), 0), wd - 1).astype(np.intp)   # fmax/fmin: NaN -> 0 (NaN radiance)
+        j = np.fmin(np.fmax(np.floor(y), 0), ht - 2).astype(np.intp)
         fx, fy = x - i, y - j
         i1 = np.where(i + 1 == wd, 0, i + 1)
         t = self.image
@@ -234,33 +240,19 @@ class EnvironmentMap(Distribution):
         return out
 
     # -- sampling ----------------------------------------------------------------------------
-    def _sample_warp(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Warp coordinates ``(u_w, v) (..., 2)`` in [0, 1)^2 and ``p_uv`` of their cell."""
-        u = as_uniforms(u, 2).astype(np.float64, copy=False)
-        tab = self._table
-        if self._alias is None:
-            x = tab.sample(u)
-            return x, tab.pdf(x)
-        k, fx = self._alias.sample(u[..., 0], return_remapped=True)
-        iy, ix = np.divmod(k, tab.nx)
-        ex, ey = tab.xedges, tab.yedges
-        x = np.clip(ex[ix] + fx * tab.cell[0], ex[ix], np.nextafter(ex[ix + 1], -np.inf))
-        y = np.clip(ey[iy] + u[..., 1] * tab.cell[1], ey[iy], np.nextafter(ey[iy + 1], -np.inf))
-        return np.stack([x, y], -1), tab.density[iy, ix]
-
     def sample_pdf(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(w, pdf)``: world directions ``(..., 3)`` for uniforms ``u (..., 2)`` and their
-        density per steradian, ``p_uv / (2 pi^2 max(sin theta, 2^-24))`` (the chosen cell's
-        ``p_uv``, so pdf > 0 for every sample)."""
-        xw, p_uv = self._sample_warp(u)
+        density per steradian, ``p_uv / (2 pi^2 max(sin theta, 2^-24))`` (p_uv of the sampled
+        warp point, bilinear in its cell)."""
+        xw, p_uv = self.warp.sample_pdf(u)
         uv = np.stack([xw[..., 0] + self._half, xw[..., 1]], -1)    # u may pass 1: phi is periodic
         sin_theta = np.maximum(np.sin(np.pi * xw[..., 1]), SIN_THETA_MIN)
         return self.direction(uv), p_uv * _INV_2PI2 / sin_theta
 
     def sample(self, u: np.ndarray) -> np.ndarray:
-        """World unit directions ``(..., 3)`` for uniforms ``u (..., 2)``: a cell by the table
-        (alias: ``u_1`` picks the cell and, remapped, u inside it; cdf: ``u_2`` the row,
-        ``u_1`` the column), uniform in (u_w, v) inside the cell, ``u = u_w + 1/(2W)``."""
+        """World unit directions ``(..., 3)`` for uniforms ``u (..., 2)``: the warp point
+        ``(u_w, v) = warp.sample(u)`` (a cell by the table, alias: ``u_1`` picks the cell; cdf:
+        ``u_2`` the row, ``u_1`` the column; then the bilinear patch), ``u = u_w + 1/(2W)``."""
         return self.sample_pdf(u)[0]
 
     def _warp_coords(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -277,17 +269,17 @@ class EnvironmentMap(Distribution):
         """Density per steradian of world directions ``w (..., 3)``:
         ``p(w) = p_uv(u_w, v) / (2 pi^2 max(sin theta, 2^-24))`` (d omega = 2 pi^2 sin theta du dv)."""
         xw, sin_theta = self._warp_coords(w)
-        return self._table.pdf(xw) * _INV_2PI2 / sin_theta
+        return self.warp.pdf(xw) * _INV_2PI2 / sin_theta
 
     def _invert(self, w: np.ndarray) -> np.ndarray:
         xw, _ = self._warp_coords(w)
-        return self._table.invert(xw)
+        return self.warp.invert(xw)
 
     @property
     def invert(self):
         """``invert(w) -> u (..., 2)``, the uniforms that ``sample`` maps to ``w`` (``table="cdf"``
-        only: the marginal/conditional CDF inversion of ``PiecewiseConstant2D``)."""
-        if self._alias is not None:
+        only: ``warp.invert`` of the direction's warp point)."""
+        if self.table != "cdf":
             raise AttributeError("invert: an alias table is not a bijection; build with table='cdf' to invert")
         return self._invert
 

@@ -1,42 +1,35 @@
 """Triangle-mesh lights: points by area, Arvo's spherical triangles, directions to a mesh.
 
-* ``TriangleMeshSurface(vertices, faces)``: triangle k with probability A_k / A (``AliasTable``;
-  u1 is remapped and reused), then uniform in it by ``planar.Triangle``'s square-root warp;
-  p = 1 / A (area).  Mitsuba 3's ``Mesh::sample_position`` does the same with a CDF on u2.
-* ``SphericalTriangle(a, b, c, ref)``: directions uniform in the solid angle that the
-  triangle (a, b, c) subtends from ``ref``; p = 1 / Omega (solid angle).  Arvo, "Stratified
-  sampling of spherical triangles", SIGGRAPH 1995, rewritten without cancellation (below).
-* ``TriangleMeshSolidAngle(surface, ref, method)``: directions towards a mesh, by area
-  converted to solid angle or by a triangle then a spherical-triangle direction; the pdf
-  sums every triangle the ray (ref, w) crosses.
+* ``TriangleMeshSurface(vertices, faces)``: triangle k with probability A_k / A (``AliasTable`` on
+  u1, whose remapped uniform is reused), uniform in it by ``planar.Triangle``'s warp; p = 1 / A
+  (area).  Mitsuba 3 (src/render/mesh.cpp, sample_position) does the same with a CDF on u2.
+* ``SphericalTriangle(a, b, c, ref)``: directions uniform in the solid angle the triangle
+  subtends from ``ref``, p = 1 / Omega (solid angle).  Arvo, "Stratified sampling of spherical
+  triangles", SIGGRAPH 1995, rearranged to avoid cancellation (below).
+* ``TriangleMeshSolidAngle(surface, ref, method)``: directions towards a mesh, by area or by a
+  triangle then ``SphericalTriangle``; the pdf sums every triangle the ray (ref, w) crosses.
 * ``triangle_solid_angle(a, b, c, ref)``: Van Oosterom & Strackee, IEEE TBME 30(2), 1983:
-  tan(Omega / 2) = |a.(b x c)| / (|a||b||c| + (a.b)|c| + (a.c)|b| + (b.c)|a|), with a, b, c
-  the vertices relative to ref and a.(b x c) = a.((b - a) x (c - a)) (exact for far, small
-  triangles); Omega = 2 atan2(...) is in [0, 2 pi].
+  tan(Omega/2) = |a.(b x c)| / (|a||b||c| + (a.b)|c| + (a.c)|b| + (b.c)|a|) with a, b, c relative
+  to ref, a.(b x c) = a.((b - a) x (c - a)) (exact for far, small triangles).
 
-Arvo's step 1 picks the point C' on the arc AC whose sub-triangle ABC' has area
-A' = u1 Omega; with h = A'/2, alpha the angle at A and c the arc AB, the spherical law of
-cosines gives (our rearrangement of Arvo's q = cos b', free of differences of nearly equal
-terms for small triangles):
+Arvo step 1: C' on the arc AC with area(A, B, C') = u1 Omega.  With h = u1 Omega / 2, alpha the
+angle at A, c the arc AB, k = 1 - cos c = sin^2 c / (1 + cos c) and s = 2 sin h sin(alpha - h),
+the spherical law of cosines gives (our rearrangement of Arvo's q = cos b')
 
-    s = 2 sin(h) sin(alpha - h),   k = 1 - cos c = sin^2 c / (1 + cos c),
     tan b' = sin(c) s / (k (sin^2 alpha - 2 sin(h) cos(alpha) sin(alpha - h)) - 2 sin^2 h),
 
-C' = cos b' A + sin b' T_AC (T_AC the unit tangent at A towards C).  Step 2: w on the arc
-from B to C' with 1 - cos theta = u2 (1 - B.C') (uniform in cos theta: the area element about
-B is sin theta dtheta dphi).  ``invert``: C' = the arc AC met by the great circle through B
-and w, u1 = Omega(A, B, C') / Omega, u2 = |w - B|^2 / |C' - B|^2.
-Small spherical triangles (Omega < ``min_solid_angle``, default 1e-12 sr, and Omega = 0 from a
-point in the triangle's plane) fall back to area sampling of the world triangle with its
-exact density 2 (a.n)^2 / |w.n|^3 (n = (b - a) x (c - a), unit w; = d^2 / (A |cos|)), as
-pbrt-v4 does below 3e-4 sr in float32; both branches are exact densities, the choice is a
-function of (triangle, ref) only.  A point on the triangle's plane gets density 0 and a
-finite w (the normal when ref is on the triangle itself): such samples carry no weight.
+C' = cos b' A + sin b' T (T the unit tangent at A towards C).  Step 2: w on the arc B -> C' with
+1 - cos theta = u2 (1 - B.C') (the area element about B is sin theta dtheta dphi).  ``invert``:
+C' = the arc AC met by the great circle through B and w, u1 = Omega(A, B, C') / Omega,
+u2 = |w - B|^2 / |C' - B|^2.  Below ``min_solid_angle`` (default 1e-12 sr; always for Omega = 0,
+i.e. ref within 1e-12 rad of the triangle's plane) directions come from area sampling with its
+exact density 2 (a.n)^2 / |w.n|^3 = d^2 / (A |cos|) (n = (b - a) x (c - a), unit w), as pbrt-v4
+does below 3e-4 sr in float32; here the rearranged formulas stay exact to ~1e-14 sr (tested).
+From the triangle's plane the density is 0 and w finite (the normal if ref is on the triangle).
 
-Cost: ``intersect`` tests every ray against every triangle, elementwise in blocks of
-2^18 ray-triangle pairs (~50 ns a pair): fine up to ~10^4 triangles and 10^5 rays, not a BVH.
-Selection by solid angle (``selection="solid_angle"``) computes all F solid angles per point
-(O(F) time, blocks of O(F) memory).  Everything is float64 (float32 input is promoted).
+Cost: ``hits``/``intersect`` test every ray against every triangle, elementwise in blocks of 2^18
+pairs (~50 ns a pair): fine up to ~10^4 triangles and 10^5 rays; not a BVH.  Selection by solid
+angle computes all F solid angles per point (O(F), ~0.15 us a pair).  Everything is float64.
 """
 from __future__ import annotations
 
@@ -46,7 +39,7 @@ import numpy as np
 
 from .. import checks
 from .._vec import dot, norm
-from .base import Distribution, as_points, as_uniforms, check_broadcast, finite_points
+from .base import Distribution, as_float, as_points, as_uniforms, check_broadcast, finite_points
 from .discrete import AliasTable
 from .planar import Triangle
 from .surfaces import Surface, _INTERSECT_DOC
@@ -241,7 +234,7 @@ class TriangleMeshSurface(Surface):
     normalize((v1 - v0) x (v2 - v0)) (zero for zero-area triangles, which are never sampled);
     ``normal(x)``: that of ``locate(x)``, the triangle nearest x (by plane distance plus
     distance outside the triangle's edges; O(F) per point).  ``normals`` (V, 3): optional
-    vertex (shading) normals, kept for ``shading_normal``; sampling ignores them.
+    vertex (shading) normals, kept as ``vertex_normals``; sampling ignores them.
     ``intersect`` returns every hit (K = the most hits of any ray in the call, <= max_hits =
     F; see the module docstring for the cost).  Checked: ``vertices`` finite (V, 3), ``faces``
     integers (F, 3) in [0, V), F >= 1, some triangle of positive area, ``normals`` finite (V, 3).
@@ -309,19 +302,6 @@ class TriangleMeshSurface(Surface):
         """Unit winding normals of triangles ``k`` (integer array): (..., 3)."""
         return self.face_normals[np.asarray(k)]
 
-    def shading_normal(self, x: np.ndarray, k: Any) -> np.ndarray:
-        """Vertex normals interpolated at x on triangle k (Mitsuba's smooth shading), normalised;
-        the winding normal where the mesh has no ``normals``."""
-        if self.vertex_normals is None:
-            return self.normal_of(k)
-        k = np.asarray(k)
-        q = _f64(x, 3, "x") - self.v0[k]
-        b1, b2 = dot(q, np.cross(self.e2[k], self.n[k])), dot(q, np.cross(self.n[k], self.e1[k]))
-        nn = dot(self.n[k], self.n[k])[..., None]
-        nv = self.vertex_normals[self.faces[k]]
-        return _unit(nv[..., 0, :] + (nv[..., 1, :] - nv[..., 0, :]) * b1[..., None] / nn
-                     + (nv[..., 2, :] - nv[..., 0, :]) * b2[..., None] / nn)
-
     def locate(self, x: np.ndarray) -> np.ndarray:
         """Index of the triangle nearest each point (..., 3): argmin |plane distance| + size x
         (amount outside the barycentric range); zero-area triangles are skipped."""
@@ -349,7 +329,7 @@ class TriangleMeshSurface(Surface):
         o = np.broadcast_to(np.asarray(o, np.float64), shape).reshape(-1, 3) - self._center
         d = np.broadcast_to(np.asarray(d, np.float64), shape).reshape(-1, 3)
         t_min = self._t_min(t_min)
-        ts, ks = [], []
+        ts, ks = [np.full((0, 1), np.inf)], [np.full((0, 1), -1)]
         for sl in _blocks(len(o), len(self.n)):
             oo, dd = o[sl], d[sl]
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -357,20 +337,15 @@ class TriangleMeshSurface(Surface):
             tt = np.where(np.isfinite(t), t, 0.0)
             b1 = _rows(oo, self._g1) - self._c[1] + tt * _rows(dd, self._g1)
             b2 = _rows(oo, self._g2) - self._c[2] + tt * _rows(dd, self._g2)
-            ok = np.isfinite(t) & (t > t_min) & (b1 >= -_TOL) & (b2 >= -_TOL) & (b1 + b2 <= 1.0 + _TOL)
-            t = np.where(ok, t, np.inf)
-            kk = max(int(ok.sum(1).max(initial=0)), 1)
-            idx = np.argsort(t, 1)[:, :kk] if kk > len(self.n) // 8 else np.argpartition(t, kk - 1, 1)[:, :kk]
-            tk = np.take_along_axis(t, idx, 1)
-            order = np.argsort(tk, 1)
-            tk, idx = np.take_along_axis(tk, order, 1), np.take_along_axis(idx, order, 1)
-            ts.append(tk)
-            ks.append(np.where(np.isfinite(tk), idx, -1))
-        K = max(a.shape[1] for a in ts) if ts else 1
-        t = np.concatenate([np.pad(a, ((0, 0), (0, K - a.shape[1])), constant_values=np.inf) for a in ts] or
-                           [np.full((0, K), np.inf)])
-        k = np.concatenate([np.pad(a, ((0, 0), (0, K - a.shape[1])), constant_values=-1) for a in ks] or
-                           [np.full((0, K), -1)])
+            t = np.where((t > t_min) & (b1 >= -_TOL) & (b2 >= -_TOL) & (b1 + b2 <= 1.0 + _TOL), t, np.inf)
+            kk = max(int(np.isfinite(t).sum(1).max(initial=0)), 1)
+            idx = np.argpartition(t, kk - 1, 1)[:, :kk]             # the kk nearest, then sorted
+            idx = np.take_along_axis(idx, np.argsort(np.take_along_axis(t, idx, 1), 1), 1)
+            ts.append(np.take_along_axis(t, idx, 1))
+            ks.append(np.where(np.isfinite(ts[-1]), idx, -1))
+        K = max(a.shape[1] for a in ts)
+        t = np.concatenate([np.pad(a, ((0, 0), (0, K - a.shape[1])), constant_values=np.inf) for a in ts])
+        k = np.concatenate([np.pad(a, ((0, 0), (0, K - a.shape[1])), constant_values=-1) for a in ks])
         return t.reshape(shape[:-1] + (K,)), k.reshape(shape[:-1] + (K,))
 
     def intersect(self, origin: np.ndarray, direction: np.ndarray, t_min: float | None = None) -> np.ndarray:
@@ -385,7 +360,6 @@ class TriangleMeshSurface(Surface):
 
     def _repr_fields(self):
         return {"triangles": len(self.faces), "area": self.area}
-
 
 
 # ----------------------------------------------------------------------------- directions to a mesh
@@ -490,16 +464,18 @@ class TriangleMeshSolidAngle(Distribution):
             P = om / np.where(tot > 0, tot, np.inf)[:, None]
         return np.where(ok, P * p, 0.0)
 
-    def _pdf(self, w, ref, own=None):
-        t, k = self.surface.hits(ref, w)
-        if own is not None:                             # the sampled triangle always counts
+    def _pdf(self, w, ref, t, k, own=None, tot=None):
+        """Sum of the hit densities; ``own``: the sampled triangles, counted even if rounding
+        at an edge made the ray miss them; ``tot``: sum_j Omega_j if known."""
+        if own is not None:
             va, _, _, n = self._rel(own, ref)
             with np.errstate(divide="ignore", invalid="ignore"):
                 t_own = dot(va, n) / dot(w, n)
             new = ~np.any(k == own[:, None], 1) & np.isfinite(t_own) & (t_own > 0)
             t = np.concatenate([t, np.where(new, t_own, np.inf)[:, None]], 1)
             k = np.concatenate([k, np.where(new, own, -1)[:, None]], 1)
-        tot = self._totals(ref)[0] if self.method == "spherical" and self.selection == "solid_angle" else None
+        if tot is None and self.method == "spherical" and self.selection == "solid_angle":
+            tot = self._totals(ref)[0]
         return np.sum(self._terms(w, ref, t, k, tot), 1)
 
     def _sample(self, u):
@@ -508,26 +484,26 @@ class TriangleMeshSolidAngle(Distribution):
         if self.method == "area":
             y, k = s.sample_point(u)
             v = y - ref
-            return _unit(v, s.face_normals[k]), y, norm(v), k, ref, shape
+            return _unit(v, s.face_normals[k]), y, norm(v), k, ref, shape, None
         if self.selection == "area":
-            k, r = s.table.sample(u[:, 0], return_remapped=True)
+            (k, r), tot = s.table.sample(u[:, 0], return_remapped=True), None
         else:
-            k, r = self._totals(ref, u[:, 0])[1:]
+            tot, k, r = self._totals(ref, u[:, 0])
         va, vb, vc, n = self._rel(k, ref)
         w = _Geom(va, vb, vc, self.min_solid_angle).sample(np.stack([r, u[:, 1]], -1))
         with np.errstate(divide="ignore", invalid="ignore"):
             t = dot(va, n) / dot(w, n)
         t = np.where(np.isfinite(t) & (t > 0), t, 0.0)
-        return w, ref + w * t[:, None], t, k, ref, shape
+        return w, ref + w * t[:, None], t, k, ref, shape, tot
 
     def sample(self, u: np.ndarray) -> np.ndarray:
-        w, *_, shape = self._sample(u)
+        w, *_, shape, _ = self._sample(u)
         return w.reshape(shape + (3,))
 
     def sample_point(self, u: np.ndarray) -> MeshLightSample:
         """``MeshLightSample(w, y, dist, pdf, triangle)`` (see the class docstring)."""
-        w, y, dist, k, ref, shape = self._sample(u)
-        pdf = self._pdf(w, ref, own=k)
+        w, y, dist, k, ref, shape, tot = self._sample(u)
+        pdf = self._pdf(w, ref, *self.surface.hits(ref, w), own=k, tot=tot)
         return MeshLightSample(w.reshape(shape + (3,)), y.reshape(shape + (3,)), dist.reshape(shape),
                                pdf.reshape(shape), k.reshape(shape))
 
@@ -537,16 +513,17 @@ class TriangleMeshSolidAngle(Distribution):
 
     def pdf(self, w: np.ndarray) -> np.ndarray:
         w, ref, shape = self._flat(w, 3, "w")
-        return self._pdf(_unit(w), ref).reshape(shape)
+        w = _unit(w)
+        return self._pdf(w, ref, *self.surface.hits(ref, w)).reshape(shape)
 
     def pdf_from_hits(self, w: np.ndarray, t: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-        """p(w) from every hit (t (..., K) along unit w, triangle indices (..., K), -1 for none)."""
+        """p(w) from every hit of the rays (ref, w), found by another tracer: distances t (..., K)
+        along unit w and triangle indices (..., K) (-1: none), as ``surface.hits`` gives them."""
         w, ref, shape = self._flat(w, 3, "w")
-        t = np.asarray(as_points(t, np.shape(t)[-1] if np.ndim(t) else 1, "t"), np.float64)
+        t = np.asarray(as_float(t, "t"), np.float64)
         t = np.broadcast_to(t, shape + t.shape[-1:]).reshape(len(w), -1)
         k = np.broadcast_to(np.asarray(triangles), shape + t.shape[-1:]).reshape(t.shape).astype(np.int64)
-        tot = self._totals(ref)[0] if self.method == "spherical" and self.selection == "solid_angle" else None
-        return np.sum(self._terms(_unit(w), ref, t, k, tot), 1).reshape(shape)
+        return self._pdf(_unit(w), ref, t, k).reshape(shape)
 
     def pdf_at(self, y: np.ndarray, w: np.ndarray) -> np.ndarray:
         """p(w) for a mesh that the ray (ref, w) meets once, at the known point ``y``."""

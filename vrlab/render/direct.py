@@ -58,12 +58,16 @@ class DirectLighting:
             raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
         checks.choice(light_selection, "light_selection", LIGHT_SELECTIONS)
         self.light_selection = light_selection
-        self.geometry = SceneGeometry(scene)
+        # hits need their triangle only on meshes with smooth normals or textures
+        prim = any(hasattr(s, "barycentrics") and (s.has_shading_normals or s.bsdf.textures or
+                                                   (s.emitter is not None and s.emitter.texture is not None))
+                   for s in scene.shapes)
+        self.geometry = SceneGeometry(scene, track_prim=prim)
         emits = np.array([s.emitter is not None for s in scene.shapes], bool)
         # rays leaving a surface only need the first emitter they meet and whether a
         # non-emitter blocks it: two smaller geometries (see ``trace``)
-        self.emitter_geometry = SceneGeometry(scene, np.flatnonzero(emits))
-        self.blocker_geometry = SceneGeometry(scene, np.flatnonzero(~emits))
+        self.emitter_geometry = SceneGeometry(scene, np.flatnonzero(emits), track_prim=prim)
+        self.blocker_geometry = SceneGeometry(scene, np.flatnonzero(~emits), track_prim=prim)
         self.camera = scene.sensor
         self.hide_emitters = bool(scene.integrator.hide_emitters)
         self.shading = bool(scene.integrator.shading)
@@ -83,6 +87,7 @@ class DirectLighting:
                                  if s.emitter is not None and s.emitter.texture is not None}
         #: shapes whose shading normals differ from the geometric ones (meshes with vertex normals)
         self.smooth = [k for k, s in enumerate(shapes) if s.has_shading_normals]
+        self.smooth_emitters = [k for k in self.smooth if shapes[k].emitter is not None]
         self.shapes = shapes
         # black BSDFs reflect nothing; with a path of depth 1 nothing is shaded
         self.shaded = np.array([self.shading and not s.bsdf.is_black() for s in shapes], dtype=bool)
@@ -118,6 +123,19 @@ class DirectLighting:
         #: the environment emitter (constant, envmap) seen by rays that leave the scene, or None
         self.environment = envs[0] if envs else None
         self.radiance = np.concatenate([self.radiance, np.zeros((1, 3), F32)])      # + the environment's row
+
+    def facing(self, hits: Hits, d: np.ndarray) -> np.ndarray:
+        """Whether each hit's surface faces the ray ``d`` (the side an area light emits to): by
+        the shading normal on meshes with vertex normals, as Mitsuba's ``area`` emitter judges
+        it (``cos_theta(si.wi) > 0`` in the shading frame), else by the geometric normal."""
+        front = dot(hits.n, d) < 0
+        if self.smooth_emitters:
+            for k in self.smooth_emitters:
+                rows = np.flatnonzero(hits.shape == k)
+                if len(rows):
+                    ns = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
+                    front[rows] = dot(ns, np.take(d, rows, axis=0)) < 0
+        return front
 
     def shading_normals(self, hits: Hits) -> np.ndarray | None:
         """Shading normals of camera hits (None where every shape shades with its geometric normal)."""
@@ -179,7 +197,7 @@ class DirectLighting:
     # ------------------------------------------------------------------ tracing
     def emitted(self, hits, d: np.ndarray) -> np.ndarray:
         """One-sided emitted radiance ``(N, 3)`` seen along ``d`` at ``hits``."""
-        front = (hits.shape >= 0) & (dot(hits.n, d) < 0)
+        front = (hits.shape >= 0) & self.facing(hits, d)
         le = np.take(self.radiance, np.maximum(hits.shape, 0), axis=0)
         if self.emitter_textures:
             le = self.textured_radiance(hits.shape, hits.p, hits.prim, le)

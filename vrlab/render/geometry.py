@@ -96,9 +96,10 @@ def _rays(origin, direction, t_min, chunk) -> tuple[np.ndarray, np.ndarray]:
 
 class SceneGeometry:
     """All shapes of ``scene`` as arrays of primitives (see the module docstring), or only
-    the shapes ``only`` (indices into ``scene.shapes``, which the hits report)."""
+    the shapes ``only`` (indices into ``scene.shapes``, which the hits report);
+    ``track_prim=False``: hits report primitive 0 (no mesh needs its triangle index)."""
 
-    def __init__(self, scene: Scene, only: Sequence[int] | None = None):
+    def __init__(self, scene: Scene, only: Sequence[int] | None = None, track_prim: bool = True):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
         if only is not None:
@@ -108,6 +109,8 @@ class SceneGeometry:
             if idx.size and (idx.min() < 0 or idx.max() >= len(scene.shapes) or len(set(idx.tolist())) < idx.size):
                 raise ValueError(f"only: shape indices must be distinct and in [0, {len(scene.shapes) - 1}], "
                                  f"got {idx.tolist()}")
+        #: whether ``intersect`` reports each hit's primitive (meshes' triangles: smooth normals, textures)
+        self.track_prim = bool(track_prim)
         para, tris, quad, disk, custom, pts, boxes = [], [], [], [], [], [np.zeros(3)], {}
         self._n_tri = 0
         self.n_shapes = len(scene.shapes) if only is None else len(only)
@@ -187,7 +190,7 @@ class SceneGeometry:
         for a in range(0, n_rays, chunk):
             sl = slice(a, min(a + chunk, n_rays))
             self._closest(np.ascontiguousarray(o[sl]), np.ascontiguousarray(d[sl]), t_min,
-                          t[sl], shape[sl], normal[sl], prim=prim[sl])
+                          t[sl], shape[sl], normal[sl], prim=prim[sl] if self.track_prim else None)
         hit = shape >= 0
         p = scale(d, np.where(hit, t, 0.0).astype(dt, copy=False))
         p += o

@@ -60,6 +60,11 @@ class Light:
             raise ValueError(f"light sampling of {shape.plugin_name!r} emitters is not supported; use "
                              "strategy 'cosine' or 'bsdf', or rectangle/cube/disk/sphere/ellipsoid lights")
         self.surface32 = shape.surface32()
+        # meshes: by area or by spherical triangles (the emitter's ``triangle_sampling``)
+        from ..distributions import TriangleMeshSurface
+
+        self.directions = {"method": shape.emitter.triangle_sampling} \
+            if isinstance(self.surface, TriangleMeshSurface) else {}
         # one hit per direction: whether the light faces the point is a function of w
         self.planar = getattr(self.surface, "max_hits", 2) == 1
         self.area = self.surface.area
@@ -77,7 +82,7 @@ class Light:
         surface = self._surface(ref)
         if surface is self.surface32:
             u = uniforms32(u)
-        s = surface.solid_angle_from(ref).sample_point(u)
+        s = surface.solid_angle_from(ref, **self.directions).sample_point(u)
         if self.planar:
             return s.w, s.pdf, dot(ref - s.y, surface.normal(s.y)) > 0, s.y
         return s.w, s.pdf, np.ones(len(s.w), bool), np.full_like(s.y, np.nan)
@@ -90,7 +95,7 @@ class Light:
             return SphereCone(self.sphere[0], self.sphere[1], ref).pdf(w)
         if self.planar and hit_p is not None:
             return self._surface(ref).solid_angle_from(ref).pdf_at(hit_p, w)
-        return self.surface.solid_angle_from(ref).pdf(w)
+        return self.surface.solid_angle_from(ref, **self.directions).pdf(w)
 
     def _surface(self, ref: np.ndarray) -> Surface:
         """The surface in ``ref``'s precision (float32 for the renderer's rectangles)."""

@@ -38,7 +38,9 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
 * emitters: ``area`` (``radiance``, a colour or a texture) inside a shape; the delta
   lights ``point`` (``position`` or ``to_world``, ``intensity``), ``spot`` (``to_world``,
   ``intensity``, ``cutoff_angle``, ``beam_width``) and ``directional`` (``direction`` or
-  ``to_world``, ``irradiance``); the environment ``constant`` (``radiance``); every
+  ``to_world``, ``irradiance``) and ``projector`` (``irradiance`` a colour or texture,
+  ``scale``, ``fov``/``focal_length``, ``fov_axis``, ``to_world``); the environments ``constant`` (``radiance``) and ``envmap`` (``filename``, ``scale``,
+  ``to_world``, ``mis_compensation``); every
   emitter takes ``sampling_weight`` (:mod:`vrlab.render.emitters`);
 * textures: ``bitmap`` (``filename``, ``filter_type``, ``wrap_mode``, ``raw``, ``to_uv``,
   ``format``), ``checkerboard`` (``color0``, ``color1``, ``to_uv``), ``mesh_attribute``

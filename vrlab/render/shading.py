@@ -202,13 +202,18 @@ class ShadingIntegrand(Integrand):
                 if r.hit_p is None:
                     r.hit_p = np.full((len(r.j), 3), np.nan, p.dtype)
                 r.hit_p[rows] = hits.p
+            # the traced first hit decides the facing (a light sample on a closed or open mesh
+            # may lie on a far or back face: its light is seen from the front only)
+            front = lit.facing(hits, r.w[rows])
             if not front_known:
-                front = dot(hits.n, r.w[rows]) < 0
                 if whole:
                     r.front = front
                 else:
                     r.front = np.ones(len(r.j), bool)
                     r.front[rows] = front
+            else:
+                r.front = r.front.copy()
+                r.front[rows] &= front | (r.j[rows] < 0)
             if not whole:
                 k = np.flatnonzero(known)
                 all_first = np.zeros(len(r.j), bool)
@@ -316,7 +321,7 @@ class _Directional:
         j = lit.light_hit(hits)
         x, r = s.new_points(w, j, shape)
         r.wl, r.le, r.hit_p = wl, le, hits.p
-        r.first, r.front = np.ones(len(j), bool), dot(hits.n, w) < 0
+        r.first, r.front = np.ones(len(j), bool), lit.facing(hits, w)
         r.pdfs[self.key] = self._local_pdf(wo_l, wl)
         return x
 

@@ -1,7 +1,11 @@
 """``area`` (Mitsuba 3): a diffuse emitter on the surface of the shape that carries it,
 radiance L_e(x, w) = ``radiance`` towards the side its normal faces (one-sided); ``radiance``
 may be a texture, looked up at the shape's uv as Mitsuba does (light selection by power then
-uses its mean)."""
+uses its mean).  On a triangle mesh, the ``"light"`` technique picks a triangle by area and
+then either a point uniformly on it, converted to solid angle (``triangle_sampling="area"``,
+the default, as Mitsuba) or a direction uniformly in the spherical triangle it subtends
+(``"spherical"``, Arvo 1995): a vrlab parameter, settable in Python or in the scene file
+(which Mitsuba then refuses)."""
 from __future__ import annotations
 
 from typing import Any
@@ -21,13 +25,19 @@ class AreaEmitter(Emitter):
 
     is_area = True
 
-    def __init__(self, radiance: Any, sampling_weight: float = 1.0):
+    TRIANGLE_SAMPLING = ("area", "spherical")
+
+    def __init__(self, radiance: Any, sampling_weight: float = 1.0, triangle_sampling: str = "area"):
+        from ... import checks
+
         self.radiance = _radiance(radiance)
         self.sampling_weight = weight_param(sampling_weight)
+        self.triangle_sampling = checks.choice(triangle_sampling, "triangle_sampling", self.TRIANGLE_SAMPLING)
 
     @classmethod
     def from_props(cls, p) -> "AreaEmitter":
-        return cls(p.texture("radiance", kind="emission"), p.float("sampling_weight", 1.0))
+        return cls(p.texture("radiance", kind="emission"), p.float("sampling_weight", 1.0),
+                   p.string("triangle_sampling", "area", cls.TRIANGLE_SAMPLING))
 
     def validate(self) -> None:
         self.radiance = _radiance(self.radiance)

@@ -3,8 +3,9 @@
 (default 3/4 of the cutoff).  With theta the angle between the local +z and the direction
 from the light to p, the contribution is I f(theta) / d^2, f = 1 inside the beam, the linear
 ramp (cutoff - theta) / (cutoff - beam_width) between beam and cutoff, 0 beyond (Mitsuba 3
-``SpotLight::falloff_curve``).  A delta light (:mod:`.base`).  A projected ``texture`` is not
-supported yet (refused)."""
+``SpotLight::falloff_curve``), times an optional projected ``texture`` looked up at
+uv = (1/2 + x / (2 z tan(cutoff)), 1/2 + y / (2 z tan(cutoff))) of that local direction
+(Mitsuba's ``direction_to_uv``).  A delta light (:mod:`.base`)."""
 from __future__ import annotations
 
 from typing import Any
@@ -28,7 +29,12 @@ class SpotLight(Emitter):
     is_delta = True
 
     def __init__(self, *, to_world: Any = None, intensity: Any = 1.0, cutoff_angle: float = 20.0,
-                 beam_width: float | None = None, sampling_weight: float = 1.0):
+                 beam_width: float | None = None, texture: Any = None, sampling_weight: float = 1.0):
+        from ..textures import Texture
+
+        if texture is not None and not isinstance(texture, Texture):
+            raise TypeError(f"texture must be a texture element, got {checks.describe(texture)}")
+        self.texture = texture
         m = matrix4(np.eye(4) if to_world is None else to_world, "to_world")
         if abs(np.linalg.det(m[:3, :3])) < 1e-300:
             raise ValueError("to_world is singular")
@@ -44,8 +50,10 @@ class SpotLight(Emitter):
     @classmethod
     def from_props(cls, p) -> "SpotLight":
         kw = {"beam_width": p.float("beam_width")} if p.has("beam_width") else {}
+        tex = p.object("texture", ("texture",))
         return cls(to_world=p.transform("to_world"), intensity=p.color("intensity", 1.0, kind="emission"),
-                   cutoff_angle=p.float("cutoff_angle", 20.0), sampling_weight=p.float("sampling_weight", 1.0), **kw)
+                   cutoff_angle=p.float("cutoff_angle", 20.0), sampling_weight=p.float("sampling_weight", 1.0),
+                   texture=tex, **kw)
 
     @property
     def position(self) -> np.ndarray:
@@ -68,8 +76,15 @@ class SpotLight(Emitter):
 
     def radiance(self, ref, w):
         w, dist = delta_towards(ref, self.position)
-        f = self.falloff(matvec3(self._inv, -np.asarray(w, float)))
-        return self.intensity[None, :] * (f / np.maximum(dist * dist, 1e-30))[:, None]
+        local = matvec3(self._inv, -np.asarray(w, float))
+        out = self.intensity[None, :] * (self.falloff(local) / np.maximum(dist * dist, 1e-30))[:, None]
+        if self.texture is not None:
+            from ..textures import SurfacePoints
+
+            z = np.where(local[:, 2] > 0, local[:, 2], 1.0) * np.tan(self._cut)
+            uv = np.stack([0.5 + 0.5 * local[:, 0] / z, 0.5 + 0.5 * local[:, 1] / z], -1)
+            out = out * self.texture.eval(SurfacePoints(uv))
+        return out
 
     def power(self, radius: float) -> float:
         # the cone's solid angle out to the middle of the ramp

@@ -100,6 +100,7 @@ class Mesh(Shape):
 
     def validate(self) -> None:
         super().validate()
+        self._light_surface = None
         self.vertices, self.faces = check_mesh(self.vertices, self.faces)
         check_world_points(self.vertices, self.to_world)
 
@@ -113,7 +114,10 @@ class Mesh(Shape):
         return tri[:, ::-1] if self.flip_normals else tri
 
     def parts(self) -> list:
-        return [Triangles(self.triangles(), merge=not self.has_shading_normals)]
+        # a hit's triangle and barycentrics are needed for smooth normals and textures: no pairs
+        needs = self.has_shading_normals or bool(self.bsdf.textures) or \
+            (self.emitter is not None and self.emitter.texture is not None)
+        return [Triangles(self.triangles(), merge=not needs)]
 
     @property
     def has_shading_normals(self) -> bool:
@@ -159,6 +163,15 @@ class Mesh(Shape):
     def bound_radius(self) -> float:
         w = tf.transform_points(self.to_world, self.vertices)
         return float(np.max(np.linalg.norm(w - self.center, axis=-1)))
+
+    def surface(self):
+        """The mesh as a light surface: a triangle by area, then uniform in it
+        (:class:`vrlab.distributions.TriangleMeshSurface`; built once)."""
+        if getattr(self, "_light_surface", None) is None:
+            from ...distributions import TriangleMeshSurface
+
+            self._light_surface = TriangleMeshSurface.from_triangles(self.triangles())
+        return self._light_surface
 
     @property
     def area(self) -> float:
