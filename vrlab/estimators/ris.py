@@ -144,6 +144,11 @@ class RIS(Estimator):
         self.probe = checks.flag(probe, "probe")
 
     @property
+    def candidates_per_unit(self) -> int:  # type: ignore[override]
+        """The m candidates of a unit: target evaluations that trace no ray."""
+        return self.m
+
+    @property
     def label(self) -> str:
         return f"RIS[m={self.m}]"
 

@@ -24,7 +24,6 @@ veach_mis than with the tuning (2.9-3.3 s against 2.1-2.6 s at 128x96, 16 spp, o
 """
 from __future__ import annotations
 
-import copy
 import dataclasses
 import os
 import pickle
@@ -75,14 +74,11 @@ def _optional_int(value: Any, name: str, low: int, high: int | None = None) -> i
 
 
 def _concat(stats: list):
-    """Per-block statistics (pixel axis 1 of their arrays) joined into one for the tile."""
+    """Per-block statistics (pixel axis 1 of their arrays) joined into one for the tile, by the
+    statistics' own ``concat`` (:class:`vrlab.estimate.Moments`)."""
     if len(stats) == 1:                     # one block per tile (the default block size)
         return stats[0]
-    out = copy.copy(stats[0])
-    for name, value in vars(out).items():
-        if isinstance(value, np.ndarray) and value.ndim >= 2:
-            setattr(out, name, np.concatenate([getattr(s, name) for s in stats], axis=1))
-    return out
+    return type(stats[0]).concat(stats, axis=1)
 
 
 class _Job:
@@ -207,7 +203,7 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     if not sampler.iid:
         extra["stderr_note"] = ("stderr uses the i.i.d. formula but the pixel's points are not independent "
                                 f"({sampler.label}): it is not a valid error bar")
-    evals = integrand.units * int(getattr(est, "evals_per_unit", 1))
+    evals = integrand.units * int(est.evals_per_unit)
     return Estimate(value, stderr, spp, spp * evals, time.perf_counter() - t0, stderr.astype(np.float64) ** 2 * spp,
                     est.label, extra)
 
@@ -230,7 +226,7 @@ def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLi
     settings = dict(settings)
     integrand = PixelIntegrand(scene, **settings)
     est = integrand.estimator
-    need = int(getattr(est, "min_units", 1))
+    need = int(est.min_units)
     if spp < need:
         raise ValueError(f"spp: {est.label} fits its coefficients per pixel and needs spp >= {need}, got {spp}")
     work = integrand.work_per_sample * cost
@@ -282,7 +278,8 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
         digest = render_hash(type(job).__name__, job.scene, repr(job.integrand.estimator), job.settings["units"],
                              {k: v for k, v in job.settings.items() if k not in ("estimator", "units")},
                              job.samplers[job.batch].label, (job.root.entropy, tuple(job.root.spawn_key)), job.batch)
-        start, stats = load_checkpoint(path, digest, job.batch, job.spp)
+        start, stats = load_checkpoint(path, digest, job.batch, job.spp,
+                                       job.integrand.estimator.statistics_from_state)
     tiles = list(range(job.n_tiles))
     total, done = job.n_pixels * job.n_batches, min(start, job.n_batches) * job.n_pixels
     # allocator tuning only in the local pool's processes, which vrlab starts and owns
