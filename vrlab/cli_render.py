@@ -38,13 +38,6 @@ DEFAULTS = {"strategy": "mis-power", "pixel_sampler": "independent", "light_sele
             "ris_candidates": "8"}
 
 
-STRATEGY_HELP = {
-    "uniform": "directions uniform on the hemisphere", "cosine": "directions ~ cos/pi",
-    "bsdf": "directions from the BSDF lobe", "light": "a point on a light, see --light-selection",
-    "mis-balance": "light and BSDF samples, MIS balance heuristic",
-    "mis-power": "light and BSDF samples, MIS power heuristic, as Mitsuba's direct integrator",
-    "mixture": "one sample from 1/2 BSDF + 1/2 light", "ris": "resampled light candidates, see --ris-candidates",
-    "cv": "light sampling with a closed-form Lambertian control variate"}
 PIXEL_SAMPLER_HELP = {
     "independent": "i.i.d. uniforms", "stratified": "padded jittered strata per pair of dimensions",
     "sobol": "one scrambled Sobol' set for all pixels, shifted per pixel",
@@ -63,7 +56,7 @@ def _points(name: str) -> str | None:
 
 
 def add_parser(sub, **kw) -> argparse.ArgumentParser:
-    from .render.presets import PRESETS
+    from .render.presets import PRESETS, preset_help
 
     rend = sub.add_parser("render", help="render a Mitsuba 3 XML scene (or a built-in one) with direct lighting",
                           description="Direct lighting with a choice of sampling strategy; writes .npy (linear),\n"
@@ -79,7 +72,7 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                                                      "existing files are not replaced (default: the current folder)")
     rend.add_argument("--spp", help=f"samples per pixel, 1 .. {SPP_MAX} (default: the scene's)")
     rend.add_argument("--strategy", choices=list(PRESETS), metavar="NAME",
-                      help=f"how each shading point samples its direct light. {_menu(STRATEGY_HELP, PRESETS)} "
+                      help=f"how each shading point samples its direct light. {_menu(preset_help(), PRESETS)} "
                            "(default: mis-power)")
     rend.add_argument("--pixel-sampler", choices=list(PIXEL_SAMPLERS), metavar="NAME",
                       help=f"how each pixel's uniforms are drawn. {_menu(PIXEL_SAMPLER_HELP, PIXEL_SAMPLERS)}. "

@@ -327,7 +327,26 @@ def resolve_distribution(distribution, integrand, name: str = "distribution"):
     for attr in ("dim_u", "sample", "pdf"):
         if not hasattr(dist, attr):
             raise TypeError(f"distribution: {dist!r} has no {attr!r} (needs dim_u, sample, pdf)")
+    check_dimension(dist, integrand, name)
     return dist
+
+
+def check_dimension(dist, integrand, name: str = "distribution") -> None:
+    """``ValueError`` naming ``name`` when ``dist`` produces points of another dimension than
+    the integrand's domain (``dist.dim_x``, or the last axis of one sample when it has none)."""
+    want = getattr(integrand, "dim", None)
+    if want is None:
+        return
+    got = getattr(dist, "dim_x", None)
+    if got is None:
+        try:
+            got = np.shape(dist.sample(np.full((1, int(dist.dim_u)), 0.5)))[-1]
+        except Exception:           # a sampler that cannot run on one point: leave it to the estimate
+            return
+    if int(got) != int(want):
+        raise ValueError(f"{name}: {type(dist).__name__} produces {got}-dimensional points but integrand "
+                         f"{getattr(integrand, 'name', '')!r} is {want}-dimensional; use a distribution on the "
+                         "integrand's domain")
 
 
 def support_probe(integrand, distributions, n: int = 4096, label: str = "distribution") -> None:
