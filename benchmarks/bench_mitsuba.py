@@ -44,8 +44,9 @@ VRLAB_RUNS = {"veach_mis": [("mis-power", "uniform", 8)], "cornell_box": [("mis-
 
 
 def relmse(img, ref):
-    img, ref = np.asarray(img, np.float64), np.asarray(ref, np.float64)
-    return float(np.mean((img - ref) ** 2 / (ref ** 2 + 0.01)))
+    from vrlab.metrics import rel_mse
+
+    return rel_mse(img, ref)
 
 
 def mitsuba_render(variant, name, w, h, spp, seed=0, out=None):

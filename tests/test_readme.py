@@ -37,12 +37,26 @@ def test_plug_your_own_estimator_section_runs(monkeypatch, capsys):
         return real(*args, **{**kwargs, "width": 8, "height": 6})
 
     monkeypatch.setattr(R, "render", small)
-    namespace: dict = {}
+    import sys
+    import types
+
+    import vrlab.estimators.registry as registry
+    import vrlab.testing as T
+
+    # the README's class lives in a script; here in a module of its own, checked in this process
+    module = types.ModuleType("readme_example")
+    monkeypatch.setitem(sys.modules, "readme_example", module)
+    real_check = T.check_estimator
+    monkeypatch.setattr(T, "check_estimator", lambda est, *a, **kw: real_check(est, *a, **{**kw, "spawn": False}))
+    monkeypatch.setattr(registry, "_REGISTRY", dict(registry._REGISTRY))
+    namespace: dict = module.__dict__
     exec(compile(_section_code("Plug your own estimator into the renderer"), str(README), "exec"), namespace)
+    assert namespace["named"].value.shape == (6, 8, 3)
     for name in ("mis", "pairs", "mine"):
         est = namespace[name]
         assert est.value.shape == (6, 8, 3) and np.all(np.isfinite(est.value)) and est.n == 16
-    assert "LightThenBSDF" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "LightThenBSDF" in out and "'render': 'ok'" in out
 
 
 def _mentioned_paths(doc: Path) -> list[tuple[str, Path]]:

@@ -16,7 +16,7 @@ and the measured seconds, and which reference was used.
 Usage errors (exit status 2), before any work: ``--compare`` an empty, repeated or
 unknown name; ``--strategy``, ``--stderr-out``, ``--checkpoint``, ``--scheduler`` with
 ``--compare``; ``--equal-time`` or ``--reference-spp`` without it; ``--reference-spp``
-(1 .. 2**20) with ``--reference``.
+(1 .. 2**24, vrlab.limits.MAX_SPP) with ``--reference``.
 """
 from __future__ import annotations
 
@@ -50,7 +50,7 @@ def add_arguments(rend: argparse.ArgumentParser) -> None:
                            "last strategy's at --spp")
     rend.add_argument("--reference-spp", metavar="N",
                       help=f"with --compare and no --reference: spp of the reference it renders ({REF_STRATEGY}, "
-                           f"i.i.d. points, its own seed), 1 .. 2**20 (default: {REF_SPP})")
+                           f"i.i.d. points, its own seed), 1 .. 2**24 (default: {REF_SPP})")
 
 
 def check_flags(args: argparse.Namespace, strategies, spp_max: int) -> dict:

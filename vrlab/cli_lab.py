@@ -11,8 +11,11 @@ for a recipe),
 ``--scheduler`` (a Dask scheduler address, ``tcp://HOST:PORT`` or ``HOST:PORT``; not with
 ``--workers`` > 1; needs ``dask.distributed``).
 
-Then, before the sweep starts: a scheduler that cannot be reached within
-``SCHEDULER_TIMEOUT`` seconds is a failure (exit status 1); a ``--store`` file of another
+Then, before the sweep starts: an address that does not answer as a Dask scheduler within
+``SCHEDULER_TIMEOUT`` = 10 seconds (a closed port, an HTTP server such as its dashboard,
+an unroutable address) is a failure, one line, exit status 1; a scheduler without workers
+is said so on stderr and waited for at most ``WORKER_WAIT`` = 60 seconds (then exit 1)
+(:func:`vrlab.cli_args.connect_scheduler`); a ``--store`` file of another
 sweep is a usage error (exit 2: give another file), one that is not a lab store a failure
 (exit 1).  With ``--store`` a rerun of the same command, after an interruption of any kind,
 runs only the missing units (:mod:`vrlab.lab.store`).
@@ -25,9 +28,10 @@ import json
 import warnings
 
 from . import cli_args as A
+from . import limits
 from .cli_args import SCHEDULER_TIMEOUT, connect_scheduler, scheduler_address  # noqa: F401
 
-N_MAX = 2**30
+N_MAX = limits.MAX_N
 REPS_MAX = 10**6
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 PREFLIGHT_MAX = 2**16        # the trial estimate is skipped above this n (it would cost real time)
@@ -55,7 +59,9 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                      help=f"worker processes, 1 .. {A.WORKERS_MAX} (same numbers for any count; default: %(default)s)")
     lab.add_argument("--scheduler", metavar="ADDRESS",
                      help="run the units on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (needs "
-                          "vrlab[distributed]; same numbers as local runs)")
+                          "vrlab[distributed]; same numbers as local runs; an address that does not answer as a "
+                          f"scheduler within {A.SCHEDULER_TIMEOUT:g} s: exit 1; no workers: waits up to "
+                          f"{A.WORKER_WAIT:g} s)")
     lab.add_argument("--store", metavar="FILE.sqlite",
                      help="keep each finished unit in this SQLite file; rerunning the same command resumes "
                           "an interrupted sweep (a store of another sweep is refused)")

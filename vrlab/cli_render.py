@@ -1,7 +1,7 @@
 """``vrlab render``: direct lighting of a Mitsuba 3 XML scene (see :mod:`vrlab.render`).
 
 Checked before rendering (usage errors, exit status 2, unless noted): ``--spp``
-(1 .. 2**20), ``--width``/``--height`` (1 .. 16384), ``--seed`` (0 .. 2**128-1),
+(1 .. 2**24), ``--width``/``--height`` (1 .. 65536; :mod:`vrlab.limits`, as the library), ``--seed`` (0 .. 2**128-1),
 ``--emitter-samples``/``--bsdf-samples`` (0 .. 1024, and what the strategy needs),
 ``--ris-candidates`` (1 .. 4096), ``--workers`` (1 .. 256), ``--exposure`` (``auto``
 or finite > 0), the ``--compare`` flags (:mod:`vrlab.cli_compare`), flags that do not apply
@@ -24,12 +24,13 @@ import sys
 from pathlib import Path
 
 from . import cli_args as A
+from . import limits
 from . import cli_compare as C
 
-SPP_MAX = 2**20
-SIDE_MAX = 16384
-SAMPLES_MAX = 1024
-RIS_MAX = 4096
+SPP_MAX = limits.MAX_SPP          # the one table of limits, shared with the library
+SIDE_MAX = limits.MAX_SIDE
+SAMPLES_MAX = limits.MAX_SAMPLES
+RIS_MAX = limits.MAX_CANDIDATES
 IMAGE_SUFFIXES = (".npy", ".png", ".exr")
 #: the --pixel-sampler names; each maps to render's ``points=`` (``independent`` -> None, i.i.d.)
 PIXEL_SAMPLERS = ("independent", "stratified", "sobol", "halton")
@@ -126,7 +127,9 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                                           "on it, not on how units run (default: 64)")
     rend.add_argument("--scheduler", metavar="ADDRESS",
                       help="render the units on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (needs "
-                           "vrlab[distributed]; same image as a local render; not with --workers)")
+                           "vrlab[distributed]; same image as a local render; not with --workers; an address that "
+                           f"does not answer as a scheduler within {A.SCHEDULER_TIMEOUT:g} s: exit 1; no workers: "
+                           f"waits up to {A.WORKER_WAIT:g} s)")
     rend.add_argument("--json", action="store_true", help="print time, samples/s and errors as JSON (with "
                                                           "--list or --export: what they print)")
     rend.set_defaults(parser=rend, func=run_render)

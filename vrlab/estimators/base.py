@@ -94,14 +94,11 @@ STDERR_NOTE = ("stderr uses the i.i.d. formula but the points are not independen
 
 
 def independent_points(points: Any) -> bool:
-    """True when ``points`` gives i.i.d. uniforms (None, "independent", or an Independent engine)."""
-    from ..points import Independent
+    """True when ``points`` gives i.i.d. uniforms: :func:`vrlab.points.names.is_independent`,
+    the one resolver (None, an array, a name or alias of ``independent``, ``Independent``)."""
+    from ..points.names import is_independent
 
-    if points is None or isinstance(points, np.ndarray):
-        return True  # arrays are the caller's uniforms: assumed independent, as documented
-    if isinstance(points, str):
-        return points.lower() in ("independent", "iid", "random")
-    return points is Independent or isinstance(points, Independent)
+    return is_independent(points)
 
 
 class Estimator:

@@ -51,6 +51,8 @@ from typing import Any
 
 import numpy as np
 
+from .. import limits
+
 __all__ = ["Recipe", "check_recipe_names", "recipes", "register_recipe", "MAX_RECIPE_ARG", "RQMC_REPLICATES", "RIS_DEFAULT_M",
            "DEFENSIVE_ALPHA"]
 
@@ -64,7 +66,7 @@ RIS_DEFAULT_M = 8
 #: Mixture weight of the uniform component in ``defensive``.
 DEFENSIVE_ALPHA = 0.1
 #: Largest ``R`` of ``rqmc-*:<R>`` and ``m`` of ``ris:<m>`` (larger runs: build the estimator).
-MAX_RECIPE_ARG = 4096
+MAX_RECIPE_ARG = limits.MAX_CANDIDATES
 
 
 @dataclass(frozen=True)

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .. import checks
+from .. import checks, limits
 from .._rng import unit_seed
 from ..execution import MAX_WORKERS, check_executor, run_units
 from . import registry
@@ -49,8 +49,8 @@ from .store import ResultStore, describe_estimator, describe_integrand, store_pa
 
 #: Largest sample count per estimate and repetitions of one ``run`` (worker processes:
 #: ``vrlab.execution.MAX_WORKERS``).
-MAX_N = 2**30
-MAX_REPS = 10**6
+MAX_N = limits.MAX_N          # vrlab.limits, shared with the CLI
+MAX_REPS = limits.MAX_REPS
 #: A work unit holds repetitions of one (estimator, integrand, n) up to about this many
 #: evaluations, so that large-n sweeps balance over workers and resume unit by unit.
 UNIT_SAMPLES = 2**22
@@ -194,15 +194,6 @@ def _run_block(task) -> list[tuple]:
     return [_one(estimator, integrand, points, n, unit_seed(root, *key, r), chunk, label) for r in reps]
 
 
-def _run_block_own(task) -> list[tuple]:
-    """:func:`_run_block` in a local pool's process, which vrlab starts and owns: there freed
-    NumPy temporaries are kept for reuse (:mod:`vrlab._alloc`; the numbers do not change)."""
-    from .._alloc import keep_freed_memory
-
-    keep_freed_memory()
-    return _run_block(task)
-
-
 def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int, *, rng: Any = 0,
         progress: bool | Callable[[int, int], None] = False, workers: int = 1, skip: bool = False,
         crn: bool = False, chunk: int | None = None, executor: Any = None, store: Any = None) -> pd.DataFrame:
@@ -322,7 +313,7 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
             ij, key, n, rr = t
             return (jobs[ij] if serial else wire[ij], seed_state, key, n, rr, chunk),
 
-        fn = _run_block_own if pool is None and workers > 1 and len(tasks) > 1 else _run_block
+        fn = _run_block          # a local pool's processes tune their allocator (vrlab.execution.worker_init)
         # units in flight: a few per worker; more on an executor, to hide its round trip (~ms)
         for i, out in run_units(fn, [unit(t) for t in tasks], workers=workers, executor=pool,
                                 window=max(8, 4 * parallel) if pool is None else max(32, 8 * parallel)):

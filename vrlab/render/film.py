@@ -32,8 +32,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import checks
-from .._alloc import keep_freed_memory
+from .. import checks, limits
 from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Estimate
 from ..execution import check_executor, run_units
@@ -48,7 +47,7 @@ _RAYS_PER_CHUNK = 5 << 14    # block size budget (1024 pixels x 64 spp of mis-po
 MAX_PIXEL_WORK = 32 * 4 * _RAYS_PER_CHUNK
 SPP_BATCH = 64               # samples per pixel of one work unit (a batch); more spp: more batches
 TASKS_PER_WORKER = 4         # tasks (groups of tiles) per worker process and batch: balances the load
-MAX_SPP = 1 << 24              # samples per pixel of one render (16.7 M: days of work on a large image)
+MAX_SPP = limits.MAX_SPP       # samples per pixel of one render (vrlab.limits, shared with the CLI)
 
 
 def _as_scene(scene: Any) -> Scene:
@@ -140,11 +139,6 @@ def _units(job: _Job | bytes, units: list[tuple[int, int]]) -> list:
     return [job.unit(t, k) for t, k in units]
 
 
-def _units_in_own_worker(job: _Job | bytes, units: list[tuple[int, int]]) -> list:
-    keep_freed_memory()     # vrlab's own worker processes: reuse freed ray temporaries (vrlab._alloc)
-    return _units(job, units)
-
-
 def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: Any = "mis-power", *,
            points: Any = None, rng: RNGLike = None, workers: int | None = 1, executor: Any = None,
            units: int | None = None,
@@ -186,7 +180,7 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
 
     Checked once per call, with errors naming the argument: the scene, the estimator
     (and its technique names against the shading integrand), ``points``, ``spp``,
-    ``chunk_pixels``, ``workers`` (at most max(256, 4 x CPUs)), ``units`` and the sample
+    ``chunk_pixels``, ``workers`` (at most :func:`vrlab.limits.max_workers`), ``units`` and the sample
     counts; one pixel's block must fit :data:`MAX_PIXEL_WORK` (about 1 GB); with
     ``workers > 1`` the estimator must be picklable (a heuristic defined at module level,
     not a lambda).
@@ -217,7 +211,7 @@ def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLi
     spp = checks.integer(scene.sensor.spp if spp is None else spp, "spp", low=1, high=MAX_SPP)
     batch = min(spp, SPP_BATCH if spp_batch is None else checks.integer(spp_batch, "spp_batch", low=1))
     chunk_pixels = _optional_int(chunk_pixels, "chunk_pixels", 1)
-    limit = max(256, 4 * (os.cpu_count() or 1))
+    limit = limits.max_workers()
     workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1, high=limit)
     if width is not None or height is not None:
         sensor = dataclasses.replace(scene.sensor, width=scene.sensor.width if width is None else width,
@@ -282,8 +276,8 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
                                        job.integrand.estimator.statistics_from_state)
     tiles = list(range(job.n_tiles))
     total, done = job.n_pixels * job.n_batches, min(start, job.n_batches) * job.n_pixels
-    # allocator tuning only in the local pool's processes, which vrlab starts and owns
-    fn = _units_in_own_worker if executor is None and workers > 1 else _units
+    # the local pool's processes (vrlab's own) tune their allocator in vrlab.execution.worker_init
+    fn = _units
     # tasks per batch (one pool serves all batches): a tile each in this process; else about 4 per
     # worker, at least 64 on a caller's executor (a Dask cluster may have more workers than ``workers``)
     if workers == 1 and executor is None:

@@ -30,7 +30,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any, Iterator
 
-from .. import checks
+from .. import checks, limits
 
 __all__ = ["PRESETS", "check_sample_counts", "preset", "preset_help"]
 
@@ -84,8 +84,8 @@ def preset(name: str, *, emitter_samples: int = 1, bsdf_samples: int = 1, ris_ca
     """``(estimator, units)``: the estimator object strategy ``name`` stands for (see the
     module table) and the number of its units per shading point."""
     name = checks.choice(name, "estimator", tuple(PRESETS))
-    n_l = checks.integer(emitter_samples, "emitter_samples", low=0)
-    n_b = checks.integer(bsdf_samples, "bsdf_samples", low=0)
+    n_l = checks.integer(emitter_samples, "emitter_samples", low=0, high=limits.MAX_SAMPLES)
+    n_b = checks.integer(bsdf_samples, "bsdf_samples", low=0, high=limits.MAX_SAMPLES)
     check_sample_counts(name, n_l, n_b)
-    m = checks.integer(ris_candidates, "ris_candidates", low=1)
+    m = checks.integer(ris_candidates, "ris_candidates", low=1, high=limits.MAX_CANDIDATES)
     return _render_recipes()[name].render(n_l, n_b, m)
