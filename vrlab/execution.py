@@ -29,7 +29,7 @@ from typing import Any
 
 from . import checks, limits
 
-__all__ = ["check_executor", "run_units", "worker_init"]
+__all__ = ["check_executor", "check_picklable", "is_dask", "parallelism", "run_units", "worker_init"]
 
 #: seconds between two looks of a worker's watchdog at its parent process
 WATCH_PARENT_SECONDS = 0.25
@@ -37,12 +37,46 @@ WATCH_PARENT_SECONDS = 0.25
 MAX_WORKERS = limits.max_workers()   # vrlab.limits: the same bound for the lab, the renderer and the CLI
 
 
+def is_dask(executor: Any) -> bool:
+    """True for a Dask ``distributed.Client`` or its executor (their classes live in ``distributed``)."""
+    return executor is not None and type(executor).__module__.startswith("distributed")
+
+
+def parallelism(executor: Any) -> int:
+    """How many units an executor runs at once: a Dask client's worker threads, a pool's
+    processes (at least 1)."""
+    client = getattr(executor, "_client", None) if not callable(getattr(executor, "nthreads", None)) else executor
+    if client is not None and callable(getattr(client, "nthreads", None)):
+        try:
+            return max(1, sum(client.nthreads().values()))
+        except Exception:   # noqa: BLE001 - a scheduler that does not answer: plan for one
+            return 1
+    return max(1, int(getattr(executor, "_max_workers", 1) or 1))
+
+
+def check_picklable(obj: Any, executor: Any, what: str, hint: str) -> bytes:
+    """``obj`` serialised as it will travel to a worker: by cloudpickle for Dask (which ships
+    lambdas), by pickle for process pools.  ``TypeError`` "``what`` (reason); ``hint``" if it
+    cannot be; returns the bytes (pickle them once, send them to every unit)."""
+    import pickle
+
+    if is_dask(executor):
+        import cloudpickle
+        dumps = cloudpickle.dumps
+    else:
+        dumps = pickle.dumps
+    try:
+        return dumps(obj)
+    except (pickle.PicklingError, AttributeError, TypeError) as exc:
+        raise TypeError(f"{what} ({exc}); {hint}") from None
+
+
 def check_executor(executor: Any, name: str = "executor"):
     """``executor`` as a ``concurrent.futures``-style executor (a Dask ``Client`` becomes its
     ``get_executor()``), or None; ``TypeError`` naming ``name`` otherwise."""
     if executor is None:
         return None
-    if callable(getattr(executor, "get_executor", None)) and type(executor).__module__.startswith("distributed"):
+    if callable(getattr(executor, "get_executor", None)) and is_dask(executor):
         return executor.get_executor()
     if not callable(getattr(executor, "submit", None)):
         raise TypeError(f"{name}: expected a concurrent.futures.Executor, a dask.distributed.Client or None, "

@@ -19,7 +19,7 @@ import numpy as np
 from .. import checks
 from .._rng import RNGLike, as_generator
 from ..estimate import Estimate, Moments
-from ..integrands.base import as_integrand
+from ..integrands.lookup import as_integrand
 
 DEFAULT_CHUNK = 1 << 18  # sample units per chunk: bounded memory for any n
 

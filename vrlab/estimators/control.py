@@ -252,8 +252,25 @@ class ControlVariate(_Regression):
         dist = resolve_distribution(self.distribution, integrand)
         x = dist.sample(u)
         p = np.asarray(dist.pdf(x), dtype=float)
-        cols = [ratio(integrand(x), p)] + [ratio(checked_values(h(x), x, f"control[{j}]"), p) - np.asarray(t)[..., None]
-                                            for j, (h, t) in enumerate(self.controls_for(integrand))]
+        y = ratio(integrand(x), p)
+        cols = [y]
+        for j, (h, t) in enumerate(self.controls_for(integrand)):
+            hv = ratio(checked_values(h(x), x, f"control[{j}]"), p)
+            t = np.asarray(t)
+            try:
+                batch = np.broadcast_shapes(y.shape, hv.shape)[:-1]     # the estimate's batch shape
+            except ValueError:
+                raise ValueError(f"control[{j}]: values of shape {hv.shape} do not broadcast with the integrand's "
+                                 f"{y.shape}") from None
+            try:
+                fits = np.broadcast_shapes(t.shape, batch) == batch
+            except ValueError:
+                fits = False
+            if not fits:
+                name = "control_integral" if self._single else f"control_integral[{j}]"
+                raise ValueError(f"{name}: shape {t.shape} does not fit the estimate's batch shape {batch} (the "
+                                 "integrand's and control's leading axes); give one value, or one per batch element")
+            cols.append(hv - t[..., None])
         return np.stack(np.broadcast_arrays(*cols), -1)
 
 

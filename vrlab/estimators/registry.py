@@ -44,7 +44,6 @@ recipe                 estimator                                                
 from __future__ import annotations
 
 import importlib
-import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -52,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from .. import limits
+from ._recipe_tools import _cls, _names, _positive_int, _probed, _techniques, ris_source_target  # noqa: F401
 
 __all__ = ["Recipe", "check_recipe_names", "recipes", "register_recipe", "MAX_RECIPE_ARG", "RQMC_REPLICATES", "RIS_DEFAULT_M",
            "DEFENSIVE_ALPHA"]
@@ -66,7 +66,7 @@ RIS_DEFAULT_M = 8
 #: Mixture weight of the uniform component in ``defensive``.
 DEFENSIVE_ALPHA = 0.1
 #: Largest ``R`` of ``rqmc-*:<R>`` and ``m`` of ``ris:<m>`` (larger runs: build the estimator).
-MAX_RECIPE_ARG = limits.MAX_CANDIDATES
+MAX_RECIPE_ARG = limits.MAX_CANDIDATES    # the :<int> of a recipe (RIS m, RQMC R)
 
 
 @dataclass(frozen=True)
@@ -87,6 +87,9 @@ class Recipe:
     render: RenderBuilder | None = None
     render_help: str | None = None
     needs: str | None = None
+    #: the render settings the preset reads (``emitter_samples``, ``bsdf_samples``,
+    #: ``ris_candidates``, ``light_selection``): a CLI warns about a flag no strategy in use reads
+    uses: frozenset = frozenset(("emitter_samples", "bsdf_samples", "ris_candidates", "light_selection"))
 
     @property
     def base(self) -> str:          # the lab's historical name for ``name``
@@ -125,11 +128,12 @@ def recipes(where: str | None = None) -> dict[str, Recipe]:
 
 def register_recipe(name: str, summary: str, module: str, *, lab: LabBuilder | None = None, arg: str | None = None,
                     arg_required: bool = False, render: RenderBuilder | None = None, render_help: str | None = None,
-                    needs: str | None = None) -> Recipe:
+                    needs: str | None = None, uses: Any = None) -> Recipe:
     """Add (or replace) recipe ``name``; returns it.  ``name``: non-empty, without ':', ',' or
     spaces; ``summary``, ``module``: strings; ``lab``/``render``: callables (at least one);
     ``arg``: None or a metavar string (required if ``arg_required``); ``needs``: None,
-    ``"bsdf"`` or ``"light"``."""
+    ``"bsdf"`` or ``"light"``; ``uses``: the render settings the preset reads (default all of
+    ``emitter_samples``, ``bsdf_samples``, ``ris_candidates``, ``light_selection``)."""
     check_recipe_names(name, summary, module, arg, arg_required)
     for key, fn in (("lab", lab), ("render", render)):
         if fn is not None and not callable(fn):
@@ -140,8 +144,13 @@ def register_recipe(name: str, summary: str, module: str, *, lab: LabBuilder | N
         raise TypeError(f"render_help must be a string or None, got {type(render_help).__name__}")
     if needs not in (None, "bsdf", "light"):
         raise ValueError(f"needs: expected None, 'bsdf' or 'light', got {needs!r}")
+    every = Recipe.__dataclass_fields__["uses"].default
+    uses = every if uses is None else frozenset(uses)
+    if not uses <= every:
+        raise ValueError(f"uses: only {', '.join(sorted(every))}, got {sorted(uses)}")
     recipe = Recipe(name, summary, module, lab, arg, bool(arg_required), render,
-                    render_help if render_help is not None else (summary if render is not None else None), needs)
+                    render_help if render_help is not None else (summary if render is not None else None), needs,
+                    uses)
     _REGISTRY[name] = recipe
     return recipe
 
@@ -162,87 +171,6 @@ def check_recipe_names(name: Any, summary: Any, module: Any, arg: Any = None, ar
         raise ValueError("arg_required: a recipe that needs an argument must name it (arg='<m>')")
 
 
-def _cls(module: str, name: str, recipe: str):
-    """``vrlab.estimators.<module>.<name>``, or ValueError if it is not there (yet)."""
-    full = f"vrlab.estimators.{module}"
-    try:
-        mod = importlib.import_module(full)
-    except ModuleNotFoundError as exc:
-        if exc.name not in (full, "vrlab.estimators"):
-            raise
-        raise ValueError(f"{recipe}: needs {full}.{name}, which is not available in this installation") from None
-    try:
-        return getattr(mod, name)
-    except AttributeError:
-        raise ValueError(f"{recipe}: {full} has no {name}") from None
-
-
-def _probed(cls, integrand, dists: list, *args, **kw):
-    """``cls(*args, **kw)`` with the support probe run once here instead of in every ``estimate``
-    (``probe=False`` when the class takes it): a lab run calls ``estimate`` hundreds of times."""
-    try:
-        takes_probe = "probe" in inspect.signature(cls).parameters
-    except (TypeError, ValueError):
-        takes_probe = False
-    if takes_probe:
-        kw["probe"] = False
-        if dists and integrand.dim <= 3:
-            from .base import support_probe
-            support_probe(integrand, dists, label=" + ".join(type(d).__name__ for d in dists))
-    return cls(*args, **kw)
-
-
-def _names(techs: dict) -> str:
-    return ", ".join(map(repr, techs)) if techs else "none"
-
-
-def _techniques(integrand, arg: str | None, recipe: str, at_least: int = 2) -> list:
-    techs = dict(getattr(integrand, "techniques", {}) or {})
-    if arg:
-        chosen = [t for t in arg.split("+") if t]
-        unknown = [t for t in chosen if t not in techs]
-        if unknown:
-            raise ValueError(f"{recipe}: integrand {integrand.name!r} has no technique "
-                             f"{', '.join(map(repr, unknown))}; it has {_names(techs)}")
-        twice = sorted({t for t in chosen if chosen.count(t) > 1})
-        if twice:
-            raise ValueError(f"{recipe}: technique {', '.join(map(repr, twice))} given twice")
-    else:
-        chosen = list(techs)
-    if len(chosen) < at_least:
-        raise ValueError(f"{recipe}: needs at least {at_least} sampling techniques, integrand "
-                         f"{integrand.name!r} has {_names(techs)}")
-    return [techs[t] for t in chosen]
-
-
-def _positive_int(arg: str | None, recipe: str, default: int | None, what: str) -> int:
-    if arg is None or arg == "":
-        if default is None:
-            raise ValueError(f"{recipe}: give {what} as {recipe.split(':')[0]}:<int>")
-        return default
-    try:
-        k = int(arg)
-    except ValueError:
-        raise ValueError(f"{recipe}: {what} must be an integer, got {arg!r}") from None
-    if not 1 <= k <= MAX_RECIPE_ARG:
-        raise ValueError(f"{recipe}: {what} must be >= 1 and <= {MAX_RECIPE_ARG}, got {k}")
-    return k
-
-
-def ris_source_target(integrand) -> tuple[Any, Callable]:
-    """RIS pieces: source = technique "light" if present, else uniform; target = |f|
-    (the unshadowed contribution, as in Talbot et al. 2005 / ReSTIR)."""
-    from ..integrands.base import as_integrand
-
-    integrand = as_integrand(integrand)
-    techs = getattr(integrand, "techniques", {}) or {}
-    source = techs.get("light", integrand.uniform())
-
-    def target(x):
-        return np.abs(integrand(x))
-    return source, target
-
-
 # -- render-only presets: one technique of the shading integrand ------------------------------------
 def _technique_preset(name: str) -> RenderBuilder:
     def build(emitter_samples, bsdf_samples, ris_candidates):
@@ -255,7 +183,8 @@ for _name, _help, _needs in (("uniform", "directions uniform on the hemisphere",
                              ("bsdf", "directions from the BSDF lobe", "bsdf"),
                              ("light", "a point on a light, see --light-selection", "light")):
     register_recipe(_name, f'MonteCarlo("{_name}"): {_help}', "importance", render=_technique_preset(_name),
-                    render_help=_help, needs=_needs)
+                    render_help=_help, needs=_needs,
+                    uses=("emitter_samples", "light_selection") if _name == "light" else ("bsdf_samples",))
 
 
 # -- lab recipes (and the presets that share their name) -------------------------------------------
@@ -277,6 +206,7 @@ def _is(integrand, arg):
 register_recipe("is", "MonteCarlo(techniques[t]): importance sampling with one technique", "importance", lab=_is,
                 arg="<technique>", arg_required=True)
 
+_SAMPLES_AND_LIGHTS = ("emitter_samples", "bsdf_samples", "light_selection")
 _HEURISTICS = {"balance": "balance", "power": "power", "max": "maximum", "cutoff": "cutoff", "optimal": "optimal"}
 _MIS_HELP = {"balance": "light and BSDF samples, MIS balance heuristic",
              "power": "light and BSDF samples, MIS power heuristic, as Mitsuba's direct integrator"}
@@ -300,7 +230,8 @@ def _mis_preset(heuristic: str) -> RenderBuilder:
 for _short, _h in _HEURISTICS.items():
     register_recipe(f"mis-{_short}", f"MIS(techniques, heuristic={_h!r}): multi-sample MIS", "mis",
                     lab=_mis_builder(_short, _h), arg="<a+b>",
-                    render=_mis_preset(_short) if _short in _MIS_HELP else None, render_help=_MIS_HELP.get(_short))
+                    render=_mis_preset(_short) if _short in _MIS_HELP else None, render_help=_MIS_HELP.get(_short),
+                    uses=_SAMPLES_AND_LIGHTS)
 
 
 def _mixture(emitter_samples, bsdf_samples, ris_candidates):
@@ -309,7 +240,7 @@ def _mixture(emitter_samples, bsdf_samples, ris_candidates):
 
 
 register_recipe("mixture", "OneSampleMIS([bsdf, light], probabilities=[n_b, n_l]): one-sample mixture", "onesample",
-                render=_mixture, render_help="one sample from 1/2 BSDF + 1/2 light")
+                render=_mixture, render_help="one sample from 1/2 BSDF + 1/2 light", uses=_SAMPLES_AND_LIGHTS)
 
 
 def _onesample(integrand, arg):
@@ -358,7 +289,7 @@ def _cv_preset(emitter_samples, bsdf_samples, ris_candidates):
 
 register_recipe("cv", "ControlVariate(h, int h): a known control (exp: h = x, int h = 1/2)", "control", lab=_cv,
                 render=_cv_preset, render_help="light sampling with a closed-form Lambertian control variate",
-                needs="light")
+                needs="light", uses=("emitter_samples", "light_selection"))
 
 
 def _stratified(integrand, arg):
@@ -417,4 +348,5 @@ def _ris_preset(emitter_samples, bsdf_samples, ris_candidates):
 
 register_recipe("ris", "RIS(source, |f|, m): resampled importance sampling with m candidates", "ris", lab=_ris,
                 arg="<m>", arg_required=True, render=_ris_preset,
-                render_help="resampled light candidates, see --ris-candidates", needs="light")
+                render_help="resampled light candidates, see --ris-candidates", needs="light",
+                uses=("emitter_samples", "light_selection", "ris_candidates"))

@@ -11,7 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .base import as_integrand as _integrand
+from .lookup import as_integrand as _integrand
 
 
 def _box_coordinate(k: int):

@@ -10,24 +10,12 @@ from numpy.typing import ArrayLike
 from .. import checks
 from .._rng import RNGLike, spawn
 from .base import MAX_REPLICATES, PointSet, check_dim, check_int, check_workers
-from .halton import Halton, Hammersley
-from .iid import Independent
+from .catalog import ENGINES
 from .names import ALIASES, canonical
-from .lhs import LatinHypercube
 from .rotation import CranleyPatterson
-from .sobol import Sobol
-from .stratified import Stratified
 
 #: canonical name -> class, and accepted aliases
-POINT_SETS: dict[str, type] = {
-    "independent": Independent,
-    "stratified": Stratified,
-    "lhs": LatinHypercube,
-    "halton": Halton,
-    "hammersley": Hammersley,
-    "sobol": Sobol,
-    "cranley-patterson": CranleyPatterson,
-}
+POINT_SETS: dict[str, type] = {**ENGINES, "cranley-patterson": CranleyPatterson}
 _ALIASES = ALIASES             # the one table, in vrlab.points.names
 
 

@@ -35,7 +35,7 @@ import numpy as np
 from .. import checks, limits
 from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Estimate
-from ..execution import check_executor, run_units
+from ..execution import check_executor, check_picklable, run_units
 from .pixels import PixelIntegrand
 from .scene import Scene
 
@@ -259,12 +259,10 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     path = None if checkpoint is None else check_path(checkpoint)
     workers = min(workers, job.n_tiles)
     payload: _Job | bytes = job
-    if workers > 1 or executor is not None:
-        try:
-            payload = pickle.dumps(job)     # sent as bytes: pickled once, not once per task
-        except (pickle.PicklingError, AttributeError, TypeError) as exc:
-            raise TypeError(f"estimator: {job.integrand.estimator!r} cannot be sent to worker processes ({exc}); "
-                            "define functions it uses (e.g. a heuristic) at module level, or use workers=1") from None
+    if workers > 1 or executor is not None:     # sent as bytes: pickled once, not once per task
+        payload = check_picklable(       # by pickle always: _units unpickles it
+            job, None, f"estimator: {job.integrand.estimator!r} cannot be sent to worker processes",
+            "define functions it uses (e.g. a heuristic) at module level, or use workers=1")
     digest = None
     stats: dict = {}
     start = 0
