@@ -100,3 +100,25 @@ def test_the_path_finder_sees_links_spans_and_skips_the_rest(tmp_path):
     assert _mentioned_paths(doc) == [("a/b.md", tmp_path), ("c/d.png", tmp_path), ("vrlab/render/", ROOT),
                                      ("render/poisson.py", ROOT), ("README.md", ROOT),
                                      ("notebooks/01.ipynb", ROOT)]
+
+
+def test_the_veach_figure_numbers_come_from_its_command(tmp_path):
+    """The relMSE values the README quotes under the Veach figure are what its command gives
+    (the images are a function of the seed; only the seconds vary)."""
+    from vrlab.render.compare import compare
+
+    text = README.read_text()
+    assert "vrlab render veach_mis --spp 16 --width 192 --height 144 --compare -o docs/veach_mis.png" in text
+    quoted = re.search(r"25\.0 \(bsdf\), 0\.682 \(light\) and 0\.0424 \(mis-power\)", text)
+    assert quoted, "the README's Veach numbers changed: update this test with the command's new output"
+    import dataclasses
+
+    from vrlab.render import load_scene
+    from vrlab.render.builtin import builtin_scene_path
+
+    scene = load_scene(builtin_scene_path("veach_mis"))                # --width 192 --height 144, as the CLI does
+    scene.sensor = dataclasses.replace(scene.sensor, width=192, height=144)
+    res = compare(scene, ["bsdf", "light", "mis-power"], 16, rng=0, ref_spp=256, points="independent", workers=1)
+    got = res["rel_mse"]
+    assert got["bsdf"] == pytest.approx(25.0, rel=0.01) and got["light"] == pytest.approx(0.682, rel=0.01)
+    assert got["mis-power"] == pytest.approx(0.0424, rel=0.01)

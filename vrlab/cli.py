@@ -76,12 +76,22 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
     from .bench import run
 
-    rows = run(args.suite, quick=args.quick)
+    def progress(part, done, total):          # on stderr: the races take up to a minute
+        if done < total:
+            print(f"vrlab bench: timing {part} ({done + 1}/{total}) ...", file=sys.stderr, flush=True)
+
+    rows = run(args.suite, quick=args.quick, progress=progress)
     if args.json:
         print(json.dumps(rows, indent=2, default=float))
-    else:
-        with pd.option_context("display.width", 160, "display.max_columns", 20):
-            print(pd.DataFrame(rows).to_string(index=False))
+        return 0
+    table = pd.DataFrame(rows)
+    with pd.option_context("display.width", 160, "display.max_columns", 20):
+        for k, part in enumerate(dict.fromkeys(table["suite"])):
+            # one table per part, only its own columns (the parts' columns differ: no NaN cells)
+            print(("\n" if k else "") + f"{part}:")
+            part_table = pd.DataFrame([{k: v for k, v in r.items() if k != "suite"} for r in rows
+                                       if r["suite"] == part])
+            print(part_table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     return 0
 
 

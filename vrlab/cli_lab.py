@@ -171,7 +171,11 @@ def run_lab(args: argparse.Namespace) -> int:
         except StoreError as exc:            # raised before any unit runs
             text = "--store" + str(exc).removeprefix("store")
             raise (A.UsageError if isinstance(exc, StoreMismatch) else A.Failure)(text) from None
+    from .lab.summary import MIN_SLOPE_POINTS
+    from .lab.trust import flag_notes, stderr_flags, trust_thresholds
+
     summary = summarize(df)
+    summary["flag"] = stderr_flags(summary)          # as the demo: are the error bars to be trusted?
     slopes = fit_slopes(summary)
     eq = equal_time(summary)
     csv, plot = args.csv, args.plot
@@ -185,18 +189,26 @@ def run_lab(args: argparse.Namespace) -> int:
                           "slopes": _records(slopes), "equal_time": _records(eq),
                           "csv": csv, "plot": plot}, indent=2, default=_json_default))
         return 0
-    cols = ["estimator", "integrand", "n", "mean", "bias", "rmse", "variance", "mean_stderr", "z_std",
+    cols = ["estimator", "integrand", "n", "flag", "mean", "bias", "rmse", "variance", "mean_stderr", "z_std",
             "coverage", "seconds", "efficiency"]
     with pd.option_context("display.width", 200, "display.max_columns", 30, "display.max_rows", 500):
         print(f"vrlab lab: {plan['reps']} repetitions, seed {plan['seed']}")
         print(summary[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-        print("\nRMSE slopes in log-log (fitted vs theory):")
-        print(slopes[["estimator", "integrand", "slope", "slope_se", "theory", "theory_note"]]
-              .to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+        th = trust_thresholds(plan["reps"], 2 * len(summary))
+        for line in flag_notes(summary[summary["flag"] != ""], th, plan["reps"]):
+            print(line)
+        if len(plan["ns"]) < MIN_SLOPE_POINTS:
+            print(f"\nRMSE slopes: not fitted, they need at least {MIN_SLOPE_POINTS} sample counts (--n has "
+                  f"{len(plan['ns'])}: give e.g. --n 64,256,1024)")
+        else:
+            print("\nRMSE slopes in log-log (fitted vs theory):")
+            print(slopes[["estimator", "integrand", "slope", "slope_se", "theory", "theory_note", "slope_note"]]
+                  .to_string(index=False, float_format=lambda v: f"{v:.3f}"))
         at = eq[eq["n"] == eq.groupby("integrand")["n"].transform("max")]
-        print(f"\nEqual time at the largest n: efficiency relative to {eq['reference'].iloc[0]} "
-              "(variance x seconds ratio; > 1 is better):")
-        print(at[["integrand", "n", "estimator", "relative_variance", "relative_efficiency"]]
+        print(f"\nAt the largest n, against {eq['reference'].iloc[0]} (bigger is better; > 1: better than it): "
+              "variance_reduction = its variance / this variance (equal n), efficiency_gain = its variance x "
+              "seconds / this variance x seconds (equal time):")
+        print(at[["integrand", "n", "estimator", "variance_reduction", "efficiency_gain"]]
               .to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     if csv or plot:
         print("\nwrote " + ", ".join(p for p in (csv, plot) if p))

@@ -102,16 +102,20 @@ class RenderSettings:
 
 
 def progress_callback(show: bool, label: str) -> Callable[[int, int], None] | None:
-    """``progress(done, total)`` for a render, drawing a progress bar on stderr labelled
-    ``label`` (made on the first report, which knows the total); None if not ``show``."""
+    """``progress(done, total)`` for a render (pixel samples done of the total), drawing a
+    progress bar on stderr labelled ``label`` that counts samples, in samples/s (made on the
+    first report, which knows the total); None if not ``show``."""
     if not show:
         return None
+    import time
+
     bar: list = []
+    start = time.time()          # the render starts now; the bar is made at its first report
 
     def progress(done, total):
         if not bar:
             from .lab.progress import ProgressBar
-            bar.append(ProgressBar(total, label=label))
+            bar.append(ProgressBar(total, label=label, unit="samples", start=start))
         bar[0].update(done - bar[0].done)
     return progress
 

@@ -215,17 +215,19 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
                     tasks.append(((ii, jj), key, n, tuple(todo[lo:lo + per])))
 
         total = len(jobs) * len(ns) * reps
-        bar = ProgressBar(total, disable=None) if progress is True else None   # quiet off a terminal
+        # the bar counts integrand evaluations (samples, in samples/s); a callable gets repetitions
+        evals = len(jobs) * sum(ns) * reps
+        bar = ProgressBar(evals, disable=None, unit="samples") if progress is True else None   # quiet off a terminal
 
-        def tick(k):
+        def tick(k, samples):
             if bar is not None:
-                bar.update(k)
+                bar.update(samples)
             elif callable(progress):
                 tick.done += k
                 progress(tick.done, total)
         tick.done = 0
         if results:
-            tick(len(results))
+            tick(len(results), sum(key[2] for key in results))
 
         def unit(t):
             ij, key, n, rr = t
@@ -241,7 +243,7 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
             if db is not None:
                 job = jobs[ii, jj]
                 db.add([(job.label, job.integrand.name, n, r, res) for r, res in zip(rr, out)])
-            tick(len(rr))
+            tick(len(rr), len(rr) * n)
     finally:
         if bar is not None:
             bar.close()

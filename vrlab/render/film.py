@@ -170,7 +170,8 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     ``executor``: a ``concurrent.futures.Executor`` of the caller's (e.g. a process pool
     with the spawn start method) to run the tiles on instead, in max(64, 4 x ``workers``) tasks per batch,
     also with the same result;
-    ``progress(done_pixels, total)`` is called after each tile; ``light_selection``:
+    ``progress(done, total)`` is called after each unit (tile x spp batch) with the pixel
+    samples done and their total, H x W x spp; ``light_selection``:
     ``"uniform"`` or ``"power"``.  ``spp_batch``: samples per pixel of one work unit
     (default 64; the image depends on it, not on how units are run).  ``checkpoint``: a
     ``.npz`` path where the per-pixel statistics are saved after each batch; an existing
@@ -273,7 +274,8 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
         start, stats = load_checkpoint(path, digest, job.batch, job.spp,
                                        job.integrand.estimator.statistics_from_state)
     tiles = list(range(job.n_tiles))
-    total, done = job.n_pixels * job.n_batches, min(start, job.n_batches) * job.n_pixels
+    # progress counts pixel samples: a unit (tile t, batch k) is its pixels x batch k's spp
+    total, done = job.n_pixels * job.spp, min(start * job.batch, job.spp) * job.n_pixels
     # the local pool's processes (vrlab's own) tune their allocator in vrlab.execution.worker_init
     fn = _units
     # tasks per batch (one pool serves all batches): a tile each in this process; else about 4 per
@@ -288,7 +290,8 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     for _, res in run_units(fn, tasks, workers=workers, executor=executor):
         for t, batch, st in res:
             new.setdefault(batch, {})[t] = st
-            done += min((t + 1) * TILE_PIXELS, job.n_pixels) - t * TILE_PIXELS
+            done += (min((t + 1) * TILE_PIXELS, job.n_pixels) - t * TILE_PIXELS) * min(job.batch,
+                                                                                   job.spp - batch * job.batch)
             if progress is not None:
                 progress(done, total)
         while len(new.get(k, ())) == len(tiles):   # merge whole batches in batch order: the same bytes
