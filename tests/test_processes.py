@@ -166,3 +166,18 @@ def test_a_scheduler_without_workers_says_so_and_gives_up(capsys, monkeypatch, e
     lines = err.strip().splitlines()
     assert "has no workers yet" in lines[0] and "waiting up to 2 s" in lines[0], err
     assert len(lines) == 2 and "no worker joined" in lines[1] and "Traceback" not in err, err
+
+
+def test_an_unanswering_address_ends_in_one_line(capsys, monkeypatch):
+    """An unroutable address: the TCP connect times out (simulated: the sandbox may route it)."""
+    pytest.importorskip("distributed")
+    import socket
+
+    from conftest import run_cli
+
+    def no_answer(address, timeout=None):
+        raise socket.timeout("timed out")
+    monkeypatch.setattr(socket, "create_connection", no_answer)
+    code, out, err = run_cli(capsys, LAB + ["--scheduler", "tcp://10.255.255.1:8786"])
+    lines = err.strip().splitlines()
+    assert code == 1 and len(lines) == 1 and "10.255.255.1" in lines[0] and "no answer within 10 s" in lines[0], err

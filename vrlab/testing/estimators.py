@@ -163,7 +163,11 @@ def _spawn_pool() -> ProcessPoolExecutor:
     """One spawned worker process, started once and reused by every check (it dies with this process)."""
     global _POOL
     if _POOL is None:
-        _POOL = ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"))
+        import os
+
+        from ..execution import worker_init      # it ends with this process, however this one ends
+        _POOL = ProcessPoolExecutor(1, mp_context=mp.get_context("spawn"), initializer=worker_init,
+                                    initargs=(os.getpid(),))
     return _POOL
 
 
