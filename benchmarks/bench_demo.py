@@ -38,7 +38,7 @@ def time_demo(quick: bool) -> dict:
         cpu0, t0 = _children_cpu(), time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, check=True)
         wall, cpu = time.perf_counter() - t0, _children_cpu() - cpu0
-    summary = json.loads(proc.stdout[proc.stdout.rindex("\n{") + 1:])
+    summary = json.loads(proc.stdout)          # --json: stdout is only the JSON
     return {"wall_s": wall, "cpu_s": cpu, "demo_s": summary["seconds"], "sections": summary["sections"]}
 
 

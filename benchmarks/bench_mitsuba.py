@@ -44,8 +44,9 @@ VRLAB_RUNS = {"veach_mis": [("mis-power", "uniform", 8)], "cornell_box": [("mis-
 
 
 def relmse(img, ref):
-    img, ref = np.asarray(img, np.float64), np.asarray(ref, np.float64)
-    return float(np.mean((img - ref) ** 2 / (ref ** 2 + 0.01)))
+    from vrlab.metrics import rel_mse
+
+    return rel_mse(img, ref)
 
 
 def mitsuba_render(variant, name, w, h, spp, seed=0, out=None):
@@ -80,10 +81,10 @@ def mitsuba_subprocess(variant, name, w, h, spp, tmp):
 def vrlab_subprocess(name, w, h, spp, strategy, selection, m, workers, tmp):
     """(image, render seconds, whole-process seconds) of vrlab in a child process."""
     out = Path(tmp) / f"vrlab_{name}_{strategy}_{selection}_{workers}.npy"
-    code = ("import time, json, dataclasses; t0 = time.perf_counter(); import numpy as np; "
+    code = ("import time, json; t0 = time.perf_counter(); import numpy as np; "
             "from vrlab.render import builtin_scene_path, load_scene, render; "
             f"sc = load_scene(builtin_scene_path({name!r})); "
-            f"sc.sensor = dataclasses.replace(sc.sensor, width={w}, height={h}); t = time.perf_counter(); "
+            f"sc = sc.with_size({w}, {h}); t = time.perf_counter(); "
             f"img = render(sc, {spp}, {strategy!r}, rng=1, light_selection={selection!r}, "
             f"ris_candidates={m}, workers={workers}).value; dt = time.perf_counter() - t; "
             f"np.save({str(out)!r}, img); print(json.dumps([dt, time.perf_counter() - t0]))")

@@ -109,10 +109,10 @@ def test_render_help_explains_the_strategies_and_keeps_flag_names_whole(capsys):
 
 
 def test_every_strategy_and_pixel_sampler_has_a_description():
-    from vrlab.cli_render import PIXEL_SAMPLER_HELP, PIXEL_SAMPLERS, STRATEGY_HELP
-    from vrlab.render.presets import PRESETS
+    from vrlab.cli_render import PIXEL_SAMPLER_HELP, PIXEL_SAMPLERS
+    from vrlab.render.presets import PRESETS, preset_help
 
-    assert set(STRATEGY_HELP) == set(PRESETS)
+    assert set(preset_help()) == set(PRESETS) and all(preset_help().values())
     assert set(PIXEL_SAMPLER_HELP) == set(PIXEL_SAMPLERS)
 
 

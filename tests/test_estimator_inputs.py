@@ -305,3 +305,34 @@ def test_unknown_technique_names_are_named_at_estimate(make, arg, raises_naming)
     integrand = vrlab.Integrand(lambda x: np.sin(x[..., 0]), [(0, np.pi / 2)], 1.0, techniques={"uniform": DISTS[0]})
     with raises_naming(ValueError, arg):
         make().estimate(integrand, 64, rng=0)
+
+
+# ---------------------------------------------------------------------------------------
+# issue 23, item 8: the last kinds of bad input, each named
+# ---------------------------------------------------------------------------------------
+def test_a_distribution_of_the_wrong_dimension_is_refused(raises_naming):
+    from vrlab.distributions import UniformSphere
+
+    with raises_naming(ValueError, "distribution") as info:
+        MonteCarlo(UniformSphere()).estimate(SIN, 1000, rng=0)
+    assert "3-dimensional" in str(info.value) and "1-dimensional" in str(info.value)
+    with raises_naming(ValueError, "distributions[0]"):
+        MIS([UniformSphere(), UniformInterval(0, np.pi / 2)]).estimate(SIN, 1000, rng=0)
+    with raises_naming(ValueError, "source"):
+        RIS(UniformSphere(), lambda x: np.ones(x.shape[:-1]), 4).estimate(SIN, 1000, rng=0)
+
+
+def test_a_control_integral_of_the_wrong_shape_is_refused(raises_naming):
+    with raises_naming(ValueError, "control_integral"):
+        ControlVariate(lambda x: x[..., 0], [1.0, 2.0, 3.0]).estimate(SIN, 1000, rng=0)   # scalar f: not 3 integrals
+    batch = unit_square(lambda x: np.stack([x[..., 0], 2 * x[..., 1]]), [0.5, 1.0])
+    est = ControlVariate(lambda x: x[..., 0], [0.5, 0.5], alpha=1.0).estimate(batch, 4096, rng=0)
+    assert np.shape(est.value) == (2,)                                               # one per batch element: fine
+
+
+@pytest.mark.parametrize("x0, exc", [([np.nan, 0.5], ValueError), ([0.5, 0.5, 0.5], ValueError),
+                                     ([[0.1, 0.2]] * 3, ValueError), ("a", TypeError), ([np.inf, 0.1], ValueError)])
+def test_metropolis_names_a_bad_start(x0, exc, raises_naming):
+    mh = MetropolisHastings(lambda x: np.ones(x.shape[:-1]))
+    with raises_naming(exc, "x0"):
+        mh.run(10, 4, 0, 0, x0=x0)

@@ -94,3 +94,20 @@ def test_vrlab_notebooks_command_copies_them_and_refuses_to_overwrite(tmp_path, 
     assert code == 1 and "folder" in err and "Traceback" not in err
     code, out, err = run_cli(capsys, ["notebooks", str(tmp_path / "file" / "below")])   # a file as parent
     assert code == 1 and err.count("\n") == 1 and "folder" in err and "Traceback" not in err
+
+
+def test_notebooks_name_commands_an_installed_user_has():
+    """A notebook points at ``python -m vrlab.experiments.NAME`` (installed with the package), not at
+    ``experiments/NAME.py`` (only in the repository), and each NAME is a module that runs as one."""
+    import re
+
+    import vrlab.notebooks
+
+    folder = Path(vrlab.notebooks.__file__).parent
+    for name in list_notebooks():
+        path = folder / name
+        text = path.read_text()
+        assert not re.search(r"`experiments/[a-z_]+\.py`", text), path
+        for name in re.findall(r"python -m vrlab\.experiments\.([a-z_]+)", text):
+            module = importlib.import_module(f"vrlab.experiments.{name}")
+            assert '__name__ == "__main__"' in Path(module.__file__).read_text(), name

@@ -37,12 +37,26 @@ def test_plug_your_own_estimator_section_runs(monkeypatch, capsys):
         return real(*args, **{**kwargs, "width": 8, "height": 6})
 
     monkeypatch.setattr(R, "render", small)
-    namespace: dict = {}
+    import sys
+    import types
+
+    import vrlab.estimators.registry as registry
+    import vrlab.testing as T
+
+    # the README's class lives in a script; here in a module of its own, checked in this process
+    module = types.ModuleType("readme_example")
+    monkeypatch.setitem(sys.modules, "readme_example", module)
+    real_check = T.check_estimator
+    monkeypatch.setattr(T, "check_estimator", lambda est, *a, **kw: real_check(est, *a, **{**kw, "spawn": False}))
+    monkeypatch.setattr(registry, "_REGISTRY", dict(registry._REGISTRY))
+    namespace: dict = module.__dict__
     exec(compile(_section_code("Plug your own estimator into the renderer"), str(README), "exec"), namespace)
+    assert namespace["named"].value.shape == (6, 8, 3)
     for name in ("mis", "pairs", "mine"):
         est = namespace[name]
         assert est.value.shape == (6, 8, 3) and np.all(np.isfinite(est.value)) and est.n == 16
-    assert "LightThenBSDF" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "LightThenBSDF" in out and "'render': 'ok'" in out
 
 
 def test_your_own_scene_element_section_runs(capsys):
@@ -101,3 +115,23 @@ def test_the_path_finder_sees_links_spans_and_skips_the_rest(tmp_path):
     assert _mentioned_paths(doc) == [("a/b.md", tmp_path), ("c/d.png", tmp_path), ("vrlab/render/", ROOT),
                                      ("render/poisson.py", ROOT), ("README.md", ROOT),
                                      ("notebooks/01.ipynb", ROOT)]
+
+
+def test_the_veach_figure_numbers_come_from_its_command(tmp_path):
+    """The relMSE values the README quotes under the Veach figure are what its command gives
+    (the images are a function of the seed; only the seconds vary)."""
+    from vrlab.render.compare import compare
+
+    text = README.read_text()
+    assert "vrlab render veach_mis --spp 16 --width 192 --height 144 --compare -o docs/veach_mis.png" in text
+    quoted = re.search(r"25\.0 \(bsdf\), 0\.682 \(light\) and 0\.0424 \(mis-power\)", text)
+    assert quoted, "the README's Veach numbers changed: update this test with the command's new output"
+    from vrlab.render import load_scene
+    from vrlab.render.builtin import builtin_scene_path
+
+    scene = load_scene(builtin_scene_path("veach_mis"))                # --width 192 --height 144, as the CLI does
+    scene = scene.with_size(192, 144)
+    res = compare(scene, ["bsdf", "light", "mis-power"], 16, rng=0, ref_spp=256, points="independent", workers=1)
+    got = res["rel_mse"]
+    assert got["bsdf"] == pytest.approx(25.0, rel=0.01) and got["light"] == pytest.approx(0.682, rel=0.01)
+    assert got["mis-power"] == pytest.approx(0.0424, rel=0.01)

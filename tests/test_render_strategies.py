@@ -188,7 +188,7 @@ def test_workers_and_chunks_give_identical_images():
     # BLAS may round a few ulps differently; a few ulps, amplified in the odd grazing or
     # MIS-weighted sample, stay far below 1e-5 (a chunking bug changes pixels by O(1))
     np.testing.assert_allclose(a[0], c[0], rtol=1e-5)
-    assert seen[-1] == (1440, 1440) and len(seen) == 2
+    assert seen[-1] == (1440 * 4, 1440 * 4) and len(seen) == 2      # pixel samples: pixels x spp
     with pytest.raises(ValueError, match="workers"):
         render_pair(sc, 4, workers=0)
 

@@ -180,3 +180,22 @@ def test_estimator_engines_share_the_estimators_generator():
     g = np.random.default_rng(2)
     x = point_engine(vp.LatinHypercube, 2, g).random(10)
     np.testing.assert_array_equal(x, vp.LatinHypercube(2, rng=2).random(10))
+
+
+@pytest.mark.parametrize("d", [1.5, -1, "2", None, True, np.float64(2.0)])
+@pytest.mark.parametrize("cls", [vp.Halton, vp.Sobol, vp.LatinHypercube])
+def test_the_message_scipy_pins_for_a_bad_d(cls, d):
+    with pytest.raises(ValueError, match=r"d must be a non-negative integer"):
+        cls(d)
+
+
+def test_unscrambled_halton_is_scipys_bit_for_bit():
+    """d <= 32 and n <= 2^16, compared with scipy.stats.qmc.Halton itself (not the rounded 7/9 of
+    its test table): Halton(d)'s columns are Halton(32)'s first d, and each draw continues exactly."""
+    ref = qmc.Halton(32, scramble=False).random(1 << 16)
+    np.testing.assert_array_equal(vp.Halton(32).random(1 << 16), ref)
+    for d in range(1, 33):
+        np.testing.assert_array_equal(vp.Halton(d).random(1 << 10), qmc.Halton(d, scramble=False).random(1 << 10))
+    e = vp.Halton(32)
+    np.testing.assert_array_equal(np.concatenate([e.random(7), e.random(1000), e.random(30000)]), ref[:31007])
+    np.testing.assert_array_equal(vp.Halton(32).fast_forward(40000).random(100), ref[40000:40100])

@@ -62,9 +62,12 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     root, out = seed(args.seed), output_folder(args.out, "--out")
     from .demo import run_demo
 
-    summary = run_demo(out, seed=root, quick=args.quick)
-    if args.json:
+    if args.json:                   # stdout: only the JSON; the text report goes to stderr
+        with contextlib.redirect_stdout(sys.stderr):
+            summary = run_demo(out, seed=root, quick=args.quick)
         print(json.dumps(summary, indent=2, default=float))
+        return 0
+    run_demo(out, seed=root, quick=args.quick)
     return 0
 
 
@@ -73,12 +76,22 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
     from .bench import run
 
-    rows = run(args.suite, quick=args.quick)
+    def progress(part, done, total):          # on stderr: the races take up to a minute
+        if done < total:
+            print(f"vrlab bench: timing {part} ({done + 1}/{total}) ...", file=sys.stderr, flush=True)
+
+    rows = run(args.suite, quick=args.quick, progress=progress)
     if args.json:
         print(json.dumps(rows, indent=2, default=float))
-    else:
-        with pd.option_context("display.width", 160, "display.max_columns", 20):
-            print(pd.DataFrame(rows).to_string(index=False))
+        return 0
+    table = pd.DataFrame(rows)
+    with pd.option_context("display.width", 160, "display.max_columns", 20):
+        for k, part in enumerate(dict.fromkeys(table["suite"])):
+            # one table per part, only its own columns (the parts' columns differ: no NaN cells)
+            print(("\n" if k else "") + f"{part}:")
+            part_table = pd.DataFrame([{k: v for k, v in r.items() if k != "suite"} for r in rows
+                                       if r["suite"] == part])
+            print(part_table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     return 0
 
 
@@ -107,6 +120,9 @@ def build_parser() -> argparse.ArgumentParser:
                      description="Monte Carlo estimators and variance reduction for rendering: samplers,\n"
                                  "warps, the integral lab, a direct-lighting renderer, benchmarks.")
     parser.add_argument("--debug", action="store_true", help="on an error, show the Python traceback")
+    from . import __version__
+    parser.add_argument("--version", action="version", version=f"vrlab {__version__}",
+                        help="print vrlab's version and exit")
     common = _Parser(add_help=False)
     common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                         help="on an error, show the Python traceback (same as vrlab --debug COMMAND)")
@@ -123,7 +139,8 @@ def build_parser() -> argparse.ArgumentParser:
                                                      "seed gives the same figures and tables (default: %(default)s)")
     demo.add_argument("--quick", action="store_true",
                       help="smaller sample counts, for a first look (under 10 s on 2 cores; the full demo: 1 minute)")
-    demo.add_argument("--json", action="store_true", help="print a JSON summary of what was written")
+    demo.add_argument("--json", action="store_true", help="print a JSON summary of what was written (stdout: only "
+                                                          "the JSON; the text report goes to stderr)")
     demo.set_defaults(func=_cmd_demo, parser=demo)
 
     cli_lab.add_parser(sub, **kw)

@@ -18,10 +18,10 @@ import tempfile
 from pathlib import Path
 from typing import Iterable
 
-from . import checks
+from . import checks, limits
 
 SEED_MAX = 2**128 - 1        # seeds are SeedSequence entropy: 0 .. 2**128 - 1
-WORKERS_MAX = 256            # worker processes (more would only fork without speed-up)
+WORKERS_MAX = limits.max_workers()   # worker processes: vrlab.limits, as the library
 
 
 class UsageError(Exception):
@@ -227,7 +227,8 @@ def distinct(flag_paths: dict[str, Path | None]) -> None:
         seen[key] = flag
 
 
-SCHEDULER_TIMEOUT = 10.0     # seconds to reach a Dask scheduler (--scheduler)
+SCHEDULER_TIMEOUT = 10.0     # seconds for a Dask scheduler (--scheduler) to connect and answer as one
+WORKER_WAIT = 60.0           # seconds to wait for a first worker at a scheduler that has none
 
 
 def scheduler_address(text: str | None, flag: str = "--scheduler") -> str | None:
@@ -255,30 +256,86 @@ def scheduler_address(text: str | None, flag: str = "--scheduler") -> str | None
     return text
 
 
+def _probe_scheduler(address: str, timeout: float) -> str:
+    """The ``type`` a Dask server at ``address`` reports for itself (``"Scheduler"`` for a
+    scheduler), asked with Dask's own ``identity`` call; the whole exchange (connect, send,
+    read) is bounded by ``timeout`` seconds.  ``Failure`` if nothing answers as a Dask server
+    (a closed port, an HTTP server, an unroutable address, garbage on the wire)."""
+    import asyncio
+
+    from distributed.core import rpc
+
+    async def ask() -> dict:
+        r = rpc(address, timeout=timeout)
+        try:
+            return await r.identity()
+        finally:
+            await r.close_rpc()
+
+    try:
+        info = asyncio.run(asyncio.wait_for(ask(), timeout))
+    except (asyncio.TimeoutError, TimeoutError):
+        raise Failure(f"no Dask scheduler answered within {timeout:g} s") from None
+    except BaseException as exc:   # noqa: BLE001 - HTTP replies decode as huge frames (MemoryError) etc.
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        lines = str(exc).splitlines()
+        text = getattr(exc, "strerror", None) or (lines[0] if lines else "")
+        what = "its reply is not Dask's" if isinstance(exc, (MemoryError, ValueError, TypeError, KeyError)) \
+            else "the exchange failed"
+        raise Failure(f"{what} ({type(exc).__name__}{': ' + text[:100] if text else ''})") from None
+    if not isinstance(info, dict):
+        raise Failure("not a Dask scheduler (its answer is not Dask's)")
+    return str(info.get("type", "unknown"))
+
+
 @contextlib.contextmanager
-def connect_scheduler(address: str, flag: str = "--scheduler", timeout: float | None = None):
+def connect_scheduler(address: str, flag: str = "--scheduler", timeout: float | None = None,
+                      worker_wait: float | None = None):
     """A ``distributed.Client`` on the scheduler at ``address``, closed at the end (the
-    scheduler and its workers keep running); ``Failure`` naming ``flag`` if it cannot be
-    reached within ``timeout`` seconds (default ``SCHEDULER_TIMEOUT``)."""
+    scheduler and its workers keep running).
+
+    ``Failure`` (one line naming ``flag`` and the address, exit status 1, no traceback) when
+    nothing answers as a Dask scheduler within ``timeout`` seconds (default
+    ``SCHEDULER_TIMEOUT``): a closed port, an HTTP server (a dashboard), an unroutable
+    address, another Dask server.  A scheduler without workers is said so on stderr, and the
+    work waits at most ``worker_wait`` seconds (default ``WORKER_WAIT``) for a first one,
+    else ``Failure``."""
     import socket
+    import sys
 
     from distributed import Client
     from distributed.comm.addressing import parse_address, parse_host_port
 
     timeout = SCHEDULER_TIMEOUT if timeout is None else timeout
+    worker_wait = WORKER_WAIT if worker_wait is None else worker_wait
     scheme, loc = parse_address(address)
     if scheme in ("tcp", "tls"):            # probe first: a failed Client leaves noise at exit
         host, port = parse_host_port(loc)
         try:
             socket.create_connection((host, port), timeout=timeout).close()
         except OSError as exc:
-            raise Failure(f"{flag}: cannot reach a Dask scheduler at {address!r} "
-                            f"({exc.strerror or exc})") from None
+            reason = f"no answer within {timeout:g} s" if isinstance(exc, socket.timeout) else (exc.strerror or str(exc))
+            raise Failure(f"{flag}: cannot reach a Dask scheduler at {address!r} ({reason})") from None
+    try:
+        kind = _probe_scheduler(address, timeout)
+    except Failure as exc:
+        raise Failure(f"{flag}: {address!r} does not answer as a Dask scheduler: {exc}") from None
+    if kind != "Scheduler":
+        raise Failure(f"{flag}: {address!r} is a Dask {kind}, not a scheduler; give the scheduler's address")
     try:
         client = Client(address, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
         raise Failure(f"{flag}: cannot connect to a Dask scheduler at {address!r} ({exc})") from None
     try:
+        if not client.scheduler_info().get("workers"):
+            print(f"vrlab: {flag} {address} has no workers yet; waiting up to {worker_wait:g} s for one",
+                  file=sys.stderr, flush=True)
+            try:
+                client.wait_for_workers(1, timeout=worker_wait)
+            except (TimeoutError, OSError) as exc:
+                raise Failure(f"{flag}: no worker joined the Dask scheduler at {address!r} within "
+                              f"{worker_wait:g} s ({type(exc).__name__})") from None
         yield client
     finally:
         client.close()

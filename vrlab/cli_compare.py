@@ -4,7 +4,7 @@
 Every compared render takes the sampling flags a single render takes: ``--spp``,
 ``--seed``, ``--pixel-sampler``, ``--light-selection``, ``--emitter-samples``,
 ``--bsdf-samples``, ``--ris-candidates``, ``--spp-batch``, ``--workers``,
-``--width``/``--height`` (checked by :func:`vrlab.cli_render.check_render`), and shows a
+``--width``/``--height`` (checked by :func:`vrlab.cli_render_settings.settings_from_args`), and shows a
 progress bar as a single render does (``--progress``; default: when stderr is a
 terminal).  The reference is ``--reference FILE`` if given; else the command says on
 stderr, before it starts, that it renders one: ``mis-power`` at ``--reference-spp``
@@ -16,7 +16,7 @@ and the measured seconds, and which reference was used.
 Usage errors (exit status 2), before any work: ``--compare`` an empty, repeated or
 unknown name; ``--strategy``, ``--stderr-out``, ``--checkpoint``, ``--scheduler`` with
 ``--compare``; ``--equal-time`` or ``--reference-spp`` without it; ``--reference-spp``
-(1 .. 2**20) with ``--reference``.
+(1 .. 2**24, vrlab.limits.MAX_SPP) with ``--reference``.
 """
 from __future__ import annotations
 
@@ -24,16 +24,8 @@ import argparse
 import json
 import sys
 
-from . import cli_args as A
-
-REF_STRATEGY, REF_SPP = "mis-power", 256
-#: single-render flags (dest -> flag) that do not go with --compare, and why
-NOT_WITH_COMPARE = {"strategy": ("--strategy", "--compare lists the strategies"),
-                    "stderr_out": ("--stderr-out", "it writes one figure, not an image per strategy"),
-                    "checkpoint": ("--checkpoint", "the compared renders are not checkpointed"),
-                    "scheduler": ("--scheduler", "the compared renders run in local processes, see --workers")}
-#: flags that only mean something with --compare (dest -> flag)
-NEED_COMPARE = {"equal_time": "--equal-time", "reference_spp": "--reference-spp"}
+from .cli_render_settings import (NEED_COMPARE, NOT_WITH_COMPARE, REF_SPP, REF_STRATEGY,  # noqa: F401
+                                  RenderSettings, progress_callback)
 
 
 def add_arguments(rend: argparse.ArgumentParser) -> None:
@@ -50,58 +42,22 @@ def add_arguments(rend: argparse.ArgumentParser) -> None:
                            "last strategy's at --spp")
     rend.add_argument("--reference-spp", metavar="N",
                       help=f"with --compare and no --reference: spp of the reference it renders ({REF_STRATEGY}, "
-                           f"i.i.d. points, its own seed), 1 .. 2**20 (default: {REF_SPP})")
+                           f"i.i.d. points, its own seed), 1 .. 2**24 (default: {REF_SPP})")
 
 
-def check_flags(args: argparse.Namespace, strategies, spp_max: int) -> dict:
-    """``{"compare": names or None, "equal_time", "reference_spp"}``; usage errors (see the
-    module docstring) before the defaults of the single-render flags are filled in."""
-    def given(key):
-        return getattr(args, key, None) not in (None, False)
-
-    if args.compare is None:
-        for key, flag in NEED_COMPARE.items():
-            if given(key):
-                raise A.UsageError(f"{flag} needs --compare")
-        return {"compare": None, "equal_time": False, "reference_spp": None}
-    for key, (flag, why) in NOT_WITH_COMPARE.items():
-        if given(key):
-            raise A.UsageError(f"{flag} does not apply with --compare ({why})")
-    if given("reference") and given("reference_spp"):
-        raise A.UsageError("--reference-spp does not apply with --reference (the reference is the file given)")
-    return {"compare": A.names(args.compare, "--compare", strategies), "equal_time": args.equal_time,
-            "reference_spp": A.integer(args.reference_spp, "--reference-spp", low=1, high=spp_max) or REF_SPP}
-
-
-def progress_callback(show: bool, label: str):
-    """``progress(done, total)`` for a render, drawing a progress bar on stderr labelled
-    ``label`` (made on the first report, which knows the total); None if not ``show``."""
-    if not show:
-        return None
-    bar: list = []
-
-    def progress(done, total):
-        if not bar:
-            from .lab.progress import ProgressBar
-            bar.append(ProgressBar(total, label=label))
-        bar[0].update(done - bar[0].done)
-    return progress
-
-
-def run_compare(args: argparse.Namespace, p: dict) -> int:
+def run_compare(p: RenderSettings) -> int:
     """Render the strategies (and the reference, if none is given) and report them."""
-    from .cli_render import _points
     from .render.compare import compare, compare_figure
-    from .render.film import SPP_BATCH, default_workers
+    from .render.film import SPP_BATCH
 
-    scene = p["scene"]
-    workers = default_workers() if p["workers"] is None else p["workers"]
-    if p["reference"] is None:
-        print(f"vrlab render: note: no --reference: rendering one first, {REF_STRATEGY} at {p['reference_spp']} "
-              f"spp (i.i.d. points, seed [{p['seed']}, 1]); --reference FILE uses yours, --reference-spp N sets "
+    scene = p.scene
+    workers = p.resolved_workers()
+    if p.reference is None:
+        print(f"vrlab render: note: no --reference: rendering one first, {REF_STRATEGY} at {p.reference_spp} "
+              f"spp (i.i.d. points, seed [{p.seed}, 1]); --reference FILE uses yours, --reference-spp N sets "
               "the spp",
               file=sys.stderr, flush=True)
-    show = args.progress if args.progress is not None else sys.stderr.isatty()
+    show = p.show_progress
     bars: dict = {}
 
     def progress(name, done, total):
@@ -109,34 +65,31 @@ def run_compare(args: argparse.Namespace, p: dict) -> int:
             bars[name] = progress_callback(True, name)
         bars[name](done, total)
 
-    res = compare(scene, p["compare"], p["spp"], rng=p["seed"], reference=p["reference"],
-                  ref_spp=p["reference_spp"], ref_strategy=REF_STRATEGY, equal_time=p["equal_time"],
-                  points=_points(args.pixel_sampler),
-                  light_selection=args.light_selection, emitter_samples=p["emitter_samples"],
-                  bsdf_samples=p["bsdf_samples"], ris_candidates=p["ris_candidates"], workers=workers,
-                  spp_batch=p["spp_batch"], progress=progress if show else None)
+    res = compare(scene, p.compare, p.spp, rng=p.seed, reference=p.reference, ref_spp=p.reference_spp,
+                  ref_strategy=REF_STRATEGY, equal_time=p.equal_time, workers=workers,
+                  progress=progress if show else None, **p.sampling())
     spp = res["spp"] if isinstance(res["spp"], dict) else {s: res["spp"] for s in res["images"]}
     ref = res["reference_render"]
-    reference = {"source": "file", "file": str(p["reference_path"])} if ref is None else {"source": "rendered", **ref}
+    reference = {"source": "file", "file": str(p.reference_path)} if ref is None else {"source": "rendered", **ref}
     integ = scene.integrator
-    settings = {"pixel_sampler": args.pixel_sampler, "light_selection": args.light_selection,
-                "emitter_samples": integ.emitter_samples if p["emitter_samples"] is None else p["emitter_samples"],
-                "bsdf_samples": integ.bsdf_samples if p["bsdf_samples"] is None else p["bsdf_samples"],
-                "ris_candidates": p["ris_candidates"], "seed": p["seed"], "workers": workers,
-                "spp_batch": p["spp_batch"] or SPP_BATCH}
-    out = {"scene": str(p["path"]), "width": scene.sensor.width, "height": scene.sensor.height,
-           "equal_time": p["equal_time"], "spp": spp,
+    settings = {"pixel_sampler": p.pixel_sampler, "light_selection": p.light_selection,
+                "emitter_samples": integ.emitter_samples if p.emitter_samples is None else p.emitter_samples,
+                "bsdf_samples": integ.bsdf_samples if p.bsdf_samples is None else p.bsdf_samples,
+                "ris_candidates": p.ris_candidates, "seed": p.seed, "workers": workers,
+                "spp_batch": p.spp_batch or SPP_BATCH}
+    out = {"scene": str(p.path), "width": scene.sensor.width, "height": scene.sensor.height,
+           "equal_time": p.equal_time, "spp": spp,
            "rel_mse": res["rel_mse"], "seconds": res["seconds"], "cost_per_sample": res["cost"],
            "reference": reference, "settings": settings}
-    if p["output"] is not None:
-        out["figure"] = str(compare_figure(res, p["output"], exposure="auto" if p["exposure_auto"] else p["exposure"]))
-    if args.json:
+    if p.output is not None:
+        out["figure"] = str(compare_figure(res, p.output, exposure="auto" if p.exposure_auto else p.exposure))
+    if p.json:
         print(json.dumps(out, indent=2))
         return 0
     if ref is None:
         lines = [f"reference: {reference['file']}"]
     else:
-        lines = [f"reference: rendered, {ref['strategy']} at {ref['spp']} spp, seed [{p['seed']}, 1], "
+        lines = [f"reference: rendered, {ref['strategy']} at {ref['spp']} spp, seed [{p.seed}, 1], "
                  f"{ref['seconds']:.2f} s"]
     if out["equal_time"]:
         last = list(spp)[-1]

@@ -11,8 +11,11 @@ for a recipe),
 ``--scheduler`` (a Dask scheduler address, ``tcp://HOST:PORT`` or ``HOST:PORT``; not with
 ``--workers`` > 1; needs ``dask.distributed``).
 
-Then, before the sweep starts: a scheduler that cannot be reached within
-``SCHEDULER_TIMEOUT`` seconds is a failure (exit status 1); a ``--store`` file of another
+Then, before the sweep starts: an address that does not answer as a Dask scheduler within
+``SCHEDULER_TIMEOUT`` = 10 seconds (a closed port, an HTTP server such as its dashboard,
+an unroutable address) is a failure, one line, exit status 1; a scheduler without workers
+is said so on stderr and waited for at most ``WORKER_WAIT`` = 60 seconds (then exit 1)
+(:func:`vrlab.cli_args.connect_scheduler`); a ``--store`` file of another
 sweep is a usage error (exit 2: give another file), one that is not a lab store a failure
 (exit 1).  With ``--store`` a rerun of the same command, after an interruption of any kind,
 runs only the missing units (:mod:`vrlab.lab.store`).
@@ -25,9 +28,10 @@ import json
 import warnings
 
 from . import cli_args as A
+from . import limits
 from .cli_args import SCHEDULER_TIMEOUT, connect_scheduler, scheduler_address  # noqa: F401
 
-N_MAX = 2**30
+N_MAX = limits.MAX_N
 REPS_MAX = 10**6
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
 PREFLIGHT_MAX = 2**16        # the trial estimate is skipped above this n (it would cost real time)
@@ -55,7 +59,9 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                      help=f"worker processes, 1 .. {A.WORKERS_MAX} (same numbers for any count; default: %(default)s)")
     lab.add_argument("--scheduler", metavar="ADDRESS",
                      help="run the units on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (needs "
-                          "vrlab[distributed]; same numbers as local runs)")
+                          "vrlab[distributed]; same numbers as local runs; an address that does not answer as a "
+                          f"scheduler within {A.SCHEDULER_TIMEOUT:g} s: exit 1; no workers: waits up to "
+                          f"{A.WORKER_WAIT:g} s)")
     lab.add_argument("--store", metavar="FILE.sqlite",
                      help="keep each finished unit in this SQLite file; rerunning the same command resumes "
                           "an interrupted sweep (a store of another sweep is refused)")
@@ -165,7 +171,11 @@ def run_lab(args: argparse.Namespace) -> int:
         except StoreError as exc:            # raised before any unit runs
             text = "--store" + str(exc).removeprefix("store")
             raise (A.UsageError if isinstance(exc, StoreMismatch) else A.Failure)(text) from None
+    from .lab.summary import MIN_SLOPE_POINTS
+    from .lab.trust import flag_notes, stderr_flags, trust_thresholds
+
     summary = summarize(df)
+    summary["flag"] = stderr_flags(summary)          # as the demo: are the error bars to be trusted?
     slopes = fit_slopes(summary)
     eq = equal_time(summary)
     csv, plot = args.csv, args.plot
@@ -179,18 +189,26 @@ def run_lab(args: argparse.Namespace) -> int:
                           "slopes": _records(slopes), "equal_time": _records(eq),
                           "csv": csv, "plot": plot}, indent=2, default=_json_default))
         return 0
-    cols = ["estimator", "integrand", "n", "mean", "bias", "rmse", "variance", "mean_stderr", "z_std",
+    cols = ["estimator", "integrand", "n", "flag", "mean", "bias", "rmse", "variance", "mean_stderr", "z_std",
             "coverage", "seconds", "efficiency"]
     with pd.option_context("display.width", 200, "display.max_columns", 30, "display.max_rows", 500):
         print(f"vrlab lab: {plan['reps']} repetitions, seed {plan['seed']}")
         print(summary[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-        print("\nRMSE slopes in log-log (fitted vs theory):")
-        print(slopes[["estimator", "integrand", "slope", "slope_se", "theory", "theory_note"]]
-              .to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+        th = trust_thresholds(plan["reps"], 2 * len(summary))
+        for line in flag_notes(summary[summary["flag"] != ""], th, plan["reps"]):
+            print(line)
+        if len(plan["ns"]) < MIN_SLOPE_POINTS:
+            print(f"\nRMSE slopes: not fitted, they need at least {MIN_SLOPE_POINTS} sample counts (--n has "
+                  f"{len(plan['ns'])}: give e.g. --n 64,256,1024)")
+        else:
+            print("\nRMSE slopes in log-log (fitted vs theory):")
+            print(slopes[["estimator", "integrand", "slope", "slope_se", "theory", "theory_note", "slope_note"]]
+                  .to_string(index=False, float_format=lambda v: f"{v:.3f}"))
         at = eq[eq["n"] == eq.groupby("integrand")["n"].transform("max")]
-        print(f"\nEqual time at the largest n: efficiency relative to {eq['reference'].iloc[0]} "
-              "(variance x seconds ratio; > 1 is better):")
-        print(at[["integrand", "n", "estimator", "relative_variance", "relative_efficiency"]]
+        print(f"\nAt the largest n, against {eq['reference'].iloc[0]} (bigger is better; > 1: better than it): "
+              "variance_reduction = its variance / this variance (equal n), efficiency_gain = its variance x "
+              "seconds / this variance x seconds (equal time):")
+        print(at[["integrand", "n", "estimator", "variance_reduction", "efficiency_gain"]]
               .to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     if csv or plot:
         print("\nwrote " + ", ".join(p for p in (csv, plot) if p))

@@ -1,7 +1,7 @@
 """``vrlab render``: direct lighting of a Mitsuba 3 XML scene (see :mod:`vrlab.render`).
 
 Checked before rendering (usage errors, exit status 2, unless noted): ``--spp``
-(1 .. 2**20), ``--width``/``--height`` (1 .. 16384), ``--seed`` (0 .. 2**128-1),
+(1 .. 2**24), ``--width``/``--height`` (1 .. 65536; :mod:`vrlab.limits`, as the library), ``--seed`` (0 .. 2**128-1),
 ``--emitter-samples``/``--bsdf-samples`` (0 .. 1024, and what the strategy needs),
 ``--ris-candidates`` (1 .. 4096), ``--workers`` (1 .. 256), ``--exposure`` (``auto``
 or finite > 0), the ``--compare`` flags (:mod:`vrlab.cli_compare`), flags that do not apply
@@ -17,38 +17,14 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import importlib.util
 import json
-import os
 import sys
-from pathlib import Path
 
 from . import cli_args as A
 from . import cli_compare as C
-
-SPP_MAX = 2**20
-SIDE_MAX = 16384
-SAMPLES_MAX = 1024
-RIS_MAX = 4096
-IMAGE_SUFFIXES = (".npy", ".png", ".exr")
-#: the --pixel-sampler names; each maps to render's ``points=`` (``independent`` -> None, i.i.d.)
-PIXEL_SAMPLERS = ("independent", "stratified", "sobol", "halton")
-FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
-DEFAULTS = {"strategy": "mis-power", "pixel_sampler": "independent", "light_selection": "uniform",
-            "ris_candidates": "8"}
-
-
-STRATEGY_HELP = {
-    "uniform": "directions uniform on the hemisphere", "cosine": "directions ~ cos/pi",
-    "bsdf": "directions from the BSDF lobe", "light": "a point on a light, see --light-selection",
-    "mis-balance": "light and BSDF samples, MIS balance heuristic",
-    "mis-power": "light and BSDF samples, MIS power heuristic, as Mitsuba's direct integrator",
-    "mixture": "one sample from 1/2 BSDF + 1/2 light", "ris": "resampled light candidates, see --ris-candidates",
-    "cv": "light sampling with a closed-form Lambertian control variate"}
-PIXEL_SAMPLER_HELP = {
-    "independent": "i.i.d. uniforms", "stratified": "padded jittered strata per pair of dimensions",
-    "sobol": "one scrambled Sobol' set for all pixels, shifted per pixel",
-    "halton": "the same with a scrambled Halton set"}
+from .cli_render_settings import (DEFAULTS, FIGURE_SUFFIXES, IMAGE_SUFFIXES, PIXEL_SAMPLER_HELP,  # noqa: F401
+                                  PIXEL_SAMPLERS, RIS_MAX, SAMPLES_MAX, SIDE_MAX, SPP_MAX, RenderSettings,
+                                  progress_callback, settings_from_args)
 
 
 def _menu(table: dict, names) -> str:
@@ -57,13 +33,8 @@ def _menu(table: dict, names) -> str:
     return "; ".join(f"{name}: {table[name]}" if name in table else name for name in names)
 
 
-def _points(name: str) -> str | None:
-    """render's ``points=`` for a --pixel-sampler name: None (i.i.d.) for ``independent``."""
-    return None if name == "independent" else name
-
-
 def add_parser(sub, **kw) -> argparse.ArgumentParser:
-    from .render.presets import PRESETS
+    from .render.presets import PRESETS, preset_help
 
     rend = sub.add_parser("render", help="render a Mitsuba 3 XML scene (or a built-in one) with direct lighting",
                           description="Direct lighting with a choice of sampling strategy; writes .npy (linear),\n"
@@ -79,7 +50,7 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                                                      "existing files are not replaced (default: the current folder)")
     rend.add_argument("--spp", help=f"samples per pixel, 1 .. {SPP_MAX} (default: the scene's)")
     rend.add_argument("--strategy", choices=list(PRESETS), metavar="NAME",
-                      help=f"how each shading point samples its direct light. {_menu(STRATEGY_HELP, PRESETS)} "
+                      help=f"how each shading point samples its direct light. {_menu(preset_help(), PRESETS)} "
                            "(default: mis-power)")
     rend.add_argument("--pixel-sampler", choices=list(PIXEL_SAMPLERS), metavar="NAME",
                       help=f"how each pixel's uniforms are drawn. {_menu(PIXEL_SAMPLER_HELP, PIXEL_SAMPLERS)}. "
@@ -108,9 +79,11 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                                           "mean((img-ref)^2/(ref^2+0.01)); with --compare: the reference "
                                           "of every panel")
     rend.add_argument("--exposure", default="auto",
-                      help="exposure scale of a .png: auto (mid-grey key 0.18 on the log-average luminance, at "
-                           "most 3%% of the pixels white; vrlab.render.image.auto_exposure) or a number > 0; "
-                           "--compare and --gradient-domain figures take 1.0 for auto (default: auto)")
+                      help="exposure scale of a .png and of the --compare / --gradient-domain figures: auto "
+                           "(mid-grey key 0.18 on the log-average luminance, at most 3%% of the pixels white; "
+                           "vrlab.render.image.auto_exposure; the figures share one scale, from the reference, else "
+                           "the image or primal) or a number > 0; .npy and .exr are saved linear, unscaled "
+                           "(default: auto)")
     C.add_arguments(rend)
     rend.add_argument("--gradient-domain", action="store_true",
                       help="render the image and its pixel differences with common random numbers and "
@@ -133,122 +106,13 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                                           "on it, not on how units run (default: 64)")
     rend.add_argument("--scheduler", metavar="ADDRESS",
                       help="render the units on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (needs "
-                           "vrlab[distributed]; same image as a local render; not with --workers)")
+                           "vrlab[distributed]; same image as a local render; not with --workers; an address that "
+                           f"does not answer as a scheduler within {A.SCHEDULER_TIMEOUT:g} s: exit 1; no workers: "
+                           f"waits up to {A.WORKER_WAIT:g} s)")
     rend.add_argument("--json", action="store_true", help="print time, samples/s and errors as JSON (with "
                                                           "--list or --export: what they print)")
     rend.set_defaults(parser=rend, func=run_render)
     return rend
-
-
-def _scene_path(text: str | None) -> Path:
-    from .render import builtin_scene_path, list_builtin_scenes
-
-    if text is None:
-        raise A.UsageError("give a scene: an XML path or a built-in name (--list shows them)")
-    if not text.strip():
-        raise A.UsageError("scene must not be empty: give an XML path or a built-in name (--list shows them)")
-    if os.path.exists(text):
-        return Path(text)
-    if text.lower().endswith(".xml") and ("/" in text or os.sep in text or text[:-4] not in list_builtin_scenes()):
-        raise A.Failure(f"scene: no such file {text!r}")
-    try:
-        return builtin_scene_path(text)
-    except ValueError:
-        raise A.UsageError(f"scene: {text!r} is neither a file nor a built-in scene; built-in: "
-                           f"{', '.join(list_builtin_scenes())}") from None
-
-
-def _load(path: Path):
-    from .render import SceneError, load_scene
-
-    try:
-        return load_scene(path)
-    except SceneError as exc:
-        text = str(exc)
-        raise A.Failure(text if str(path) in text else f"scene {str(path)!r}: {text}") from exc
-
-
-def _samples_for(strategy: str, n_l: int, n_b: int, given: dict, flag: str = "--strategy") -> None:
-    """The renderer's rules for light/BSDF sample counts (``check_sample_counts``), checked
-    up front; the message names the flags, or the scene's settings where no flag was given."""
-    from .render.presets import check_sample_counts
-
-    try:
-        check_sample_counts(strategy, n_l, n_b)
-    except ValueError as exc:
-        text = f"{flag} {strategy}: {exc}"
-        for name in ("emitter", "bsdf"):
-            arg = f"--{name}-samples" if given[f"--{name}-samples"] else f"the scene integrator's {name}_samples"
-            text = text.replace(f"{name}_samples", arg)
-        raise A.UsageError(text) from None
-
-
-def _reference(path: Path | None, shape: tuple):
-    if path is None:
-        return None
-    from .render.image import load_image
-
-    try:                                    # a linear image (H, W, 3) of finite values
-        ref = load_image(path, "--reference")
-    except (TypeError, ValueError) as exc:
-        raise A.Failure(str(exc)) from exc
-    if ref.shape != shape:
-        raise A.Failure(f"--reference: shape {ref.shape} differs from the image's {shape} "
-                        "(set --width/--height to the reference's size)")
-    return ref
-
-
-def check_render(args: argparse.Namespace) -> dict:
-    """Every flag of ``vrlab render`` as a value, the scene loaded and sized, the reference
-    read (see the module docstring); raises :class:`~vrlab.cli_args.UsageError` or
-    :class:`~vrlab.cli_args.Failure`."""
-    from .render.presets import PRESETS
-
-    p = C.check_flags(args, PRESETS, SPP_MAX)
-    compare = p["compare"] is not None
-    for key, value in DEFAULTS.items():
-        if getattr(args, key) is None:
-            setattr(args, key, value)
-    p.update(spp=A.integer(args.spp, "--spp", low=1, high=SPP_MAX),
-             width=A.integer(args.width, "--width", low=1, high=SIDE_MAX),
-             height=A.integer(args.height, "--height", low=1, high=SIDE_MAX),
-             seed=A.seed(args.seed),
-             emitter_samples=A.integer(args.emitter_samples, "--emitter-samples", low=0, high=SAMPLES_MAX),
-             bsdf_samples=A.integer(args.bsdf_samples, "--bsdf-samples", low=0, high=SAMPLES_MAX),
-             ris_candidates=A.integer(args.ris_candidates, "--ris-candidates", low=1, high=RIS_MAX),
-             workers=A.workers(args.workers),
-             exposure_auto=str(args.exposure).strip().lower() == "auto")
-    # a number for the figures of --compare / --gradient-domain (auto: 1.0 there)
-    try:
-        p["exposure"] = 1.0 if p["exposure_auto"] else A.real(args.exposure, "--exposure", low=0, low_open=True)
-    except A.UsageError:
-        raise A.UsageError(f"--exposure must be auto or a finite number > 0, got {args.exposure!r}") from None
-    p["output"] = A.output_file(args.output, "-o/--output", FIGURE_SUFFIXES if compare else IMAGE_SUFFIXES)
-    p["stderr_out"] = A.output_file(args.stderr_out, "--stderr-out", IMAGE_SUFFIXES)
-    p["checkpoint"] = A.output_file(args.checkpoint, "--checkpoint", (".npz",))
-    p["spp_batch"] = A.integer(args.spp_batch, "--spp-batch", low=1, high=SPP_MAX)
-    A.distinct({"-o/--output": p["output"], "--stderr-out": p["stderr_out"], "--checkpoint": p["checkpoint"]})
-    p["scheduler"] = A.scheduler_address(args.scheduler)
-    if p["scheduler"] is not None and p["workers"] not in (None, 1):
-        raise A.UsageError("--scheduler and --workers do not go together: the scheduler's workers render the "
-                           "units (leave out --workers)")
-    if (args.reference or "").lower().endswith(".exr") and importlib.util.find_spec("OpenEXR") is None:
-        raise A.UsageError("--reference: reading .exr needs the OpenEXR package (pip install OpenEXR); use a .npy")
-    p["reference_path"] = ref_path = A.input_file(args.reference, "--reference", (".npy", ".exr"))
-    p["path"] = _scene_path(args.scene)
-    scene = _load(p["path"])
-    if p["width"] is not None or p["height"] is not None:
-        scene = scene.with_size(p["width"] or scene.sensor.width, p["height"] or scene.sensor.height)
-    p["scene"], p["spp"] = scene, p["spp"] or scene.sensor.spp
-    if p["stderr_out"] is not None and p["spp"] < 2:
-        raise A.UsageError(f"--stderr-out needs --spp >= 2 (one sample has no standard error), got spp {p['spp']}")
-    given = {"--emitter-samples": p["emitter_samples"] is not None, "--bsdf-samples": p["bsdf_samples"] is not None}
-    n_l = scene.integrator.emitter_samples if p["emitter_samples"] is None else p["emitter_samples"]
-    n_b = scene.integrator.bsdf_samples if p["bsdf_samples"] is None else p["bsdf_samples"]
-    for strategy in p["compare"] or [args.strategy]:
-        _samples_for(strategy, n_l, n_b, given, "--compare" if compare else "--strategy")
-    p["reference"] = _reference(ref_path, (scene.sensor.height, scene.sensor.width, 3))
-    return p
 
 
 def _emit(args, out: dict, text: str) -> None:
@@ -327,12 +191,17 @@ def run_render(args: argparse.Namespace) -> int:
     if args.gradient_domain or args.reconstruct is not None or args.alpha is not None or args.independent:
         from .cli_gradient import run_gradient      # (its flags without --gradient-domain: a usage error there)
         return run_gradient(args)
-    p = check_render(args)
+    p = settings_from_args(args)
     from ._alloc import keep_freed_memory
 
     keep_freed_memory()     # this process is vrlab's own: reuse freed ray temporaries (vrlab._alloc)
-    if p["compare"]:
-        return C.run_compare(args, p)
+    if p.compare:
+        return C.run_compare(p)
+    return _run_one(args, p)
+
+
+def _run_one(args: argparse.Namespace, p: RenderSettings) -> int:
+    """One render with the settings ``p``: render, save, report."""
     import time
 
     import numpy as np
@@ -340,23 +209,17 @@ def run_render(args: argparse.Namespace) -> int:
     from .render import render
     from .render.image import auto_exposure, rel_mse, save_image
 
-    scene = p["scene"]
+    scene = p.scene
     t0 = time.perf_counter()
-    if p["workers"] is None:
-        from .render.film import default_workers
-        p["workers"] = default_workers()
-    show = args.progress if args.progress is not None else sys.stderr.isatty()
+    workers = p.resolved_workers()
     with contextlib.ExitStack() as stack:
         client = None
-        if p["scheduler"] is not None:
-            client = stack.enter_context(A.connect_scheduler(p["scheduler"]))
+        if p.scheduler is not None:
+            client = stack.enter_context(A.connect_scheduler(p.scheduler))
         try:
-            est = render(scene, p["spp"], args.strategy, rng=p["seed"], points=_points(args.pixel_sampler),
-                         light_selection=args.light_selection, emitter_samples=p["emitter_samples"],
-                         bsdf_samples=p["bsdf_samples"], ris_candidates=p["ris_candidates"],
-                         workers=2 if client is not None else p["workers"], executor=client,
-                         progress=C.progress_callback(show, "render"), spp_batch=p["spp_batch"],
-                         checkpoint=p["checkpoint"])
+            est = render(scene, p.spp, p.strategy, rng=p.seed, workers=2 if client is not None else workers,
+                         executor=client, progress=progress_callback(p.show_progress, "render"),
+                         checkpoint=p.checkpoint, **p.sampling())
         except ValueError as exc:
             if str(exc).startswith("checkpoint"):      # another render's file: choose another name
                 raise A.UsageError("--" + str(exc)) from None
@@ -368,19 +231,23 @@ def run_render(args: argparse.Namespace) -> int:
         import warnings
         warnings.warn(f"the image has {bad} non-finite values (NaN or inf)", RuntimeWarning, stacklevel=1)
     finite_err = err[np.isfinite(err)]
-    out = {"scene": str(p["path"]), "strategy": args.strategy, "spp": p["spp"], "workers": p["workers"],
+    out = {"scene": str(p.path), "strategy": p.strategy, "spp": p.spp, "workers": workers,
            "width": scene.sensor.width, "height": scene.sensor.height, "seconds": seconds,
-           "samples_per_second": scene.sensor.width * scene.sensor.height * p["spp"] / seconds,
+           "samples_per_second": scene.sensor.width * scene.sensor.height * p.spp / seconds,
            # spp = 1 has no standard error: null in JSON rather than NaN
            "mean_stderr": float(finite_err.mean()) if finite_err.size else None}
-    if p["output"] is not None:
-        if p["output"].suffix.lower() == ".png":         # the exposure used, in the report
-            out["exposure"] = auto_exposure(img) if p["exposure_auto"] else p["exposure"]
-        out["output"] = str(save_image(p["output"], img, out.get("exposure", 1.0)))
-    if p["stderr_out"] is not None:
-        out["stderr_output"] = str(save_image(p["stderr_out"], err))
-    if p["reference"] is not None:
-        out["rel_mse"] = rel_mse(img, p["reference"])
+    if p.output is not None:
+        if p.output.suffix.lower() == ".png":         # the exposure used, in the report
+            out["exposure"] = auto_exposure(img) if p.exposure_auto else p.exposure
+        out["output"] = str(save_image(p.output, img, out.get("exposure", 1.0)))
+    else:                                             # say so: nothing was saved
+        out["output"] = None
+        print("vrlab render: note: no -o/--output: the image was not saved (give -o FILE.npy, .png or .exr)",
+              file=sys.stderr, flush=True)
+    if p.stderr_out is not None:
+        out["stderr_output"] = str(save_image(p.stderr_out, err))
+    if p.reference is not None:
+        out["rel_mse"] = rel_mse(img, p.reference)
     _emit(args, out, "  ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in out.items()))
     return 0
 

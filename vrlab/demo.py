@@ -36,7 +36,7 @@ repetitions in 2 forked worker processes; render 64x48 at 8 spp with a 32-spp re
 128x96 at 16 spp with a 128-spp reference.  The figures are drawn in a forked process while
 the numbers go on (:class:`_Painter`).  ``benchmarks/bench_demo.py`` times both demos.
 
-Stderr trust flags (:func:`stderr_flags`; column ``flag`` of ``lab_summary.csv`` per
+Stderr trust flags (:func:`vrlab.lab.trust.stderr_flags`; column ``flag`` of ``lab_summary.csv`` per
 (estimator, integrand, n), and of the printed table, where an estimator carries its worst
 flag over the sweep's n).  If an estimator's standard errors are honest, its R repetitions
 give z_r = (F_r - I) / stderr_r about N(0, 1): (R - 1) z_std^2 ~ chi^2_{R-1}, and the count
@@ -65,11 +65,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import testing as T
 from ._demo_samplers import discrepancy_table, draw_point_sets, draw_warps, showcase, warp_table
 
-#: Family-wise chance of a false flag in the lab table (see the module docstring).
-FLAG_FAMILY_ALPHA = 0.01
+from .lab.trust import (FLAG_FAMILY_ALPHA, _worst, stderr_flags, trust_thresholds,  # noqa: F401  (public here too)
+                        flag_notes as _flag_notes)
 
 
 def _bar(total: int, label: str):
@@ -138,57 +137,6 @@ def speed_tables(out: Path, quick: bool) -> dict[str, pd.DataFrame]:
     return tables
 
 
-def trust_thresholds(reps: int, tests: int, family_alpha: float = FLAG_FAMILY_ALPHA) -> dict:
-    """Thresholds of the stderr trust flags for R = ``reps`` repetitions when the table holds
-    ``tests`` tests (2 per row): ``alpha`` (Sidak per-test level), ``z_lo``, ``z_hi`` (the
-    chi-square band of z_std) and ``min_cover`` (the smallest count of covering intervals,
-    as a share of R, that binomial chance allows at level alpha)."""
-    from scipy import stats
-
-    from .testing.stats import std_band
-
-    alpha = T.sidak_threshold(family_alpha, tests)
-    z_lo, z_hi = std_band(reps, alpha)
-    k = np.arange(reps + 1)
-    allowed = k[stats.binom.cdf(k, reps, 0.95) >= alpha]
-    return {"alpha": alpha, "z_lo": z_lo, "z_hi": z_hi, "min_cover": int(allowed[0]) / reps}
-
-
-def stderr_flags(table: pd.DataFrame, family_alpha: float = FLAG_FAMILY_ALPHA) -> pd.Series:
-    """Per row of a lab summary (columns ``reps``, ``z_std``, ``coverage``): ``"!"`` if the
-    stderr is too small to trust, ``"~"`` if it is far too large, ``""`` otherwise (the rule
-    and its levels are in the module docstring; a NaN z_std or coverage tests nothing)."""
-    reps = table["reps"].to_numpy(int)
-    z, cover = table["z_std"].to_numpy(float), table["coverage"].to_numpy(float)
-    th = {r: trust_thresholds(int(r), 2 * len(table), family_alpha) for r in np.unique(reps)}
-    hi, lo, least = (np.array([th[r][k] for r in reps]) for k in ("z_hi", "z_lo", "min_cover"))
-    small = (z > hi) | (cover < least - 1e-12)
-    large = ~small & (z < lo)
-    flags = np.where(small, "!", np.where(large, "~", ""))
-    return pd.Series(flags, index=table.index, name="flag", dtype=object)
-
-
-def _worst(flags: pd.Series) -> str:
-    return "!" if (flags == "!").any() else "~" if (flags == "~").any() else ""
-
-
-def _flag_notes(flagged: pd.DataFrame, th: dict, reps: int) -> list[str]:
-    """One line per kind of flag: the thresholds and who got it at which n."""
-    notes = []
-    for mark, text in (("!", f"stderr too small, error bars not to be trusted (z_std > {th['z_hi']:.2f} or "
-                             f"coverage < {th['min_cover']:.2f})"),
-                       ("~", f"stderr far too large, safe but uninformative (z_std < {th['z_lo']:.2f})")):
-        rows = flagged[flagged["flag"] == mark]
-        if len(rows):
-            who = "; ".join(f"{e} on {i} (n = {', '.join(str(n) for n in g['n'])})"
-                            for (i, e), g in rows.groupby(["integrand", "estimator"], sort=False))
-            notes.append(f"{mark} {text}: {who}")
-    if notes:
-        notes.append(f"  (R = {reps}, every n of the sweep tested; with honest errors any flag has a "
-                     f"{FLAG_FAMILY_ALPHA:.0%} chance; rule: vrlab.demo docstring)")
-    return notes
-
-
 #: estimators of the demo's lab section (recipes that do not apply to an integrand, or whose
 #: estimator module is not installed, are left out of that integrand's rows)
 LAB_ESTIMATORS = ("mc", "is:linear", "is:brdf", "is:light", "mis-balance", "mis-power", "onesample",
@@ -243,12 +191,12 @@ def lab_section(out: Path, seed: int, quick: bool, painter: _Painter | None = No
         painter.draw("convergence.png", convergence)     # meanwhile: the table, efficiency.png, the render
     else:
         convergence()
-    top = summary[summary["n"] == max(ns)].merge(eq[["integrand", "n", "estimator", "relative_efficiency"]],
+    top = summary[summary["n"] == max(ns)].merge(eq[["integrand", "n", "estimator", "efficiency_gain"]],
                                                   on=["integrand", "n", "estimator"])
     table = top.merge(slopes[["estimator", "integrand", "slope", "theory"]], on=["estimator", "integrand"])
     worst = flagged.groupby(["estimator", "integrand"], sort=False)["flag"].agg(_worst).reset_index()
     table = table.merge(worst, on=["estimator", "integrand"])      # flagged at any n of the sweep
-    table = table[["integrand", "estimator", "flag", "rmse", "bias", "z_std", "coverage", "relative_efficiency",
+    table = table[["integrand", "estimator", "flag", "rmse", "bias", "z_std", "coverage", "efficiency_gain",
                    "slope", "theory", "reps"]]
     table.to_csv(out / "lab_table.csv", index=False)
     with pd.option_context("display.width", 160, "display.max_columns", 20, "display.max_rows", 200):

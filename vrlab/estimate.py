@@ -58,12 +58,50 @@ class Moments:
             self.merge_stats(other.count, other.mean, other.m2)
         return self
 
+    # -- the statistics protocol (checkpoints, tiles): state, from_state, concat ---------------
+    def state(self) -> dict:
+        """The accumulator as plain arrays ``{"kind", "count", "mean", "m2"}`` (what a
+        checkpoint stores; :meth:`from_state` rebuilds it exactly)."""
+        return {"kind": type(self).__name__, "count": np.asarray(self.count),
+                "mean": np.asarray(self.mean), "m2": np.asarray(self.m2)}
+
+    @classmethod
+    def from_state(cls, state: dict) -> "Moments":
+        """The accumulator of :meth:`state`'s dict (``ValueError`` naming ``state`` if it is not one)."""
+        out = cls()
+        try:
+            out.count = int(np.asarray(state["count"]))
+            out.mean, out.m2 = _array_or_float(state["mean"]), _array_or_float(state["m2"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"state: not the state of a {cls.__name__} ({exc!r})") from None
+        return out
+
+    @classmethod
+    def concat(cls, parts: list, axis: int = 0) -> "Moments":
+        """Accumulators of disjoint *batch elements* (the same units, e.g. blocks of pixels of
+        a tile) joined along batch ``axis``; all must hold the same count."""
+        parts = list(parts)
+        if len(parts) == 1:
+            return parts[0]
+        if len({p.count for p in parts}) != 1:
+            raise ValueError("parts: concat joins batch elements with the same number of units")
+        out = cls()
+        out.count = parts[0].count
+        out.mean = np.concatenate([np.asarray(p.mean) for p in parts], axis=axis)
+        out.m2 = np.concatenate([np.asarray(p.m2) for p in parts], axis=axis)
+        return out
+
     @property
     def variance(self):
         """Unbiased sample variance of one sample (ddof = 1)."""
         if self.count < 2:
             return np.full(np.shape(self.mean), np.nan)
         return self.m2 / (self.count - 1)
+
+
+def _array_or_float(value):
+    a = np.asarray(value, dtype=float)
+    return float(a) if a.ndim == 0 else a
 
 
 @dataclass

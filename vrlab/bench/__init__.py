@@ -22,18 +22,31 @@ def _quick(quick) -> bool:
     return bool(quick)
 
 
-def run(suite: str, quick: bool = False) -> list[dict]:
-    """Rows of timings for ``suite`` in {"sampling", "qmc", "discrete", "estimators"}."""
-    rows: list[dict] = []
+#: the parts of each suite, in order ("sampling" is both races)
+PARTS = {"sampling": ("qmc", "discrete"), "qmc": ("qmc",), "discrete": ("discrete",), "estimators": ("estimators",)}
+
+
+def run(suite: str, quick: bool = False, progress=None) -> list[dict]:
+    """Rows of timings for ``suite`` in {"sampling", "qmc", "discrete", "estimators"}, each with
+    its part in column ``suite`` (one table per part: their columns differ).  ``progress(part,
+    done, total)``, if given, is called before each part starts (done = parts finished) and
+    after the last."""
     suite = checks.choice(suite, "suite", SUITES)
     quick = _quick(quick)
-    if suite == "estimators":
-        from .estimators import bench_estimators
-        return [{"suite": "estimators", **r} for r in bench_estimators(quick=quick)]
-    if suite in ("sampling", "qmc"):
-        from .qmc import bench_qmc
-        rows += [{"suite": "qmc", **r} for r in bench_qmc(quick=quick)]
-    if suite in ("sampling", "discrete"):
-        from .discrete import bench_discrete
-        rows += [{"suite": "discrete", **r} for r in bench_discrete(quick=quick)]
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be callable progress(part, done, total) or None, got {checks.describe(progress)}")
+    parts = PARTS[suite]
+    rows: list[dict] = []
+    for k, part in enumerate(parts):
+        if progress is not None:
+            progress(part, k, len(parts))
+        if part == "estimators":
+            from .estimators import bench_estimators as bench
+        elif part == "qmc":
+            from .qmc import bench_qmc as bench
+        else:
+            from .discrete import bench_discrete as bench
+        rows += [{"suite": part, **r} for r in bench(quick=quick)]
+    if progress is not None:
+        progress(parts[-1], len(parts), len(parts))
     return rows

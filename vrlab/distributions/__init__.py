@@ -35,7 +35,7 @@ __getattr__, __dir__ = lazy_attributes(__name__, {
     **{n: "filters" for n in ("FILTERS", "BoxFilter", "FilterWindow", "GaussianFilter", "ReconstructionFilter",
                               "TentFilter")},
     "Beckmann": "microfacet", "CylinderSurface": "cylinder",
-    **{n: "triangles" for n in ("MeshLightSample", "SphericalTriangle", "TriangleMeshSolidAngle",
-                                "TriangleMeshSurface", "triangle_solid_angle")},
+    **{n: "triangles" for n in ("SphericalTriangle", "triangle_solid_angle")},
+    **{n: "mesh_light" for n in ("MeshLightSample", "TriangleMeshSolidAngle", "TriangleMeshSurface")},
     **{n: "envmap" for n in ("EnvironmentMap", "latlong_direction", "latlong_uv")},
     "BilinearPiecewise2D": "bilinear"}, __all__)

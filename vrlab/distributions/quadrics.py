@@ -20,6 +20,7 @@ import numpy as np
 from .._vec import dot as _dot
 from ._args import _affine4, _matrix3, _positive3, _rotation3, _sizes, _vector3
 from .base import as_points, as_uniforms, positive_float
+from ._sphere_chart import _sphere_from_u
 from .surfaces import FOUR_PI, TWO_PI, Surface, _INTERSECT_DOC, _sphere_to_u, _unit
 
 if TYPE_CHECKING:
@@ -84,14 +85,6 @@ def unit_sphere_hits(o: np.ndarray, d: np.ndarray, t_min) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- shapes
-
-def _sphere_from_u(u: np.ndarray) -> np.ndarray:
-    """Uniform unit-sphere point: z = 1 - 2 u1, phi = 2 pi u2 (Archimedes' hat-box)."""
-    z = 1.0 - 2.0 * u[..., 0]
-    r = np.sqrt(np.clip(1.0 - z * z, 0.0, None))
-    phi = TWO_PI * u[..., 1]
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
-
 
 class EllipsoidSurface(Surface):
     """x = c + M d with d uniform on the unit sphere (measure: area, not uniform).

@@ -17,7 +17,7 @@ from .._vec import dot, norm, scale
 from .base import (ArgumentTypeError, Distribution, as_float, as_points, as_uniforms, check_broadcast, finite_points,
                    positive_float)
 from .frames import Frame
-from .surfaces import TWO_PI, Surface, _sphere_to_u, _unit
+from ._sphere_chart import TWO_PI, _sphere_to_u, _unit   # not .surfaces, which imports this module
 
 
 class LightSample(NamedTuple):
@@ -58,7 +58,7 @@ class SolidAngleFromArea(Distribution):
     dim_x = 3
     measure = "solid angle"
 
-    def __init__(self, surface: Surface, ref: np.ndarray):
+    def __init__(self, surface: "Surface", ref: np.ndarray):  # noqa: F821 (a vrlab.distributions.surfaces.Surface)
         for attr in ("sample", "pdf", "normal", "intersect"):
             if not callable(getattr(surface, attr, None)):
                 raise ArgumentTypeError(f"surface: needs a {attr}() method, got {type(surface).__name__}")

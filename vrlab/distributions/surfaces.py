@@ -46,29 +46,8 @@ from .planar import Disk
 if TYPE_CHECKING:
     from .solid_angle import SolidAngleFromArea
 
-TWO_PI = 2.0 * np.pi
-FOUR_PI = 4.0 * np.pi
-_T_EPS = 1e-9  # hits closer than _T_EPS * (bounding radius) are ignored (self-intersection)
-
-
-# ----------------------------------------------------------------------------- helpers
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    """v / |v| along the last axis, without warnings for zero vectors (they give NaN)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return v / np.linalg.norm(v, axis=-1, keepdims=True)
-
-
-def _finish_hits(t: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Misses to inf, hits sorted ascending along the last axis."""
-    return np.sort(np.where(valid, t, np.inf), axis=-1)
-
-
-def _sphere_to_u(d: np.ndarray) -> np.ndarray:
-    u2 = np.arctan2(d[..., 1], d[..., 0]) / TWO_PI
-    u2 = np.where(u2 < 0, u2 + 1.0, u2)
-    u2 = np.where(u2 >= 1.0, 0.0, u2)
-    return np.stack([(1.0 - d[..., 2]) / 2.0, u2], axis=-1)
+from ._sphere_chart import (FOUR_PI, TWO_PI, _T_EPS, _finish_hits, _sphere_from_u, _sphere_to_u,  # noqa: F401
+                            _unit)
 
 
 def _plane_hit(o: np.ndarray, d: np.ndarray, point: np.ndarray, n: np.ndarray, dual: np.ndarray,

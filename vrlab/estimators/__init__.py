@@ -16,6 +16,10 @@ estimator                technique                                         modul
 ``OneSampleMIS``         one technique per sample (mixture for balance)    ``onesample``
 ``RIS``                  resampled importance sampling, reservoirs         ``ris``
 =======================  ================================================  ====================
+
+``recipes()`` is the one registry of named recipes (:mod:`vrlab.estimators.registry`): the
+lab's estimator names, the renderer's presets and both CLIs read it; ``register_recipe`` adds
+one.  The estimator protocol every estimator follows is documented on :class:`Estimator`.
 """
 from .._lazy import lazy_attributes
 
@@ -27,14 +31,14 @@ _WHERE = {
     "DefensiveMixture": "control", "CRNDifference": "crn", "crn_difference": "crn",
     "MonteCarlo": "importance", "MetropolisHastings": "metropolis", "HEURISTICS": "mis", "MIS": "mis",
     "mis_weights": "mis", "OneSampleMIS": "onesample", "RIS": "ris", "Reservoir": "ris", "RQMC": "rqmc",
-    "Stratified": "stratified",
+    "Stratified": "stratified", "Recipe": "registry", "recipes": "registry", "register_recipe": "registry",
 }
 
 __all__ = [
     "HEURISTICS", "MIS", "OneSampleMIS", "RIS", "Reservoir", "mis_weights",
     "Antithetic", "BiasWarning", "CRNDifference", "ControlVariate", "DefensiveMixture", "Estimator",
     "MetropolisHastings", "MonteCarlo", "RQMC", "Stratified", "crn_difference", "point_engine",
-    "support_probe", "uniform_blocks",
+    "support_probe", "uniform_blocks", "Recipe", "recipes", "register_recipe",
 ]
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from .. import checks
 from .._rng import RNGLike, as_generator
 from ..estimate import Estimate, Moments
-from ..integrands.base import as_integrand
+from ..integrands.lookup import as_integrand
 
 DEFAULT_CHUNK = 1 << 18  # sample units per chunk: bounded memory for any n
 
@@ -94,27 +94,48 @@ STDERR_NOTE = ("stderr uses the i.i.d. formula but the points are not independen
 
 
 def independent_points(points: Any) -> bool:
-    """True when ``points`` gives i.i.d. uniforms (None, "independent", or an Independent engine)."""
-    from ..points import Independent
+    """True when ``points`` gives i.i.d. uniforms: :func:`vrlab.points.names.is_independent`,
+    the one resolver (None, an array, a name or alias of ``independent``, ``Independent``)."""
+    from ..points.names import is_independent
 
-    if points is None or isinstance(points, np.ndarray):
-        return True  # arrays are the caller's uniforms: assumed independent, as documented
-    if isinstance(points, str):
-        return points.lower() in ("independent", "iid", "random")
-    return points is Independent or isinstance(points, Independent)
+    return is_independent(points)
 
 
 class Estimator:
-    """Base class, and the extension hook for a user's own estimator.
+    """Base class, the estimator protocol, and the extension hook for a user's own estimator.
 
-    A subclass sets ``evals_per_unit`` (integrand evaluations per sample unit) and
-    implements ``dim_u(integrand)`` (uniforms per unit) and ``unit_values(integrand, u)``:
-    uniforms ``u (*batch, m, dim_u)`` to ``m`` independent unbiased unit values
-    ``(*batch, m)``.  That is all ``estimate`` and the renderer need (the renderer calls
-    it once per shading point, batched).  Estimators whose estimate is not a mean of unit
-    values (regression control variates) also override ``unit_outputs`` (columns per
-    unit) and ``fold`` (the estimate from a set of columns); estimators that are neither
-    (stratified, RQMC, Metropolis chains) override ``estimate`` only.
+    Everything the lab, the renderer, checkpoints and ``--compare`` ask of an estimator is
+    here, with a default (``docs/design.md``, "The estimator protocol"):
+
+    =========================  ===============================================================
+    ``dim_u(integrand)``       uniforms per sample unit (abstract)
+    ``unit_values(f, u)``      ``u (*batch, m, dim_u)`` -> m independent unbiased unit values
+                               ``(*batch, m)`` (abstract for averaging estimators)
+    ``unit_outputs(f, u)``     columns per unit ``(*batch, m, c)``, column 0 the value
+                               (default: the unit values as one column)
+    ``accumulate(outputs)``    mergeable statistics of m units (default :class:`Moments` of
+                               column 0); statistics have ``count``, ``merge``, ``state()``,
+                               ``from_state``, ``concat``
+    ``summarize(stats)``       ``(estimate, standard error)`` (default: mean, sqrt(s^2 / m))
+    ``details(stats)``         extra fields of an ``Estimate`` (per-unit ``variance``, fitted
+                               coefficients...)
+    ``statistics_from_state``  the statistics of a saved ``state()`` (checkpoints)
+    ``evals_per_unit``         integrand evaluations per unit: the cost ``n`` counts
+    ``traced_per_unit()``      evaluations the renderer traces a ray for (default
+                               ``evals_per_unit``)
+    ``candidates_per_unit``    cheap candidate evaluations per unit without a ray (RIS's m)
+    ``closed_form_per_unit``   True when each unit also evaluates a closed-form control
+    ``min_units``              units one fold needs (a pixel's spp at least this)
+    ``per_unit``               True when the estimate is the fold of independent units, so
+                               it can run one unit at a time (the renderer's shading points)
+    =========================  ===============================================================
+
+    ``estimate`` goes through ``unit_outputs`` -> ``accumulate`` -> ``merge`` ->
+    ``summarize``, the same code the renderer runs per pixel.  Estimators that are not a fold
+    of independent units (stratified, RQMC, Metropolis chains, pairs of integrands) set
+    ``per_unit = False`` and override ``estimate``.  Settings are keyword arguments of
+    ``__init__`` stored under their own names (``get_params``/``clone``, as scikit-learn);
+    :func:`vrlab.testing.check_estimator` checks a new estimator against this protocol.
 
     Distributions may be given by name (``"light"``): the integrand's technique of that
     name (:meth:`vrlab.Integrand.technique`), resolved at every call.
@@ -125,12 +146,25 @@ class Estimator:
     #: run one unit at a time (the renderer does, at each shading point); False for
     #: estimators that need the whole sample set (strata, replicates, chains, pairs of integrands)
     per_unit: bool = True
+    #: sample units one fold needs (fitted coefficients need more than one)
+    min_units: int = 1
+    #: cheap evaluations per unit that trace no ray (RIS candidates against an unshadowed target)
+    candidates_per_unit: int = 0
+    #: True when a unit also evaluates a closed-form control integral (the renderer's cost model)
+    closed_form_per_unit: bool = False
 
     # -- scikit-learn style settings ----------------------------------------------------
     def get_params(self) -> dict:
         """The constructor settings, by name."""
         sig = inspect.signature(type(self).__init__)
-        return {k: getattr(self, k) for k in sig.parameters if k != "self" and hasattr(self, k)}
+        return {k: getattr(self, k) for k in sig.parameters
+                if k != "self" and sig.parameters[k].kind not in (inspect.Parameter.VAR_POSITIONAL,
+                                                                  inspect.Parameter.VAR_KEYWORD)
+                and hasattr(self, k)}
+
+    def clone(self) -> "Estimator":
+        """A new estimator of the same class with the same settings (``type(self)(**get_params())``)."""
+        return type(self)(**self.get_params())
 
     def __repr__(self) -> str:
         params = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
@@ -155,8 +189,14 @@ class Estimator:
         unit holds several samples of different techniques, as in MIS)."""
         return int(self.dim_u(integrand))
 
+    def traced_per_unit(self) -> int:
+        """Integrand evaluations per unit that the renderer traces a shadow ray for
+        (default ``evals_per_unit``; a one-sample mixture traces one direction but weighs it
+        with every technique)."""
+        return int(self.evals_per_unit)
+
     def unit_outputs(self, integrand, u: np.ndarray) -> np.ndarray:
-        """What :meth:`fold` combines, per unit: ``(*batch, m, c)``, column 0 the unit's
+        """What :meth:`accumulate` combines, per unit: ``(*batch, m, c)``, column 0 the unit's
         value (terms common to every technique, like a pixel's emitted light, are added
         there).  Default: the unit values as one column."""
         return self.unit_values(integrand, u)[..., None]
@@ -173,6 +213,15 @@ class Estimator:
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.asarray(stats.mean), np.sqrt(stats.variance / stats.count)
 
+    def details(self, stats) -> dict:
+        """Extra fields of the ``Estimate`` from the statistics: ``"variance"`` (per unit,
+        so stderr^2 = variance / n) and anything technique-specific (``Estimate.extra``)."""
+        return {"variance": stats.variance}
+
+    def statistics_from_state(self, state: dict):
+        """The statistics object of :meth:`accumulate` saved as ``stats.state()`` (checkpoints)."""
+        return Moments.from_state(state)
+
     def fold(self, outputs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(estimate, standard error)`` from the unit outputs ``(*batch, m, c)`` of m units."""
         return self.summarize(self.accumulate(outputs))
@@ -180,9 +229,10 @@ class Estimator:
     def units_for(self, n: int) -> int:
         n = check_n(n)
         m = n // self.evals_per_unit
-        if m < 2:
-            raise ValueError(f"n: {type(self).__name__} needs n >= {2 * self.evals_per_unit} evaluations "
-                             f"(2 sample units) for a standard error, got {n}")
+        need = max(2, int(self.min_units))
+        if m < need:
+            raise ValueError(f"n: {self.label} needs n >= {need * self.evals_per_unit} evaluations "
+                             f"({need} sample units) for a standard error, got {n}")
         return m
 
     def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
@@ -191,18 +241,37 @@ class Estimator:
 
         ``points``: the uniforms' point set (class, name or engine; default
         independent) or an array of uniforms ``(*batch, m, d)``; ``rng`` seeds it.
+        The units' outputs go through :meth:`accumulate`, merged chunk after chunk, and
+        :meth:`summarize`: the code the renderer runs per pixel.
         """
         integrand, chunk = as_integrand(integrand), check_chunk(chunk)
         self.check(integrand)
         m = self.units_for(n)
         gen = as_generator(rng) if not isinstance(rng, np.random.Generator) else rng
         t0 = time.perf_counter()
-        mom = Moments()
+        stats = None
         for u in uniform_blocks(points, self.dim_u(integrand), m, gen, chunk):
-            mom.add(self.unit_values(integrand, u))
-        extra = {} if independent_points(points) else {"stderr_note": STDERR_NOTE}
-        return Estimate.from_moments(mom, mom.count * self.evals_per_unit, time.perf_counter() - t0, self.label,
-                                     **extra)
+            block = self.accumulate(self.unit_outputs(integrand, u))
+            stats = block if stats is None else stats.merge(block)
+        return self.to_estimate(stats, time.perf_counter() - t0, points)
+
+    def to_estimate(self, stats, seconds: float = 0.0, points: Any = None) -> Estimate:
+        """The :class:`~vrlab.estimate.Estimate` of merged statistics (``summarize`` + ``details``)."""
+        value, stderr = self.summarize(stats)
+        extra = dict(self.details(stats))
+        variance = extra.pop("variance", None)
+        if variance is None:
+            variance = np.asarray(stderr, float) ** 2 * stats.count
+        if not independent_points(points):
+            extra["stderr_note"] = STDERR_NOTE
+        return Estimate(_plain(value), _plain(stderr), int(stats.count), int(stats.count) * self.evals_per_unit,
+                        seconds, _plain(variance), self.label, extra)
+
+
+def _plain(a):
+    """A float for a 0-d result, else a float array (``Estimate``'s convention)."""
+    a = np.asarray(a, dtype=float)
+    return float(a) if a.ndim == 0 else a
 
 
 def ratio(num: Any, den: Any) -> np.ndarray:
@@ -255,7 +324,26 @@ def resolve_distribution(distribution, integrand, name: str = "distribution"):
     for attr in ("dim_u", "sample", "pdf"):
         if not hasattr(dist, attr):
             raise TypeError(f"distribution: {dist!r} has no {attr!r} (needs dim_u, sample, pdf)")
+    check_dimension(dist, integrand, name)
     return dist
+
+
+def check_dimension(dist, integrand, name: str = "distribution") -> None:
+    """``ValueError`` naming ``name`` when ``dist`` produces points of another dimension than
+    the integrand's domain (``dist.dim_x``, or the last axis of one sample when it has none)."""
+    want = getattr(integrand, "dim", None)
+    if want is None:
+        return
+    got = getattr(dist, "dim_x", None)
+    if got is None:
+        try:
+            got = np.shape(dist.sample(np.full((1, int(dist.dim_u)), 0.5)))[-1]
+        except Exception:           # a sampler that cannot run on one point: leave it to the estimate
+            return
+    if int(got) != int(want):
+        raise ValueError(f"{name}: {type(dist).__name__} produces {got}-dimensional points but integrand "
+                         f"{getattr(integrand, 'name', '')!r} is {want}-dimensional; use a distribution on the "
+                         "integrand's domain")
 
 
 def support_probe(integrand, distributions, n: int = 4096, label: str = "distribution") -> None:

@@ -35,17 +35,13 @@ best single component, and the defensive component bounds f/q by f / (c_0 p_0).
 """
 from __future__ import annotations
 
-import time
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from .. import checks
-from .._rng import RNGLike, as_generator
-from ..estimate import Estimate
 from ..integrands.base import checked_values
-from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_technique, ratio,
-                   resolve_distribution, support_probe, uniform_blocks)
+from .base import Estimator, check_technique, ratio, resolve_distribution, support_probe
 from .importance import MonteCarlo
 from .regression import CoMoments, regression_estimate  # noqa: F401  (CoMoments: public here too)
 
@@ -91,8 +87,13 @@ class _Regression(Estimator):
         a = self._alpha()
         if not isinstance(a, str) or outputs.shape[-1] == 1:
             if outputs.shape[-1] > 1:
-                outputs = (outputs[..., 0] - np.sum(np.atleast_1d(np.asarray(a, float))[..., None, :]
-                                                    * outputs[..., 1:], -1))[..., None]
+                want = outputs.shape[:-2] + (outputs.shape[-1] - 1,)
+                try:
+                    a = np.broadcast_to(np.asarray(a, float), want)
+                except ValueError:
+                    raise ValueError(f"alpha: shape {np.shape(a)} does not broadcast to the estimate's "
+                                     f"(*batch, K) = {want}") from None
+                outputs = (outputs[..., 0] - np.sum(a[..., None, :] * outputs[..., 1:], -1))[..., None]
             return super().accumulate(outputs)
         return CoMoments().add(outputs)
 
@@ -116,28 +117,34 @@ class _Regression(Estimator):
             return cols[..., 0]
         return cols[..., 0] - np.sum(np.atleast_1d(np.asarray(a, float))[..., None, :] * cols[..., 1:], -1)
 
-    def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
-                 chunk: int = DEFAULT_CHUNK) -> Estimate:
-        """Estimate the integral with ``n`` evaluations of f (controls are not counted)."""
-        integrand, chunk = as_integrand(integrand), check_chunk(chunk)
-        self.check(integrand)
-        m = self.units_for(n)
+    def units_for(self, n: int) -> int:
+        """Sample units for ``n`` evaluations of f (controls are not counted): at least K + 2
+        with K fitted coefficients."""
+        m = super().units_for(n)
         if m < self._min_units():
             raise ValueError(f"n: {self.label} with {self._n_controls()} fitted control(s) needs "
                              f"n >= {self._min_units()} evaluations, got {n}")
-        gen = as_generator(rng)
-        t0 = time.perf_counter()
-        mom = CoMoments()
-        for u in uniform_blocks(points, self.dim_u(integrand), m, gen, chunk):
-            mom.add(self._columns(integrand, u))
-        r = regression_estimate(mom, 0.0, self._alpha())
-        alpha = r["alpha"]
-        if getattr(self, "_single", False):
-            alpha = alpha[..., 0]
-        return Estimate(_scalar(r["value"]), _scalar(r["stderr"]), mom.count, mom.count, time.perf_counter() - t0,
-                        _scalar(r["variance"]), self.label,
-                        {"alpha": _scalar(alpha), "variance_factor": _scalar(r["variance_factor"]),
-                         "plain_variance": _scalar(r["plain_variance"])})
+        return m
+
+    def details(self, stats) -> dict:
+        """``variance`` (residual, per unit), the fitted or fixed ``alpha`` and, with
+        co-moments, the ``variance_factor`` against plain sampling and its ``plain_variance``."""
+        if not isinstance(stats, CoMoments):
+            out = super().details(stats)
+            if self._n_controls():
+                out["alpha"] = _scalar(self.alpha)
+            return out
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = regression_estimate(stats, 0.0, self._alpha())
+        alpha = r["alpha"][..., 0] if getattr(self, "_single", False) else r["alpha"]
+        return {"variance": r["variance"], "alpha": _scalar(alpha), "variance_factor": _scalar(r["variance_factor"]),
+                "plain_variance": _scalar(r["plain_variance"])}
+
+    def statistics_from_state(self, state: dict):
+        """:class:`CoMoments` (fitted coefficients) or ``Moments`` (fixed ones), by the state's kind."""
+        if state.get("kind") == "CoMoments":
+            return CoMoments.from_state(state)
+        return super().statistics_from_state(state)
 
 
 class ControlVariate(_Regression):
@@ -159,6 +166,8 @@ class ControlVariate(_Regression):
 
     ``n`` counts evaluations of f (each also evaluates the controls, assumed cheap).
     """
+
+    closed_form_per_unit = True     # the renderer's named controls are closed forms per shading point
 
     def __init__(self, control: Callable | str | Sequence[Callable | str], control_integral: Any = None,
                  alpha: Any = "optimal", distribution=None, *, probe: bool = True):
@@ -243,8 +252,25 @@ class ControlVariate(_Regression):
         dist = resolve_distribution(self.distribution, integrand)
         x = dist.sample(u)
         p = np.asarray(dist.pdf(x), dtype=float)
-        cols = [ratio(integrand(x), p)] + [ratio(checked_values(h(x), x, f"control[{j}]"), p) - np.asarray(t)[..., None]
-                                            for j, (h, t) in enumerate(self.controls_for(integrand))]
+        y = ratio(integrand(x), p)
+        cols = [y]
+        for j, (h, t) in enumerate(self.controls_for(integrand)):
+            hv = ratio(checked_values(h(x), x, f"control[{j}]"), p)
+            t = np.asarray(t)
+            try:
+                batch = np.broadcast_shapes(y.shape, hv.shape)[:-1]     # the estimate's batch shape
+            except ValueError:
+                raise ValueError(f"control[{j}]: values of shape {hv.shape} do not broadcast with the integrand's "
+                                 f"{y.shape}") from None
+            try:
+                fits = np.broadcast_shapes(t.shape, batch) == batch
+            except ValueError:
+                fits = False
+            if not fits:
+                name = "control_integral" if self._single else f"control_integral[{j}]"
+                raise ValueError(f"{name}: shape {t.shape} does not fit the estimate's batch shape {batch} (the "
+                                 "integrand's and control's leading axes); give one value, or one per batch element")
+            cols.append(hv - t[..., None])
         return np.stack(np.broadcast_arrays(*cols), -1)
 
 

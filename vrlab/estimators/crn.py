@@ -61,9 +61,11 @@ class CRNDifference(Estimator):
         if estimator is not None:
             if not isinstance(estimator, Estimator):
                 raise TypeError(f"estimator: expected a vrlab Estimator, got {type(estimator).__name__}")
-            if type(estimator).estimate is not Estimator.estimate:
+            if (not estimator.per_unit or int(estimator.min_units) > 1
+                    or type(estimator).unit_values is Estimator.unit_values):
                 raise TypeError(f"estimator: {type(estimator).__name__} is not an average of i.i.d. unit values "
-                                "(it overrides estimate); use MonteCarlo, Antithetic or another unit-value estimator")
+                                "(per_unit, unit_values, min_units 1 in the estimator protocol); use MonteCarlo, "
+                                "Antithetic or another unit-value estimator")
         if not isinstance(common, (bool, np.bool_)):
             raise TypeError(f"common: expected a bool, got {common!r}")
         self.estimator = estimator

@@ -137,9 +137,9 @@ def _check_distributions(distributions: Any) -> list:
 
 def resolve_all(distributions: list, integrand) -> list:
     """The distributions, with technique names replaced by the integrand's techniques."""
-    if not any(isinstance(d, str) for d in distributions):
-        return distributions
     if integrand is None:
+        if not any(isinstance(d, str) for d in distributions):
+            return distributions
         raise ValueError("distributions: technique names are resolved per integrand; pass the integrand")
     return [resolve_distribution(d, integrand, f"distributions[{i}]") for i, d in enumerate(distributions)]
 

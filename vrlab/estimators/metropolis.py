@@ -203,7 +203,18 @@ class MetropolisHastings(Estimator):
     def _start(self, x0, first: np.ndarray | None, n_chains: int) -> np.ndarray:
         if x0 is None:
             return self._lo + self._width * first[:, : self.k]
-        x = np.array(np.broadcast_to(np.asarray(x0, float), (n_chains, self.k)))
+        try:
+            arr = np.asarray(x0, dtype=float)
+        except (TypeError, ValueError):
+            raise TypeError(f"x0: expected starting points, numbers of shape ({self.k},) or ({n_chains}, {self.k}), "
+                            f"got {type(x0).__name__}") from None
+        try:
+            x = np.array(np.broadcast_to(arr, (n_chains, self.k)))
+        except ValueError:
+            raise ValueError(f"x0: shape {arr.shape} does not fit {n_chains} chains in {self.k} dimensions; give "
+                             f"({self.k},) (one point for every chain) or ({n_chains}, {self.k})") from None
+        if not np.all(np.isfinite(x)):
+            raise ValueError("x0: starting points must be finite (got NaN or inf)")
         if np.any(x < self._lo) or np.any(x > self._hi):
             raise ValueError("x0: starting points must lie in the domain")
         return x

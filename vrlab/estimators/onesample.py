@@ -53,6 +53,11 @@ class OneSampleMIS(Estimator):
 
         return Mixture(resolve_all(self.distributions, integrand), self.probabilities)
 
+    def traced_per_unit(self) -> int:
+        """One direction per unit, weighed by every technique with a non-zero probability: the
+        renderer evaluates (traces) it once per such technique."""
+        return int(np.count_nonzero(self.probabilities))
+
     @property
     def label(self) -> str:
         name = self.heuristic if isinstance(self.heuristic, str) else getattr(self.heuristic, "__name__", "custom")

@@ -61,6 +61,38 @@ class CoMoments:
         self.count = n
         return self
 
+    # -- the statistics protocol (checkpoints, tiles), as ``vrlab.estimate.Moments`` ----------
+    def state(self) -> dict:
+        """``{"kind", "count", "mean", "comoment"}`` as plain arrays (see :meth:`from_state`)."""
+        return {"kind": type(self).__name__, "count": np.asarray(self.count),
+                "mean": np.asarray(self.mean), "comoment": np.asarray(self.comoment)}
+
+    @classmethod
+    def from_state(cls, state: dict) -> "CoMoments":
+        """The accumulator of :meth:`state`'s dict (``ValueError`` naming ``state`` if it is not one)."""
+        out = cls()
+        try:
+            out.count = int(np.asarray(state["count"]))
+            out.mean = np.asarray(state["mean"], dtype=float)
+            out.comoment = np.asarray(state["comoment"], dtype=float)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"state: not the state of a {cls.__name__} ({exc!r})") from None
+        return out
+
+    @classmethod
+    def concat(cls, parts: list, axis: int = 0) -> "CoMoments":
+        """Co-moments of disjoint batch elements with the same units joined along batch ``axis``."""
+        parts = list(parts)
+        if len(parts) == 1:
+            return parts[0]
+        if len({p.count for p in parts}) != 1:
+            raise ValueError("parts: concat joins batch elements with the same number of units")
+        out = cls()
+        out.count = parts[0].count
+        out.mean = np.concatenate([p.mean for p in parts], axis=axis)
+        out.comoment = np.concatenate([p.comoment for p in parts], axis=axis)
+        return out
+
     def second(self) -> np.ndarray:
         """Sum over units of v v^T (uncentred)."""
         return self.comoment + self.count * self.mean[..., :, None] * self.mean[..., None, :]

@@ -113,6 +113,24 @@ class Reservoir:
                             np.asarray(t_other)[..., None], np.asarray(other.M)[..., None])
 
 
+#: the target name meaning |f| of the integrand at hand (a recipe's RIS stays picklable)
+ABS_TARGET = "|f|"
+
+
+class _AbsValue:
+    """p̂(x) = |f(x)| for an integrand f, summed over a batched integrand's batch axes (one
+    target shared by every batch element, positive wherever one of them is not zero); a
+    module-level class, picklable with its integrand."""
+
+    def __init__(self, integrand):
+        self.integrand = integrand
+
+    def __call__(self, x):
+        v = np.abs(self.integrand(x))
+        extra = v.ndim - (np.ndim(x) - 1)
+        return v.sum(axis=tuple(range(extra))) if extra > 0 else v
+
+
 class RIS(Estimator):
     """Resampled importance sampling with ``m`` candidates from ``source`` per output sample,
     resampled towards the unnormalised ``target`` p̂ (callable, points (..., k) -> (...)).
@@ -144,6 +162,11 @@ class RIS(Estimator):
         self.probe = checks.flag(probe, "probe")
 
     @property
+    def candidates_per_unit(self) -> int:  # type: ignore[override]
+        """The m candidates of a unit: target evaluations that trace no ray."""
+        return self.m
+
+    @property
     def label(self) -> str:
         return f"RIS[m={self.m}]"
 
@@ -153,13 +176,16 @@ class RIS(Estimator):
             if integrand is None:
                 raise ValueError("source: a technique name is resolved per integrand; pass the integrand")
             return resolve_distribution(self.source, integrand, "source")
-        return self.source
+        return self.source if integrand is None else resolve_distribution(self.source, integrand, "source")
 
     def target_for(self, integrand=None):
-        """The target p̂ (a target name resolved for ``integrand``)."""
+        """The target p̂ (a target name resolved for ``integrand``; ``"|f|"``, unless the
+        integrand names a target so, is |f| itself: Talbot et al.'s ideal unshadowed target)."""
         if isinstance(self.target, str):
             if integrand is None:
                 raise ValueError("target: a target name is resolved per integrand; pass the integrand")
+            if self.target == ABS_TARGET and ABS_TARGET not in getattr(integrand, "targets", {}):
+                return _AbsValue(integrand)
             return integrand.target(self.target, "target")
         return self.target
 

@@ -13,6 +13,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.ticker import MaxNLocator
 
+from vrlab.metrics import rel_mse
+
 from ._figures import EXPOSURE_NOTE, exposure_of, show_image, show_map
 
 COLOURS = {"cosine": "C0", "light": "C1", "mixture": "C2", "mis-power": "C3"}     # render strategies
@@ -99,7 +101,7 @@ def renders_figure(images: dict, reference: np.ndarray, table: pd.DataFrame):
     im = None
     for j, (s, img) in enumerate(images.items(), start=1):
         show_image(axes[0, j], img, exposure, f"{s}, {int(t.loc[s, 'spp'])} spp\nrelMSE = {t.loc[s, 'rel_mse']:.3g}")
-        err = np.mean((img - reference) ** 2 / (reference**2 + 0.01), -1)   # per-pixel relative MSE
+        err = rel_mse(img, reference, axis=-1)                             # per-pixel relative MSE
         im = axes[1, j].imshow(np.log10(err + 1e-6), vmin=-4, vmax=0, cmap="viridis", interpolation="nearest")
         axes[1, j].set_title(f"{s}: per-pixel error", fontsize=9)
         axes[1, j].set_xticks([])

@@ -37,7 +37,7 @@ import pandas as pd
 from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 from vrlab.render import (PixelIntegrand, builtin_scene_path, list_builtin_scenes, list_mitsuba_references,
                           load_scene, mitsuba_reference, render, render_gradient_domain, screened_poisson)
-from vrlab.render.image import rel_mse
+from vrlab.metrics import rel_mse, relative_squared_error
 
 from . import _gradient_domain_figures as figs
 
@@ -67,7 +67,7 @@ def reference(name: str, scene, spp: int, seed: int) -> tuple[np.ndarray, np.nda
 
 def rel_se(img: np.ndarray, ref: np.ndarray) -> np.ndarray:
     """Per-pixel relative squared error (mean over RGB); its mean is ``rel_mse``."""
-    return np.mean((img - ref) ** 2 / (ref * ref + 0.01), axis=-1)
+    return rel_mse(img, ref, axis=-1)
 
 
 def all_pixels(h: int, w: int) -> np.ndarray:
@@ -149,7 +149,7 @@ def relmse_study(names: list[str], spp: int, reps: int, groups: tuple[int, ...],
         t_grad, t_plain = min(g.primal.seconds for g in grads), min(t_plains)
         spp_eq = max(1, int(round(spp * t_grad / t_plain)))
         plains = [render(scene, spp_eq, rng=[seed, i, 200 + k]) for k in range(reps)]
-        info.append({"scene": name, "reference": source, "ref_noise_relmse": float(np.mean(ref_se**2 / (ref**2 + 0.01))),
+        info.append({"scene": name, "reference": source, "ref_noise_relmse": float(np.mean(relative_squared_error(ref_se**2, ref))),
                      "seconds_gradient": t_grad, "seconds_plain": t_plain, "time_ratio": t_grad / t_plain,
                      "seconds_plain_equal_time": min(p.seconds for p in plains)})
         for m in groups:

@@ -29,6 +29,7 @@ from vrlab.lab.experiment import save_figure
 from vrlab.render import PixelIntegrand, builtin_scene_path, load_scene
 from vrlab.render.direct import DirectLighting
 from vrlab.render.image import auto_exposure, srgb_encode
+from vrlab.metrics import relative_squared_error
 
 #: one colour per method, in every figure of vrlab.experiments.mis (toy and plates)
 COLORS = {"BSDF only": "tab:blue", "light only": "tab:orange", "MIS balance": "tab:green",
@@ -102,7 +103,7 @@ def study(size: tuple[int, int], spp: int, seed: int = 5) -> tuple[pd.DataFrame,
             row = {"region": region_name(i, j, short=True), "plate": i + 1, "alpha": a,
                    "light": LETTERS[j], "radius": r, "pixels": int(m.sum()), "spp": spp}
             for name in METHODS:
-                row[f"relmse {name}"] = float(np.mean(var[name][m] / spp / (ref[m] ** 2 + 0.01)))
+                row[f"relmse {name}"] = float(np.mean(relative_squared_error(var[name][m] / spp, ref[m])))
             # a relMSE of exactly 0: the technique never reached a light in the region (unmeasured)
             single = {s: row[f"relmse {s}"] for s in SINGLE if row[f"relmse {s}"] > 0}
             row["best single"] = min(single, key=single.get) if single else ""

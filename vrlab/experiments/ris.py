@@ -41,12 +41,13 @@ from vrlab.integrands import catalogue, mc_variance
 from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 from vrlab.render import builtin_scene_path, load_scene, render
 from vrlab.render.direct import DirectLighting
+from vrlab.metrics import REL_MSE_EPS, rel_mse, relative_squared_error
 
 from ._figures import EXPOSURE_NOTE, exposure_of, show_image
 
 DEFAULT_OUT = Path("vrlab-out") / "ris"          # relative to the working folder
 MS = (1, 2, 4, 8, 16, 32, 64)
-EPS = 1e-2                      # relMSE = (x - ref)^2 / (ref^2 + EPS)
+EPS = REL_MSE_EPS               # relMSE = (x - ref)^2 / (ref^2 + EPS): vrlab.metrics
 F_COST = 10.0                   # cost model: one f evaluation (a shadow ray) = 10 candidates
 REF_M = 16                      # candidates of the many-lights reference (power-drawn)
 
@@ -242,11 +243,7 @@ def light_free_mask(scene, sub: int = 6) -> np.ndarray:
 def relmse(img: np.ndarray, ref: np.ndarray, ref_err: np.ndarray | None = None, mask=None) -> float:
     """Mean over (masked) pixels and channels of (img - ref)^2 / (ref^2 + EPS); with ``ref_err``
     the reference's own variance (ref_err^2, independent noise) is subtracted."""
-    d2 = (img.astype(float) - ref) ** 2
-    if ref_err is not None:
-        d2 = d2 - ref_err.astype(float) ** 2
-    r = d2 / (ref.astype(float) ** 2 + EPS)
-    return float(np.mean(r if mask is None else r[mask]))
+    return rel_mse(img, ref, ref_err=ref_err, mask=mask)
 
 
 def many_lights(size, spp: int, ref_spp: int, ms, seed: int = 7, power_candidates: bool = True
@@ -267,7 +264,7 @@ def many_lights(size, spp: int, ref_spp: int, ms, seed: int = 7, power_candidate
         sec = time.perf_counter() - t0
         images[label] = img
         rel = relmse(img, ref, ref_err, mask)
-        pred = float(np.mean((err.astype(float) ** 2 / (ref ** 2 + EPS))[mask]))   # unbiased: MSE = Var
+        pred = float(np.mean(relative_squared_error(err.astype(float) ** 2, ref)[mask]))   # unbiased: MSE = Var
         rows.append({"method": label, "strategy": strategy, "light_selection": sel,
                      "M": m if strategy == "ris" else np.nan, "spp": spp, "seconds": sec,
                      "relmse": rel, "relmse_from_stderr": pred, "relmse_x_seconds": rel * sec,
@@ -276,7 +273,7 @@ def many_lights(size, spp: int, ref_spp: int, ms, seed: int = 7, power_candidate
     t["pixels"] = int(mask.sum())
     t["lights"] = sum(s.emitter is not None for s in scene.shapes)
     t.attrs.update(ref_spp=ref_spp, ref_seconds=ref_sec, ref_relmse_from_stderr=float(
-        np.mean((ref_err ** 2 / (ref ** 2 + EPS))[mask])))
+        np.mean(relative_squared_error(ref_err ** 2, ref)[mask])))
     return t, images, ref
 
 

@@ -11,8 +11,8 @@ The contract is checked at every call (``Integrand.__call__``, which every estim
 uses): ``f`` must return real values of shape ``x.shape[:-1]`` (optionally with leading
 batch axes), all finite.  A wrong shape (``(n, 1)`` for ``(n,)``, one scalar for n
 points) or a NaN/inf raises ``ValueError`` naming the integrand and the first bad point.
-Subclasses change ``f``, not ``__call__``.  :func:`as_integrand` is what estimators
-accept: an ``Integrand`` or a catalogue name.
+Subclasses change ``f``, not ``__call__``.  :func:`vrlab.integrands.lookup.as_integrand` is what
+estimators accept: an ``Integrand`` or a catalogue name.
 """
 from __future__ import annotations
 
@@ -164,18 +164,3 @@ def checked_values(values: Any, x: np.ndarray, who: str) -> np.ndarray:
         raise ValueError(f"{who}: returned {out[idx]} at x = {np.round(xi, 6).tolist()} "
                          f"({int(bad.sum())} non-finite value(s)); values must be finite")
     return out
-
-
-def as_integrand(integrand: Any, name: str = "integrand") -> Integrand:
-    """``integrand`` if it is an :class:`Integrand`; a catalogue name gives that catalogue
-    integrand; anything else is a ``TypeError`` that says how to wrap a function."""
-    if isinstance(integrand, Integrand):
-        return integrand
-    if isinstance(integrand, str):
-        from .catalogue import CATALOGUE, get
-
-        if integrand not in CATALOGUE:
-            raise ValueError(f"{name}: unknown catalogue integrand {integrand!r}; choose from {', '.join(CATALOGUE)}")
-        return get(integrand)
-    hint = (" (wrap a function with its domain: vrlab.Integrand(f, [(0, 1)]))" if callable(integrand) else "")
-    raise TypeError(f"{name}: expected a vrlab.Integrand or a catalogue name, got {type(integrand).__name__}{hint}")

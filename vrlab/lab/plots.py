@@ -283,9 +283,9 @@ def efficiency_figure(df: pd.DataFrame, *, n: int | None = None, reference: str 
     for ax, name in zip(axes, integrands):
         part = t[t["integrand"] == name]
         at = part["n"].max() if n is None else n
-        part = part[(part["n"] == at) & np.isfinite(part["relative_efficiency"])
-                    & (part["relative_efficiency"] > 0)].iloc[::-1]
-        ax.barh(part["estimator"], part["relative_efficiency"], color=[styles[e][0] for e in part["estimator"]])
+        part = part[(part["n"] == at) & np.isfinite(part["efficiency_gain"])
+                    & (part["efficiency_gain"] > 0)].iloc[::-1]
+        ax.barh(part["estimator"], part["efficiency_gain"], color=[styles[e][0] for e in part["estimator"]])
         ax.axvline(1.0, color="0.4", lw=0.8, ls=":")
         ax.set_xscale("log")
         _log_ticks(ax.xaxis, *ax.get_xlim())

@@ -27,48 +27,31 @@ or infinite stops the run with a ``ValueError`` naming the estimator and integra
 """
 from __future__ import annotations
 
-import copy
-import functools
 import numbers
-import pickle
 import zlib
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from .. import checks
-from .._rng import unit_seed
-from ..execution import MAX_WORKERS, check_executor, run_units
+from .. import checks, limits
+from .._rng import unit_seed  # noqa: F401  (re-exported: tests, notebooks)
+from ..execution import MAX_WORKERS, check_executor, check_picklable, parallelism, run_units
 from . import registry
 from ._args import flag, lab_integrand
 from .progress import ProgressBar
+from .units import CORE_COLUMNS, _instantiate, _Job, _meta, _points_name, _run_block  # noqa: F401
 from .store import ResultStore, describe_estimator, describe_integrand, store_path
 
 #: Largest sample count per estimate and repetitions of one ``run`` (worker processes:
 #: ``vrlab.execution.MAX_WORKERS``).
-MAX_N = 2**30
-MAX_REPS = 10**6
+MAX_N = limits.MAX_N          # vrlab.limits, shared with the CLI
+MAX_REPS = limits.MAX_REPS
 #: A work unit holds repetitions of one (estimator, integrand, n) up to about this many
 #: evaluations, so that large-n sweeps balance over workers and resume unit by unit.
 UNIT_SAMPLES = 2**22
 
-CORE_COLUMNS = ["estimator", "integrand", "n", "rep", "value", "stderr", "exact", "error", "seconds",
-                "n_evals", "n_units", "points", "class", "dim_u", "smooth"]
-
-
-@dataclass
-class _Job:
-    """One (estimator, integrand) pair: specs to rebuild it in a worker, objects to run it here."""
-
-    label: str
-    est_spec: Any      # recipe name (str) or (estimator, points)
-    int_spec: Any      # catalogue name (str) or Integrand
-    estimator: Any
-    points: Any
-    integrand: Any
 
 
 # -- inputs -------------------------------------------------------------------------------------
@@ -113,12 +96,6 @@ def _estimator_specs(estimators) -> list[tuple[str, Any]]:
     return out
 
 
-def _instantiate(est_spec, integrand):
-    if isinstance(est_spec, str):
-        return registry.build(est_spec, integrand)
-    return est_spec
-
-
 def _root(rng) -> np.random.SeedSequence:
     if isinstance(rng, np.random.SeedSequence):
         return rng
@@ -133,74 +110,6 @@ def _root(rng) -> np.random.SeedSequence:
 def stable_index(text: str) -> int:
     """A stable spawn-key index for a label or name: CRC-32 of its UTF-8 bytes."""
     return zlib.crc32(str(text).encode("utf-8"))
-
-
-# -- the work ------------------------------------------------------------------------------------
-def _unit_points(points, seed: np.random.SeedSequence):
-    """The points of one unit: a randomised vrlab point set is re-randomised from the unit's
-    seed (same class and settings: ``replicate``), so repetitions are independent and the
-    numbers reproducible; any other engine instance is copied as it is (a deterministic set,
-    or a SciPy engine, whose randomisation is fixed by the seed it was built with)."""
-    from ..points import PointSet
-
-    if isinstance(points, PointSet) and points.randomized:
-        return points.replicate(1, rng=seed.spawn(1)[0])[0]
-    return copy.deepcopy(points) if hasattr(points, "random") else points
-
-
-def _one(estimator, integrand, points, n: int, seed: np.random.SeedSequence, chunk: int | None,
-         label: str = "?"):
-    pts = _unit_points(points, seed)
-    kw = {} if chunk is None else {"chunk": chunk}
-    try:
-        est = estimator.estimate(integrand, n, rng=np.random.default_rng(seed), points=pts, **kw)
-    except (TypeError, ValueError) as exc:     # say which unit failed, keep the kind of error
-        kind = TypeError if isinstance(exc, TypeError) else ValueError
-        raise kind(f"estimators: {label!r} on integrand {integrand.name!r} at n = {n}: {exc}") from exc
-    value, stderr = est.value, est.stderr
-    if np.ndim(value) != 0:
-        raise ValueError(f"integrands: the lab runs scalar integrals; {integrand.name!r} gave a value of shape "
-                         f"{np.shape(value)}")
-    if not np.isfinite(value):
-        raise ValueError(f"estimators: {label!r} on integrand {integrand.name!r} at n = {n} gave the non-finite "
-                         f"estimate {float(value)}")
-    return float(value), float(stderr), float(est.seconds), int(est.n_evals), int(est.n)
-
-
-def _build(est_spec, int_spec) -> tuple:
-    """(estimator, points, integrand) built from a recipe and an integrand spec."""
-    integrand = _integrand(int_spec)
-    return (*_instantiate(est_spec, integrand), integrand)
-
-
-@functools.lru_cache(maxsize=64)
-def _build_named(est_spec: str, int_spec: str) -> tuple:
-    """:func:`_build` for recipe and catalogue names, memoised (a pure function of the names):
-    a worker builds each pair once, not once per block."""
-    return _build(est_spec, int_spec)
-
-
-def _run_block(task) -> list[tuple]:
-    """Run repetitions ``reps`` of one (job, n): used both in-process and in workers."""
-    job, (entropy, spawn_key, pool_size), key, n, reps, chunk = task
-    if isinstance(job, tuple):        # in a worker: rebuild from specs
-        label, est_spec, int_spec = job
-        named = isinstance(est_spec, str) and isinstance(int_spec, str)
-        estimator, points, integrand = (_build_named if named else _build)(est_spec, int_spec)
-    else:
-        label = job.label
-        estimator, points, integrand = job.estimator, job.points, job.integrand
-    root = np.random.SeedSequence(entropy, spawn_key=spawn_key, pool_size=pool_size)
-    return [_one(estimator, integrand, points, n, unit_seed(root, *key, r), chunk, label) for r in reps]
-
-
-def _run_block_own(task) -> list[tuple]:
-    """:func:`_run_block` in a local pool's process, which vrlab starts and owns: there freed
-    NumPy temporaries are kept for reuse (:mod:`vrlab._alloc`; the numbers do not change)."""
-    from .._alloc import keep_freed_memory
-
-    keep_freed_memory()
-    return _run_block(task)
 
 
 def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int, *, rng: Any = 0,
@@ -273,9 +182,9 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
     if not jobs:
         raise ValueError("estimators, integrands: no estimator applies to any integrand; skipped: "
                          + "; ".join(f"{s['estimator']} on {s['integrand']}: {s['reason']}" for s in skipped))
-    parallel = workers if pool is None else _parallelism(pool)
+    parallel = workers if pool is None else parallelism(pool)
     serial = pool is None and workers == 1
-    wire = {} if serial else _wire_specs(jobs, executor)
+    wire = {} if serial else _wire_specs(jobs, pool)
     seed_state = (root.entropy, tuple(root.spawn_key), root.pool_size)
     est_ids = [describe_estimator(label, spec, "" if isinstance(spec, str) else _points_name(spec[1]))
                for label, spec in specs]
@@ -306,23 +215,25 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
                     tasks.append(((ii, jj), key, n, tuple(todo[lo:lo + per])))
 
         total = len(jobs) * len(ns) * reps
-        bar = ProgressBar(total, disable=None) if progress is True else None   # quiet off a terminal
+        # the bar counts integrand evaluations (samples, in samples/s); a callable gets repetitions
+        evals = len(jobs) * sum(ns) * reps
+        bar = ProgressBar(evals, disable=None, unit="samples") if progress is True else None   # quiet off a terminal
 
-        def tick(k):
+        def tick(k, samples):
             if bar is not None:
-                bar.update(k)
+                bar.update(samples)
             elif callable(progress):
                 tick.done += k
                 progress(tick.done, total)
         tick.done = 0
         if results:
-            tick(len(results))
+            tick(len(results), sum(key[2] for key in results))
 
         def unit(t):
             ij, key, n, rr = t
             return (jobs[ij] if serial else wire[ij], seed_state, key, n, rr, chunk),
 
-        fn = _run_block_own if pool is None and workers > 1 and len(tasks) > 1 else _run_block
+        fn = _run_block          # a local pool's processes tune their allocator (vrlab.execution.worker_init)
         # units in flight: a few per worker; more on an executor, to hide its round trip (~ms)
         for i, out in run_units(fn, [unit(t) for t in tasks], workers=workers, executor=pool,
                                 window=max(8, 4 * parallel) if pool is None else max(32, 8 * parallel)):
@@ -332,7 +243,7 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
             if db is not None:
                 job = jobs[ii, jj]
                 db.add([(job.label, job.integrand.name, n, r, res) for r, res in zip(rr, out)])
-            tick(len(rr))
+            tick(len(rr), len(rr) * n)
     finally:
         if bar is not None:
             bar.close()
@@ -355,36 +266,15 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
     return df
 
 
-def _parallelism(pool) -> int:
-    """How many units an executor runs at once: a Dask client's worker threads, a pool's
-    processes (at least 1)."""
-    client = getattr(pool, "_client", None)
-    if client is not None and callable(getattr(client, "nthreads", None)):
-        try:
-            return max(1, sum(client.nthreads().values()))
-        except Exception:   # noqa: BLE001 - a scheduler that does not answer: plan for one
-            return 1
-    return max(1, int(getattr(pool, "_max_workers", 1) or 1))
-
-
 def _wire_specs(jobs: dict, executor) -> dict:
-    """What a unit sends of its job: (label, estimator spec, integrand spec), checked picklable
-    (by cloudpickle for Dask, which ships lambdas; by pickle for process pools)."""
-    dask = executor is not None and type(executor).__module__.startswith("distributed")
-    if dask:
-        import cloudpickle
-        dumps = cloudpickle.dumps
-    else:
-        dumps = pickle.dumps
+    """What a unit sends of its job: (label, estimator spec, integrand spec), checked to travel
+    to a worker (:func:`vrlab.execution.check_picklable`)."""
     wire = {}
     for ij, job in jobs.items():
         wire[ij] = (job.label, job.est_spec, job.int_spec)
-        try:
-            dumps(wire[ij])
-        except (pickle.PicklingError, AttributeError, TypeError) as exc:
-            raise TypeError(f"workers > 1: cannot send {job.label!r} on {job.integrand.name!r} to a worker "
-                            f"process ({exc}); use recipe and catalogue names, picklable objects "
-                            "(module-level functions, no lambdas), or workers=1") from None
+        check_picklable(wire[ij], executor, f"workers > 1: cannot send {job.label!r} on {job.integrand.name!r} to "
+                        "a worker process", "use recipe and catalogue names, picklable objects (module-level "
+                        "functions, no lambdas), or workers=1")
     return wire
 
 
@@ -400,32 +290,3 @@ def _sample_counts(ns) -> list[int]:
     return out
 
 
-def _points_name(points) -> str:
-    if points is None:
-        return "independent"
-    if isinstance(points, str):
-        return points
-    if isinstance(points, type):
-        return points.__name__.lower()
-    return type(points).__name__.lower()
-
-
-def _meta(job: _Job) -> dict:
-    est, integrand = job.estimator, job.integrand
-    exact = integrand.exact
-    exact = float(exact) if exact is not None and np.ndim(exact) == 0 else float("nan")
-    try:
-        dim_u = int(est.dim_u(integrand))
-    except (AttributeError, TypeError, ValueError, NotImplementedError):  # no fixed uniform dimension
-        dim_u = -1
-    meta = {"exact": exact, "points": _points_name(job.points), "class": type(est).__name__,
-            "dim_u": dim_u, "smooth": registry.is_smooth(integrand)}
-    try:
-        params = est.get_params()
-    except (AttributeError, TypeError):  # user objects without get_params
-        params = {}
-    for k, v in params.items():
-        if isinstance(v, (bool, int, float, str, np.bool_, np.integer, np.floating)):
-            col = k if k not in CORE_COLUMNS else f"param_{k}"
-            meta[col] = v.item() if isinstance(v, np.generic) else v
-    return meta

@@ -138,12 +138,18 @@ def theoretical_slope(cls: str, points: str, dim_u: int, smooth: bool = True,
     return -0.5, "Monte Carlo: -1/2 (CLT)"
 
 
+#: sample counts a fitted slope needs (see :func:`fit_slopes`)
+MIN_SLOPE_POINTS = 3
+
+
 def fit_slopes(df: pd.DataFrame) -> pd.DataFrame:
     """Least-squares slope of log RMSE on log n per (estimator, integrand), with the theoretical slope.
 
     Accepts a run DataFrame (summarized first) or a ``summarize`` table.  Columns:
-    ``estimator, integrand, slope, slope_se, intercept, theory, theory_note, n_min, n_max, points_used``.
-    Rows with RMSE 0 or NaN are left out; fewer than 2 sample counts give a NaN slope.
+    ``estimator, integrand, slope, slope_se, intercept, theory, theory_note, n_min, n_max, points_used,
+    slope_note``.  Rows with RMSE 0 or NaN are left out; a slope needs at least
+    :data:`MIN_SLOPE_POINTS` = 3 sample counts (two points always fit a line exactly: no
+    standard error, no check of the power law): with fewer it is NaN and ``slope_note`` says why.
     """
     s = _summary(df, ["rmse"], ("rmse",))
     rows = []
@@ -151,10 +157,12 @@ def fit_slopes(df: pd.DataFrame) -> pd.DataFrame:
         g = g[(g["rmse"] > 0) & np.isfinite(g["rmse"])].sort_values("n")
         x, y = np.log(g["n"].to_numpy(float)), np.log(g["rmse"].to_numpy(float))
         slope = intercept = se = np.nan
-        if len(x) >= 2 and np.ptp(x) > 0:
+        why = ""
+        if len(x) >= MIN_SLOPE_POINTS and np.ptp(x) > 0:
             res = stats.linregress(x, y)
-            slope, intercept = float(res.slope), float(res.intercept)
-            se = float(res.stderr) if len(x) >= 3 else np.nan
+            slope, intercept, se = float(res.slope), float(res.intercept), float(res.stderr)
+        else:
+            why = f"needs >= {MIN_SLOPE_POINTS} sample counts with RMSE > 0, has {len(x)}"
         first = g.iloc[0] if len(g) else s[(s["estimator"] == est) & (s["integrand"] == integ)].iloc[0]
         strata = first.get("strata", None)
         cls, pts, dim_u = first.get("class", ""), first.get("points", "independent"), first.get("dim_u", -1)
@@ -165,7 +173,8 @@ def fit_slopes(df: pd.DataFrame) -> pd.DataFrame:
         rows.append({"estimator": est, "integrand": integ, "slope": slope, "slope_se": se,
                      "intercept": intercept, "theory": theory, "theory_note": note,
                      "n_min": int(g["n"].min()) if len(g) else np.nan,
-                     "n_max": int(g["n"].max()) if len(g) else np.nan, "points_used": len(g)})
+                     "n_max": int(g["n"].max()) if len(g) else np.nan, "points_used": len(g),
+                     "slope_note": why})
     return pd.DataFrame(rows)
 
 
@@ -196,9 +205,11 @@ def _summary(df, columns: list[str], finite: tuple[str, ...] = ()) -> pd.DataFra
 def equal_time(df: pd.DataFrame, reference: str | None = None) -> pd.DataFrame:
     """Compare estimators at equal time: ``var_x_time`` = variance x seconds per (integrand, n).
 
-    ``relative_efficiency`` = var_x_time(reference) / var_x_time(estimator): how many times
+    ``efficiency_gain`` = var_x_time(reference) / var_x_time(estimator): how many times
     less time the estimator needs for the reference's variance (reference: ``"mc"`` if
-    present, else the first estimator).  ``relative_variance`` is the equal-n ratio.
+    present, else the first estimator); ``variance_reduction`` = variance(reference) /
+    variance(estimator), the same at equal n.  Both are bigger-is-better (> 1: better than
+    the reference).
     ``df``: a run or summary table; ``reference``: None or an estimator label in it.
     """
     if reference is not None and not isinstance(reference, str):
@@ -213,10 +224,10 @@ def equal_time(df: pd.DataFrame, reference: str | None = None) -> pd.DataFrame:
     ref = t[t["estimator"] == reference].set_index(["integrand", "n"])
     idx = pd.MultiIndex.from_frame(t[["integrand", "n"]])
     with np.errstate(divide="ignore", invalid="ignore"):
-        t["relative_variance"] = ref["variance"].reindex(idx).to_numpy() / t["variance"].to_numpy()
-        t["relative_efficiency"] = ref["var_x_time"].reindex(idx).to_numpy() / t["var_x_time"].to_numpy()
+        t["variance_reduction"] = ref["variance"].reindex(idx).to_numpy() / t["variance"].to_numpy()
+        t["efficiency_gain"] = ref["var_x_time"].reindex(idx).to_numpy() / t["var_x_time"].to_numpy()
     t["reference"] = reference
     order = {name: i for i, name in enumerate(dict.fromkeys(t["integrand"]))}   # keep the run's order
     t["_o"] = t["integrand"].map(order)
-    t = t.sort_values(["_o", "n", "relative_efficiency"], ascending=[True, True, False], kind="stable")
+    t = t.sort_values(["_o", "n", "efficiency_gain"], ascending=[True, True, False], kind="stable")
     return t.drop(columns="_o").reset_index(drop=True)

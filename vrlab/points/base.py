@@ -59,8 +59,10 @@ def check_dim(d: Any, minimum: int = 0, name: str = "d") -> int:
     ``>= minimum`` (a float, string, bool or None included)."""
     try:
         return check_int(name, d, minimum)
-    except TypeError as exc:
-        raise ValueError(f"{exc} (a non-negative integer value)") from None
+    except (TypeError, ValueError):
+        # SciPy's engine tests pin the start of this message: "d must be a non-negative integer"
+        what = "a non-negative integer" if minimum == 0 else f"an integer >= {minimum}"
+        raise ValueError(f"{name} must be {what}, got {d!r} ({type(d).__name__})") from None
 
 
 def check_workers(workers: Any) -> int:

@@ -199,13 +199,10 @@ def _label(cls: type) -> str:
 
 def _named(name: str) -> tuple[str, type]:
     """(canonical name, class) of a :func:`make_points` name; ``"stratified"`` is padded here."""
-    from .tools import _ALIASES, POINT_SETS  # late import: tools imports every engine module
+    from .names import canonical
+    from .tools import POINT_SETS  # late import: tools imports every engine module
 
-    key = name.strip().lower().replace(" ", "-")
-    key = _ALIASES.get(key, key)
-    if key not in POINT_SETS:
-        raise ValueError(f"points: unknown point set {name!r}; allowed names: "
-                         f"{', '.join(sorted(POINT_SETS) + sorted(_ALIASES))}")
+    key = canonical(name, "points")
     return key, PaddedStratified if key == "stratified" else POINT_SETS[key]
 
 

@@ -124,17 +124,14 @@ def toroidal_shift(x: np.ndarray, shift: np.ndarray) -> np.ndarray:
 
 
 def _build(points: Any, d: int, rng: np.random.SeedSequence, kwargs: dict) -> Any:
-    from .tools import make_points  # late import: tools imports this module
+    from .catalog import ENGINES     # the engines by name (not vrlab.points.tools, which imports this module)
+    from .names import canonical
 
     if points is None:
-        return make_points("halton", d, rng=rng, scramble=False, **kwargs)
+        return ENGINES["halton"](d, rng=rng, scramble=False, **kwargs)
     if isinstance(points, str):
-        try:
-            return make_points(points, d, rng=rng, **kwargs)
-        except ValueError as exc:
-            if str(exc).startswith("name:"):
-                raise ValueError(f"points: {exc}") from None
-            raise
+        key = canonical(points, "points")
+        return (CranleyPatterson if key == "cranley-patterson" else ENGINES[key])(d, rng=rng, **kwargs)
     if isinstance(points, type):
         # vrlab engines take the seed; other classes (SciPy's) the Generator, as before
         return points(d, rng=rng if issubclass(points, PointSet) else np.random.default_rng(rng), **kwargs)

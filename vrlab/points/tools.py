@@ -10,29 +10,13 @@ from numpy.typing import ArrayLike
 from .. import checks
 from .._rng import RNGLike, spawn
 from .base import MAX_REPLICATES, PointSet, check_dim, check_int, check_workers
-from .halton import Halton, Hammersley
-from .iid import Independent
-from .lhs import LatinHypercube
+from .catalog import ENGINES
+from .names import ALIASES, canonical
 from .rotation import CranleyPatterson
-from .sobol import Sobol
-from .stratified import Stratified
 
 #: canonical name -> class, and accepted aliases
-POINT_SETS: dict[str, type] = {
-    "independent": Independent,
-    "stratified": Stratified,
-    "lhs": LatinHypercube,
-    "halton": Halton,
-    "hammersley": Hammersley,
-    "sobol": Sobol,
-    "cranley-patterson": CranleyPatterson,
-}
-_ALIASES = {
-    "iid": "independent", "random": "independent", "mc": "independent", "uniform": "independent",
-    "jittered": "stratified", "latin": "lhs", "latinhypercube": "lhs", "latin-hypercube": "lhs",
-    "latin_hypercube": "lhs", "cp": "cranley-patterson", "cranleypatterson": "cranley-patterson",
-    "cranley_patterson": "cranley-patterson", "rotation": "cranley-patterson",
-}
+POINT_SETS: dict[str, type] = {**ENGINES, "cranley-patterson": CranleyPatterson}
+_ALIASES = ALIASES             # the one table, in vrlab.points.names
 
 
 def make_points(name: str, d: int, *, rng: RNGLike = None, **kwargs: Any) -> PointSet:
@@ -44,14 +28,7 @@ def make_points(name: str, d: int, *, rng: RNGLike = None, **kwargs: Any) -> Poi
     Halton).  ``kwargs`` go to the class (which checks them).  Unknown names raise
     ``ValueError``, a non-string name ``TypeError``.
     """
-    if not isinstance(name, str):
-        raise TypeError(f"name must be a string naming a point set, got {type(name).__name__}")
-    key = name.strip().lower().replace(" ", "-")
-    key = _ALIASES.get(key, key)
-    if key not in POINT_SETS:
-        allowed = ", ".join(sorted(POINT_SETS) + sorted(_ALIASES))
-        raise ValueError(f"name: unknown point set {name!r}; allowed names: {allowed}")
-    return POINT_SETS[key](d, rng=rng, **kwargs)
+    return POINT_SETS[canonical(name, "name")](d, rng=rng, **kwargs)
 
 
 def replicates(points: Any, R: int, *, rng: RNGLike = None, d: int | None = None,

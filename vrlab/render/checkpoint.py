@@ -2,8 +2,8 @@
 
 A render is a grid of units (tile, spp batch), each seeded by its position (see
 :mod:`vrlab.render.film`).  After every batch of every tile is merged, the statistics
-(``Moments`` or, for fitted control variates, ``CoMoments``, per tile and per estimate) are
-written with ``numpy.savez`` to a temporary file in the checkpoint's folder, which then
+(whatever the estimator's ``accumulate`` returns, per tile and per estimate, saved as its
+``state()`` and rebuilt by the estimator's ``statistics_from_state``) are written with ``numpy.savez`` to a temporary file in the checkpoint's folder, which then
 replaces the checkpoint (``os.replace``, atomic on POSIX and Windows): a crash or a kill
 leaves either the previous checkpoint or the new one, never half of one.
 
@@ -27,17 +27,10 @@ from typing import Any
 import numpy as np
 
 from .. import checks
-from ..estimate import Moments
 
 __all__ = ["load_checkpoint", "render_hash", "save_checkpoint"]
 
-VERSION = 1
-
-
-def _classes() -> dict:
-    from ..estimators.regression import CoMoments
-
-    return {"Moments": Moments, "CoMoments": CoMoments}
+VERSION = 2
 
 
 def render_hash(*parts: Any) -> str:
@@ -57,8 +50,8 @@ def save_checkpoint(path: Path, digest: str, spp: int, batch: int, batches_done:
     arrays: dict[str, np.ndarray] = {}
     for t, per in stats.items():
         for i, st in enumerate(per):
-            arrays[f"t{t}_e{i}_class"] = np.array(type(st).__name__)
-            for name, value in vars(st).items():
+            arrays[f"t{t}_e{i}_"] = np.array(len(st.state()))      # marks estimate i of tile t
+            for name, value in st.state().items():
                 arrays[f"t{t}_e{i}_{name}"] = np.asarray(value)
     meta = {"version": VERSION, "hash": digest, "spp": spp, "batch": batch, "batches_done": batches_done,
             "tiles": sorted(stats)}
@@ -76,9 +69,10 @@ def save_checkpoint(path: Path, digest: str, spp: int, batch: int, batches_done:
         raise
 
 
-def load_checkpoint(path: Path, digest: str, batch: int, spp: int) -> tuple[int, dict]:
+def load_checkpoint(path: Path, digest: str, batch: int, spp: int, restore: Any) -> tuple[int, dict]:
     """``(batches done, {tile: stats per estimate})`` from a checkpoint of this render, or
-    ``(0, {})`` if ``path`` does not exist.  ``ValueError`` naming ``checkpoint`` for a
+    ``(0, {})`` if ``path`` does not exist; ``restore(state)`` rebuilds one statistics object
+    (the estimator's ``statistics_from_state``).  ``ValueError`` naming ``checkpoint`` for a
     file that is not a vrlab checkpoint, holds another render, or cannot be extended to
     ``spp`` (more samples than asked for, or a partial last batch)."""
     if not path.exists():
@@ -88,18 +82,15 @@ def load_checkpoint(path: Path, digest: str, batch: int, spp: int) -> tuple[int,
             meta = json.loads(str(data["meta"]))
             if meta.get("version") != VERSION:
                 raise ValueError("version")
-            classes = _classes()
             stats: dict = {}
             for t in meta["tiles"]:
                 per, i = [], 0
-                while f"t{t}_e{i}_class" in data:
-                    st = classes[str(data[f"t{t}_e{i}_class"])]()
+                while f"t{t}_e{i}_" in data:
                     prefix = f"t{t}_e{i}_"
-                    for key in data.files:
-                        if key.startswith(prefix) and key != prefix + "class":
-                            value = data[key]
-                            setattr(st, key[len(prefix):], value.item() if value.ndim == 0 else value)
-                    per.append(st)
+                    state = {key[len(prefix):]: data[key] for key in data.files
+                             if key.startswith(prefix) and key != prefix}
+                    state["kind"] = str(state.get("kind", ""))
+                    per.append(restore(state))
                     i += 1
                 stats[int(t)] = tuple(per)
     except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:

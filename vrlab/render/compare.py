@@ -60,15 +60,9 @@ CONTROL_COST_PER_LIGHT = 1 / 16  # ... and per light of the scene
 
 
 def _cost(integrand: PixelIntegrand) -> float:
-    from ..estimators.control import ControlVariate
-    from ..estimators.onesample import OneSampleMIS
-
-    est = integrand.estimator
-    rays = int(getattr(est, "evals_per_unit", 1))
-    if isinstance(est, OneSampleMIS):
-        rays = int(np.count_nonzero(est.probabilities))
-    cost = CAMERA_COST + integrand.units * (rays + CANDIDATE_COST * int(getattr(est, "m", 0)))
-    if isinstance(est, ControlVariate):
+    est = integrand.estimator        # the estimator protocol (vrlab.estimators.Estimator) gives the costs
+    cost = CAMERA_COST + integrand.units * (est.traced_per_unit() + CANDIDATE_COST * est.candidates_per_unit)
+    if est.closed_form_per_unit:
         lights = integrand.lighting.lights
         cost += CONTROL_COST + CONTROL_COST_PER_LIGHT * (0 if lights is None else len(lights.lights))
     return float(cost)

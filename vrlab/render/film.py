@@ -32,11 +32,10 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import checks
-from .._alloc import keep_freed_memory
+from .. import checks, limits
 from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Estimate
-from ..execution import check_executor, run_units
+from ..execution import check_executor, check_picklable, run_units
 from .pixels import PixelIntegrand
 from .scene import Scene
 
@@ -48,7 +47,7 @@ _RAYS_PER_CHUNK = 5 << 14    # block size budget (1024 pixels x 64 spp of mis-po
 MAX_PIXEL_WORK = 32 * 4 * _RAYS_PER_CHUNK
 SPP_BATCH = 64               # samples per pixel of one work unit (a batch); more spp: more batches
 TASKS_PER_WORKER = 4         # tasks (groups of tiles) per worker process and batch: balances the load
-MAX_SPP = 1 << 24              # samples per pixel of one render (16.7 M: days of work on a large image)
+MAX_SPP = limits.MAX_SPP       # samples per pixel of one render (vrlab.limits, shared with the CLI)
 
 
 def _as_scene(scene: Any) -> Scene:
@@ -74,14 +73,11 @@ def _optional_int(value: Any, name: str, low: int, high: int | None = None) -> i
 
 
 def _concat(stats: list):
-    """Per-block statistics (pixel axis 1 of their arrays) joined into one for the tile."""
+    """Per-block statistics (pixel axis 1 of their arrays) joined into one for the tile, by the
+    statistics' own ``concat`` (:class:`vrlab.estimate.Moments`)."""
     if len(stats) == 1:                     # one block per tile (the default block size)
         return stats[0]
-    out = copy.copy(stats[0])
-    for name, value in vars(out).items():
-        if isinstance(value, np.ndarray) and value.ndim >= 2:
-            setattr(out, name, np.concatenate([getattr(s, name) for s in stats], axis=1))
-    return out
+    return type(stats[0]).concat(stats, axis=1)
 
 
 class _Job:
@@ -143,11 +139,6 @@ def _units(job: _Job | bytes, units: list[tuple[int, int]]) -> list:
     return [job.unit(t, k) for t, k in units]
 
 
-def _units_in_own_worker(job: _Job | bytes, units: list[tuple[int, int]]) -> list:
-    keep_freed_memory()     # vrlab's own worker processes: reuse freed ray temporaries (vrlab._alloc)
-    return _units(job, units)
-
-
 def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: Any = "mis-power", *,
            points: Any = None, rng: RNGLike = None, workers: int | None = 1, executor: Any = None,
            units: int | None = None,
@@ -180,7 +171,8 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     ``executor``: a ``concurrent.futures.Executor`` of the caller's (e.g. a process pool
     with the spawn start method) to run the tiles on instead, in max(64, 4 x ``workers``) tasks per batch,
     also with the same result;
-    ``progress(done_pixels, total)`` is called after each tile; ``light_selection``:
+    ``progress(done, total)`` is called after each unit (tile x spp batch) with the pixel
+    samples done and their total, H x W x spp; ``light_selection``:
     ``"uniform"`` or ``"power"``.  ``spp_batch``: samples per pixel of one work unit
     (default 64; the image depends on it, not on how units are run).  ``checkpoint``: a
     ``.npz`` path where the per-pixel statistics are saved after each batch; an existing
@@ -190,7 +182,7 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
 
     Checked once per call, with errors naming the argument: the scene, the estimator
     (and its technique names against the shading integrand), ``points``, ``spp``,
-    ``chunk_pixels``, ``workers`` (at most max(256, 4 x CPUs)), ``units`` and the sample
+    ``chunk_pixels``, ``workers`` (at most :func:`vrlab.limits.max_workers`), ``units`` and the sample
     counts; one pixel's block must fit :data:`MAX_PIXEL_WORK` (about 1 GB); with
     ``workers > 1`` the estimator must be picklable (a heuristic defined at module level,
     not a lambda).
@@ -207,7 +199,7 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     if not sampler.iid:
         extra["stderr_note"] = ("stderr uses the i.i.d. formula but the pixel's points are not independent "
                                 f"({sampler.label}): it is not a valid error bar")
-    evals = integrand.units * int(getattr(est, "evals_per_unit", 1))
+    evals = integrand.units * int(est.evals_per_unit)
     return Estimate(value, stderr, spp, spp * evals, time.perf_counter() - t0, stderr.astype(np.float64) ** 2 * spp,
                     est.label, extra)
 
@@ -221,14 +213,14 @@ def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLi
     spp = checks.integer(scene.sensor.spp if spp is None else spp, "spp", low=1, high=MAX_SPP)
     batch = min(spp, SPP_BATCH if spp_batch is None else checks.integer(spp_batch, "spp_batch", low=1))
     chunk_pixels = _optional_int(chunk_pixels, "chunk_pixels", 1)
-    limit = max(256, 4 * (os.cpu_count() or 1))
+    limit = limits.max_workers()
     workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1, high=limit)
     if width is not None or height is not None:
         scene = scene.with_size(width, height)
     settings = dict(settings)
     integrand = PixelIntegrand(scene, **settings)
     est = integrand.estimator
-    need = int(getattr(est, "min_units", 1))
+    need = int(est.min_units)
     if spp < need:
         raise ValueError(f"spp: {est.label} fits its coefficients per pixel and needs spp >= {need}, got {spp}")
     work = integrand.work_per_sample * cost
@@ -269,12 +261,10 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     path = None if checkpoint is None else check_path(checkpoint)
     workers = min(workers, job.n_tiles)
     payload: _Job | bytes = job
-    if workers > 1 or executor is not None:
-        try:
-            payload = pickle.dumps(job)     # sent as bytes: pickled once, not once per task
-        except (pickle.PicklingError, AttributeError, TypeError) as exc:
-            raise TypeError(f"estimator: {job.integrand.estimator!r} cannot be sent to worker processes ({exc}); "
-                            "define functions it uses (e.g. a heuristic) at module level, or use workers=1") from None
+    if workers > 1 or executor is not None:     # sent as bytes: pickled once, not once per task
+        payload = check_picklable(       # by pickle always: _units unpickles it
+            job, None, f"estimator: {job.integrand.estimator!r} cannot be sent to worker processes",
+            "define functions it uses (e.g. a heuristic) at module level, or use workers=1")
     digest = None
     stats: dict = {}
     start = 0
@@ -282,11 +272,13 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
         digest = render_hash(type(job).__name__, job.scene, repr(job.integrand.estimator), job.settings["units"],
                              {k: v for k, v in job.settings.items() if k not in ("estimator", "units")},
                              job.samplers[job.batch].label, (job.root.entropy, tuple(job.root.spawn_key)), job.batch)
-        start, stats = load_checkpoint(path, digest, job.batch, job.spp)
+        start, stats = load_checkpoint(path, digest, job.batch, job.spp,
+                                       job.integrand.estimator.statistics_from_state)
     tiles = list(range(job.n_tiles))
-    total, done = job.n_pixels * job.n_batches, min(start, job.n_batches) * job.n_pixels
-    # allocator tuning only in the local pool's processes, which vrlab starts and owns
-    fn = _units_in_own_worker if executor is None and workers > 1 else _units
+    # progress counts pixel samples: a unit (tile t, batch k) is its pixels x batch k's spp
+    total, done = job.n_pixels * job.spp, min(start * job.batch, job.spp) * job.n_pixels
+    # the local pool's processes (vrlab's own) tune their allocator in vrlab.execution.worker_init
+    fn = _units
     # tasks per batch (one pool serves all batches): a tile each in this process; else about 4 per
     # worker, at least 64 on a caller's executor (a Dask cluster may have more workers than ``workers``)
     if workers == 1 and executor is None:
@@ -299,7 +291,8 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     for _, res in run_units(fn, tasks, workers=workers, executor=executor):
         for t, batch, st in res:
             new.setdefault(batch, {})[t] = st
-            done += min((t + 1) * TILE_PIXELS, job.n_pixels) - t * TILE_PIXELS
+            done += (min((t + 1) * TILE_PIXELS, job.n_pixels) - t * TILE_PIXELS) * min(job.batch,
+                                                                                   job.spp - batch * job.batch)
             if progress is not None:
                 progress(done, total)
         while len(new.get(k, ())) == len(tiles):   # merge whole batches in batch order: the same bytes

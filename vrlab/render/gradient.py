@@ -114,7 +114,7 @@ def render_gradient_domain(scene: Scene | str | os.PathLike, spp: int | None = N
     seconds = time.perf_counter() - t0
     spp, integ = job.spp, job.integrand
     label = integ.estimator.label
-    evals = integ.units * int(getattr(integ.estimator, "evals_per_unit", 1))
+    evals = integ.units * int(integ.estimator.evals_per_unit)
     extra = {"common": common, "points": sampler.label}
 
     def estimate(value, stderr, method, n_evals):

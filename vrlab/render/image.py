@@ -93,7 +93,9 @@ def rel_mse(img: np.ndarray, ref: np.ndarray) -> float:
     img, ref = _image(img, "img", True), _image(ref, "ref", True)
     if img.shape != ref.shape:
         raise ValueError(f"ref: shape {ref.shape} of the reference differs from the image's {img.shape}")
-    return float(np.mean((img - ref) ** 2 / (ref * ref + 0.01)))
+    from ..metrics import rel_mse as _rel_mse     # the one relMSE (vrlab.metrics)
+
+    return _rel_mse(img, ref)
 
 
 def save_image(path: str | Path, img: np.ndarray, exposure: float | str = 1.0) -> Path:

@@ -84,9 +84,9 @@ class PixelIntegrand:
         self.unit_dim = int(self.estimator.unit_dim(probe))
         self._check_reach(probe.used)
         self.dim = 2 + self.units * self.unit_dim
-        evals = int(getattr(self.estimator, "evals_per_unit", 1))
+        evals = int(self.estimator.evals_per_unit)
         #: rays (and RIS candidates) per pixel sample: the memory of a block is about this x 4 x 12 bytes
-        self.work_per_sample = 1 + self.units * (evals + int(getattr(self.estimator, "m", 0))) + self.dim // 4
+        self.work_per_sample = 1 + self.units * (evals + int(self.estimator.candidates_per_unit)) + self.dim // 4
 
     def _check_reach(self, used: set) -> None:
         """Refuse an estimator whose techniques cannot reach some emitter: delta lights (point,

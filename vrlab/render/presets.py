@@ -1,4 +1,4 @@
-"""Strategy names as presets: each name stands for an estimator object of :mod:`vrlab.estimators`.
+"""Strategy names as presets: the recipes of :func:`vrlab.estimators.recipes` with a render builder.
 
 With n_l = ``emitter_samples`` and n_b = ``bsdf_samples`` (the scene's integrator
 settings, Mitsuba's defaults 1 and 1) and M = ``ris_candidates``:
@@ -13,8 +13,8 @@ name                estimator                                                   
 ``"mis-balance"``   ``MIS(["light", "bsdf"], fractions=[n_l, n_b], heuristic="balance")``  1
 ``"mis-power"``     ``MIS(["light", "bsdf"], fractions=[n_l, n_b], heuristic="power")``    1
 ``"mixture"``       ``OneSampleMIS(["bsdf", "light"], probabilities=[n_b, n_l])``          1
-``"ris"``           ``RIS("light", target="unshadowed", m=M)``                           n_l
 ``"cv"``            ``ControlVariate("lambertian", alpha=1.0, distribution="light")``    n_l
+``"ris"``           ``RIS("light", target="unshadowed", m=M)``                           n_l
 ==================  ================================================================  =========
 
 "units" is the number of the estimator's sample units averaged at each shading point
@@ -22,27 +22,59 @@ name                estimator                                                   
 integrator (Veach's power heuristic, beta = 2); ``"mixture"`` the Russian lecture's
 one-sample mixture (1/2 BSDF + 1/2 light for one sample of each); ``"ris"`` Talbot et
 al. (2005) with the unshadowed target; ``"cv"`` light sampling with the closed-form
-unoccluded Lambertian part as a control variate, alpha = 1.
+unoccluded Lambertian part as a control variate, alpha = 1.  :data:`PRESETS` is a live view
+of the registry: a recipe registered with a render builder is a preset at once.
 """
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, Iterator
 
-from .. import checks
+from .. import checks, limits
 
-__all__ = ["PRESETS", "check_sample_counts", "preset"]
+__all__ = ["PRESETS", "check_sample_counts", "preset", "preset_help"]
 
-PRESETS = ("uniform", "cosine", "bsdf", "light", "mis-balance", "mis-power", "mixture", "ris", "cv")
-_BSDF_ONLY = ("uniform", "cosine", "bsdf")
+
+def _render_recipes() -> dict:
+    from ..estimators.registry import recipes     # loaded on first use: importing the renderer stays cheap
+    return recipes("render")
+
+
+class _Presets(Sequence):
+    """The preset names, in registration order: a live, read-only view of the registry."""
+
+    def __getitem__(self, i):
+        return tuple(_render_recipes())[i]
+
+    def __len__(self) -> int:
+        return len(_render_recipes())
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(tuple(_render_recipes()))
+
+    def __contains__(self, name: object) -> bool:
+        return name in _render_recipes()
+
+    def __repr__(self) -> str:
+        return repr(tuple(self))
+
+
+PRESETS: Sequence[str] = _Presets()
+
+
+def preset_help() -> dict[str, str]:
+    """``{preset name: one-line help}`` (the ``--strategy`` menu of ``vrlab render``)."""
+    return {name: r.render_help for name, r in _render_recipes().items()}
 
 
 def check_sample_counts(name: str, emitter_samples: int, bsdf_samples: int) -> None:
     """``ValueError`` naming ``bsdf_samples`` / ``emitter_samples`` when preset ``name`` has
-    no sample of the kind it needs (BSDF-only presets need a BSDF sample; light, ris and
-    cv a light sample; every preset at least one sample)."""
-    if name in _BSDF_ONLY and bsdf_samples < 1:
+    no sample of the kind it needs (the recipe's ``needs``: BSDF-only presets need a BSDF
+    sample; light, ris and cv a light sample; every preset at least one sample)."""
+    needs = _render_recipes()[name].needs if name in PRESETS else None
+    if needs == "bsdf" and bsdf_samples < 1:
         raise ValueError(f"bsdf_samples: strategy {name!r} needs bsdf_samples >= 1, got {bsdf_samples}")
-    if name in ("light", "ris", "cv") and emitter_samples < 1:
+    if needs == "light" and emitter_samples < 1:
         raise ValueError(f"emitter_samples: strategy {name!r} needs emitter_samples >= 1, got {emitter_samples}")
     if emitter_samples + bsdf_samples < 1:
         raise ValueError("emitter_samples and bsdf_samples are both 0: nothing to sample")
@@ -51,23 +83,9 @@ def check_sample_counts(name: str, emitter_samples: int, bsdf_samples: int) -> N
 def preset(name: str, *, emitter_samples: int = 1, bsdf_samples: int = 1, ris_candidates: int = 8) -> tuple[Any, int]:
     """``(estimator, units)``: the estimator object strategy ``name`` stands for (see the
     module table) and the number of its units per shading point."""
-    name = checks.choice(name, "estimator", PRESETS)
-    n_l = checks.integer(emitter_samples, "emitter_samples", low=0)
-    n_b = checks.integer(bsdf_samples, "bsdf_samples", low=0)
+    name = checks.choice(name, "estimator", tuple(PRESETS))
+    n_l = checks.integer(emitter_samples, "emitter_samples", low=0, high=limits.MAX_SAMPLES)
+    n_b = checks.integer(bsdf_samples, "bsdf_samples", low=0, high=limits.MAX_SAMPLES)
     check_sample_counts(name, n_l, n_b)
-    # one estimator module per preset (``vrlab render``'s start-up time is benchmarked)
-    if name in _BSDF_ONLY or name == "light":
-        from ..estimators.importance import MonteCarlo
-        return MonteCarlo(name), (n_l if name == "light" else n_b)
-    if name.startswith("mis-"):
-        from ..estimators.mis import MIS
-        return MIS(["light", "bsdf"], fractions=[n_l, n_b], heuristic=name[4:]), 1
-    if name == "mixture":
-        from ..estimators.onesample import OneSampleMIS
-        return OneSampleMIS(["bsdf", "light"], probabilities=[n_b, n_l]), 1
-    if name == "ris":
-        from ..estimators.ris import RIS
-        m = checks.integer(ris_candidates, "ris_candidates", low=1)
-        return RIS("light", target="unshadowed", m=m), n_l
-    from ..estimators.control import ControlVariate
-    return ControlVariate("lambertian", alpha=1.0, distribution="light"), n_l
+    m = checks.integer(ris_candidates, "ris_candidates", low=1, high=limits.MAX_CANDIDATES)
+    return _render_recipes()[name].render(n_l, n_b, m)

@@ -82,12 +82,12 @@ class Sensor(Element):
 
     def __init__(self, *, to_world: Any = None, film: Any = None, sampler: Any = None,
                  near_clip: float = 1e-2, far_clip: float = 1e4, id: str | None = None):
-        from .hdrfilm import HDRFilm
-        from .samplers import IndependentSampler
+        from ..registry import element_class
 
         self.to_world = matrix4(np.eye(4) if to_world is None else to_world, "to_world")
-        self.film = HDRFilm() if film is None else film
-        self.sampler = IndependentSampler() if sampler is None else sampler
+        # Mitsuba's defaults, found through the registry (the elements' modules import this one)
+        self.film = element_class("film", "hdrfilm")() if film is None else film
+        self.sampler = element_class("sampler", "independent")() if sampler is None else sampler
         if not isinstance(self.film, Film):
             raise TypeError(f"film must be a vrlab.render film element, got {checks.describe(film)}")
         if not isinstance(self.sampler, Sampler):

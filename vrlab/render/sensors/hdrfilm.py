@@ -28,13 +28,13 @@ class HDRFilm(Film):
     def __init__(self, *, width: int = 768, height: int = 576, crop_offset_x: int = 0, crop_offset_y: int = 0,
                  crop_width: int | None = None, crop_height: int | None = None, rfilter: Any = None,
                  pixel_format: str = "rgb"):
-        from .filters import GaussianFilter
+        from ..registry import element_class
 
         self.width, self.height = width, height
         self.crop_offset_x, self.crop_offset_y = crop_offset_x, crop_offset_y
         self.crop_width = width - crop_offset_x if crop_width is None else crop_width
         self.crop_height = height - crop_offset_y if crop_height is None else crop_height
-        self.rfilter = GaussianFilter() if rfilter is None else rfilter
+        self.rfilter = element_class("rfilter", "gaussian")() if rfilter is None else rfilter   # Mitsuba's default
         self.pixel_format = checks.choice(pixel_format, "pixel_format", PIXEL_FORMATS)
         self.validate()
 

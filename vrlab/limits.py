@@ -1,0 +1,36 @@
+"""The one table of limits, shared by the library functions and the command line.
+
+A value above a limit is refused with a ``ValueError`` (library) or a usage error (CLI)
+naming the argument and the limit; both read the numbers here, so ``vrlab render --spp``
+and ``vrlab.render.render(spp=...)`` accept exactly the same values.
+
+==================  ==========  ==============================================================
+name                value       what
+==================  ==========  ==============================================================
+``MAX_SPP``         2^24        samples per pixel of one render (16.7 M: days of work)
+``MAX_SIDE``        65536       image width or height in pixels (the scene loader's bound too)
+``MAX_PIXELS``      2^26        pixels of one image (67 M)
+``MAX_SAMPLES``     1024        emitter / BSDF samples per shading point
+``MAX_CANDIDATES``  4096        RIS candidates, and the ``:<int>`` of a lab recipe
+``MAX_N``           2^30        integrand evaluations of one lab cell
+``MAX_REPS``        10^6        repetitions of one lab cell
+``max_workers()``   max(256,    worker processes (more only fork without speed-up)
+                    4 x CPUs)
+==================  ==========  ==============================================================
+"""
+from __future__ import annotations
+
+import os
+
+MAX_SPP = 1 << 24
+MAX_SIDE = 65536
+MAX_PIXELS = 1 << 26
+MAX_SAMPLES = 1024
+MAX_CANDIDATES = 4096
+MAX_N = 1 << 30
+MAX_REPS = 10**6
+
+
+def max_workers() -> int:
+    """The largest worker-process count accepted: max(256, 4 x CPUs of this machine)."""
+    return max(256, 4 * (os.cpu_count() or 1))

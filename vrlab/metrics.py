@@ -1,0 +1,40 @@
+"""The one relative MSE of vrlab (renderer, ``--compare``, experiments, benchmarks).
+
+relMSE(img, ref) = mean over pixels and channels of (img - ref)^2 / (ref^2 + eps), with
+eps = :data:`REL_MSE_EPS` = 0.01 so that dark pixels do not dominate (the relative MSE of
+Rousselle et al. 2011 and of the gradient-domain and denoising literature since; Mitsuba's
+and pbrt's test scripts use the same form).  :func:`relative_squared_error` is the per-pixel
+term, for maps and for expected errors (a variance over spp in place of the squared error).
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = ["REL_MSE_EPS", "rel_mse", "relative_squared_error"]
+
+#: eps of the relative MSE's denominator ref^2 + eps
+REL_MSE_EPS = 0.01
+
+
+def relative_squared_error(squared_error: Any, ref: Any) -> np.ndarray:
+    """squared_error / (ref^2 + eps), element-wise, in float64."""
+    ref = np.asarray(ref, dtype=np.float64)
+    return np.asarray(squared_error, dtype=np.float64) / (ref * ref + REL_MSE_EPS)
+
+
+def rel_mse(img: Any, ref: Any, *, ref_err: Any = None, mask: Any = None, axis: Any = None):
+    """mean((img - ref)^2 / (ref^2 + eps)) over ``axis`` (default all) of the pixels selected by
+    ``mask`` (over the leading axes; default all).  ``ref_err``: the reference's standard error,
+    whose variance is subtracted from the squared error (independent reference noise).  A float
+    when reduced over all axes, else an array."""
+    img, ref = np.asarray(img, dtype=np.float64), np.asarray(ref, dtype=np.float64)
+    d2 = (img - ref) ** 2
+    if ref_err is not None:
+        d2 = d2 - np.asarray(ref_err, dtype=np.float64) ** 2
+    r = relative_squared_error(d2, ref)
+    if mask is not None:
+        r = r[np.asarray(mask)]
+    out = np.mean(r, axis=axis)
+    return float(out) if np.ndim(out) == 0 else out
