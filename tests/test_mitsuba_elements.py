@@ -304,3 +304,16 @@ def test_mesh_area_light_agrees_with_mitsuba(tmp_path, sampling):
     mean, var = mitsuba_reference(xml, spp)          # triangle_sampling is vrlab's: Mitsuba would refuse it
     assert_agrees_with_mitsuba(xml.replace('value="3, 2, 1"/>', f'value="3, 2, 1"/><string name="triangle_sampling" '
                                            f'value="{sampling}"/>'), reference=(mean, var, spp))
+
+
+@pytest.mark.parametrize("dist", ["ggx", "beckmann"])
+def test_roughness_texture_agrees_with_mitsuba(tmp_path, dist):
+    from PIL import Image
+
+    img = (np.random.default_rng(0).random((6, 10)) * 200 + 30).astype(np.uint8)
+    Image.fromarray(img).save(tmp_path / "rough.png")
+    assert_agrees_with_mitsuba(scene(
+        f'<shape type="sphere"><point name="center" value="0, 0.5, 0"/><float name="radius" value="0.5"/>'
+        f'<bsdf type="roughconductor"><string name="distribution" value="{dist}"/><texture type="bitmap" name="alpha">'
+        f'<string name="filename" value="{tmp_path / "rough.png"}"/><boolean name="raw" value="true"/></texture></bsdf>'
+        '</shape>'))

@@ -152,16 +152,18 @@ class DirectLighting:
         """The textured parameters of BSDF group ``group`` at the camera hits ``rows``
         (``{name: (N, 3)}``), or None for an untextured BSDF: each shape's textures are
         looked up at its surface points (Mitsuba's uv, triangle and barycentrics)."""
-        textures = self.bsdfs[group].textures
+        bsdf = self.bsdfs[group]
+        textures = bsdf.textures
         if not textures:
             return None
+        scalar = getattr(bsdf, "SCALAR_TEXTURES", ()) if not bsdf.twosided else getattr(bsdf.inner, "SCALAR_TEXTURES", ())
         shape, p, prim = hits.shape[rows], hits.p[rows], hits.prim[rows]
-        out = {a: np.empty((len(shape), 3)) for a in textures}
+        out = {a: np.empty((len(shape),) if a in scalar else (len(shape), 3)) for a in textures}
         for k in np.unique(shape):
             sel = np.flatnonzero(shape == k)
             si = self.surface_points(k, p[sel], prim[sel])
             for a, tex in textures.items():
-                out[a][sel] = tex.eval(si)
+                out[a][sel] = tex.eval_1(si) if a in scalar else tex.eval(si)
         return out
 
     def surface_points(self, k: int, p: np.ndarray, prim: np.ndarray | None):

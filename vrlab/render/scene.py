@@ -34,7 +34,7 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
 * BSDFs: ``diffuse`` (``reflectance``), ``roughconductor`` (``distribution``
   beckmann/ggx, ``alpha``, ``material`` none, ``specular_reflectance``,
   ``sample_visible``), ``twosided`` (one nested BSDF) and the *vrlab* ``phong``;
-  ``reflectance`` and ``specular_reflectance`` may be textures;
+  ``reflectance``, ``specular_reflectance`` and ``alpha`` may be textures;
 * emitters: ``area`` (``radiance``, a colour or a texture) inside a shape; the delta
   lights ``point`` (``position`` or ``to_world``, ``intensity``), ``spot`` (``to_world``,
   ``intensity``, ``cutoff_angle``, ``beam_width``) and ``directional`` (``direction`` or

@@ -149,6 +149,8 @@ class BSDFModel(Element):
     twosided = False
     #: the parameters that may be textures (evaluated at the shading points by :meth:`at`)
     TEXTURED: tuple = ()
+    #: those of them that are scalars (a texture's ``eval_1``, e.g. a roughness)
+    SCALAR_TEXTURES: tuple = ()
 
     @property
     def textures(self) -> dict:

@@ -45,23 +45,42 @@ class RoughConductor(BSDFModel):
     """
 
     DISTRIBUTIONS = ("ggx", "beckmann")
-    TEXTURED = ("specular_reflectance",)
+    TEXTURED = ("specular_reflectance", "alpha")
+    SCALAR_TEXTURES = ("alpha",)
 
-    def __init__(self, alpha: float = 0.1, distribution: str = "beckmann", specular_reflectance: Any = 1.0,
+    def __init__(self, alpha: Any = 0.1, distribution: str = "beckmann", specular_reflectance: Any = 1.0,
                  sample_visible: bool = True):
+        from ..textures import Texture
+
         checks.choice(distribution, "distribution", self.DISTRIBUTIONS)
-        self.alpha = alpha_param(alpha)
         self.distribution_type = distribution
-        self.normals = GGX(self.alpha) if distribution == "ggx" else Beckmann(self.alpha)
+        if isinstance(alpha, Texture):        # a roughness texture (eval_1 at each shading point: ``at``)
+            self.alpha, self.normals = alpha, None
+        else:
+            self.alpha = alpha_param(alpha)
+            self.normals = GGX(self.alpha) if distribution == "ggx" else Beckmann(self.alpha)
         self.specular_reflectance = color_param(specular_reflectance, "specular_reflectance")
         self.sample_visible = checks.flag(sample_visible, "sample_visible")
 
     @classmethod
     def from_props(cls, p) -> "RoughConductor":
         p.string("material", "none", ("none",))
-        return cls(alpha=p.float("alpha", 0.1), distribution=p.string("distribution", "beckmann", cls.DISTRIBUTIONS),
+        alpha = p.object("alpha", ("texture",)) if p.has("alpha") and p.element("alpha").tag == "texture" \
+            else p.float("alpha", 0.1)
+        return cls(alpha=alpha, distribution=p.string("distribution", "beckmann", cls.DISTRIBUTIONS),
                    specular_reflectance=p.texture("specular_reflectance", 1.0),
                    sample_visible=p.bool("sample_visible", True))
+
+    def at(self, values: dict) -> "RoughConductor":
+        """The BSDF at N points: a textured roughness becomes per-row alpha (N,) in the normal
+        distribution's formulas, which are elementwise in alpha."""
+        out = super().at(values)
+        if "alpha" in values:
+            alpha = np.clip(np.asarray(values["alpha"], float), 1e-4, None)     # Mitsuba clamps alpha too
+            normals = object.__new__(GGX if self.distribution_type == "ggx" else Beckmann)
+            normals.alpha = alpha
+            out.alpha, out.normals = alpha, normals
+        return out
 
     def D(self, m: np.ndarray) -> np.ndarray:
         """Microfacet normal distribution D(m) (0 for m.z <= 0)."""
