@@ -95,3 +95,23 @@ def run_cli(capsys, argv):
         code = exc.code
     out, err = capsys.readouterr()
     return code, out, err
+
+
+class InFrame:
+    """A world direction distribution seen in the frame whose +z is ``axis`` (for the cap
+    charts of the direction chi-square tests)."""
+
+    dim_u = 2
+
+    def __init__(self, dist, axis):
+        self.dist, self.axis = dist, axis
+
+    def sample(self, u):
+        from vrlab.distributions.frames import to_local
+
+        return to_local(self.dist.sample(u), self.axis)
+
+    def pdf(self, w):
+        from vrlab.distributions.frames import to_world
+
+        return self.dist.pdf(to_world(w, self.axis))

@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from vrlab._rng import as_generator
-from vrlab.distributions.frames import to_local, to_world
+from conftest import InFrame
+from vrlab.distributions.frames import to_world
 from vrlab.distributions.solid_angle import LightSample, SolidAngleFromArea, SphereCone
 from vrlab.distributions.quadrics import (EllipsoidSurface, SphereSurface, unit_sphere_hit, unit_sphere_hits,
                                           unit_sphere_roots)
@@ -110,19 +111,6 @@ def ones(x):
 
 # ----------------------------------------------------------------------------- test helpers
 
-class _InFrame:
-    """View a world direction distribution in the frame whose +z is ``axis``."""
-
-    dim_u = 2
-
-    def __init__(self, dist, axis):
-        self.dist, self.axis = dist, axis
-
-    def sample(self, u):
-        return to_local(self.dist.sample(u), self.axis)
-
-    def pdf(self, w):
-        return self.dist.pdf(to_world(w, self.axis))
 
 
 def _aimed(surface, ref, margin=1.01):
@@ -490,7 +478,7 @@ def test_rectangle_and_box_directions_chi_square():
                                        (disk, 2), (mesh_box, 2)]):
         d = SolidAngleFromArea(make(), REF)
         axis, z_min = _aimed(d.surface, REF)
-        res, w = _chi2_refined(_InFrame(d, axis), CapChart(z_min, power), (16, 16), rng=20 + k,
+        res, w = _chi2_refined(InFrame(d, axis), CapChart(z_min, power), (16, 16), rng=20 + k,
                                name=f"{make.__name__} power={power}")
         assert np.all(d.pdf(to_world(w, axis)) > 0)
         results.append(res)
@@ -520,7 +508,7 @@ def test_solid_angle_pdf_integrates_to_one(make):
     # an aimed cap, independent of the shape; silhouettes limit the accuracy (jumps for
     # polygons, 1/sqrt singularities for smooth shapes), the view chart below is exact
     smooth = isinstance(s, (EllipsoidSurface, SphereSurface))
-    total = float(cell_integrals(_InFrame(d, axis).pdf, CapChart(z_min, 1), (128, 128), 4).sum())
+    total = float(cell_integrals(InFrame(d, axis).pdf, CapChart(z_min, 1), (128, 128), 4).sum())
     assert total == pytest.approx(1.0, abs=2e-2 if smooth else 3e-3)
     if smooth:
         M = M_ELL if isinstance(s, EllipsoidSurface) else 2.0 * np.eye(3)
@@ -560,7 +548,7 @@ def test_two_hits_are_needed():
     # the box too: first-hit-only integrates well below 1
     b = box()
     axis, z_min = _aimed(b, REF)
-    bo = _InFrame(SolidAngleFromArea(FirstHitOnly(b), REF), axis)
+    bo = InFrame(SolidAngleFromArea(FirstHitOnly(b), REF), axis)
     assert float(cell_integrals(bo.pdf, CapChart(z_min, 1), (64, 64), 4).sum()) < 0.6
 
 
@@ -573,7 +561,7 @@ def test_wrong_solid_angle_conversion_fails():
 
     d = NoCos(rect(), REF)
     axis, z_min = _aimed(d.surface, REF)
-    res, _ = _chi2_refined(_InFrame(d, axis), CapChart(z_min, 2), (16, 16), rng=1)
+    res, _ = _chi2_refined(InFrame(d, axis), CapChart(z_min, 2), (16, 16), rng=1)
     with pytest.raises(AssertionError):
         assert_gof(res)
 
@@ -710,8 +698,8 @@ def test_sphere_cone_chi_square_and_normalisation():
         cone = s.cone_from(ref)
         assert isinstance(cone, SphereCone)
         chart = CapChart(float(cone.cos_max), 1)
-        results.append(chi2_gof(_InFrame(cone, cone.axis), chart, (16, 16), n=100_000, rng=70 + k))
-        assert integrate(_InFrame(cone, cone.axis).pdf, chart, 16) == pytest.approx(1.0, abs=1e-12)
+        results.append(chi2_gof(InFrame(cone, cone.axis), chart, (16, 16), n=100_000, rng=70 + k))
+        assert integrate(InFrame(cone, cone.axis).pdf, chart, 16) == pytest.approx(1.0, abs=1e-12)
         assert integrate(cone.pdf, SphereChart(), 128) == pytest.approx(1.0, abs=1e-2)
     assert bool(cone.inside)                       # the last ref is inside: uniform sphere
     assert np.allclose(cone.pdf(cone.sample(as_generator(0).random((10, 2)))), 1 / (4 * np.pi))

@@ -13,7 +13,7 @@ import pytest
 
 from vrlab.distributions import (SolidAngleFromArea, SphericalTriangle, TriangleMeshSolidAngle, TriangleMeshSurface,
                                  triangle_solid_angle)
-from vrlab.distributions.frames import to_local, to_world
+from conftest import InFrame
 from vrlab.testing import (AtlasChart, CapChart, TriangleChart, assert_gof, chi2_discrete, chi2_gof, integrate)
 from vrlab.testing.chisquare import cell_integrals, histogram, pooled_chi2
 
@@ -45,19 +45,6 @@ def fan():
     return TriangleMeshSurface(V, [[0, 1, 2], [0, 3, 1], [2, 4, 0], [1, 5, 2]])
 
 
-class _InFrame:
-    """A world direction distribution seen in the frame whose +z is ``axis``."""
-
-    dim_u = 2
-
-    def __init__(self, dist, axis):
-        self.dist, self.axis = dist, axis
-
-    def sample(self, u):
-        return to_local(self.dist.sample(u), self.axis)
-
-    def pdf(self, w):
-        return self.dist.pdf(to_world(w, self.axis))
 
 
 def _aim(points, ref, margin=1.02):
@@ -72,7 +59,7 @@ def _chi2(dist, points, ref, *, bins=(8, 8), sub=32, quad=2, n=40_000, rng=0, na
     """Chi-square of ``dist`` (directions from ref) on a cap aimed at ``points``, expected
     counts from a grid refined ``sub`` x ``sub``; samples where the pdf is 0 fail it."""
     axis, z_min = _aim(points, ref)
-    d, chart = _InFrame(dist, axis), CapChart(z_min, 1)
+    d, chart = InFrame(dist, axis), CapChart(z_min, 1)
     x = d.sample(np.random.default_rng(rng).random((n, 2)))
     counts, outside = histogram(chart.to_param(x), bins)
     outside += int(np.sum(~(d.pdf(x) > 0)))
@@ -279,7 +266,7 @@ def test_mesh_direction_pdf_normalisation_and_agreement(method, selection):
     m = octahedron()
     d = TriangleMeshSolidAngle(m, FAR, method, selection)
     axis, z_min = _aim(OCTA_V, FAR)
-    total = float(cell_integrals(_InFrame(d, axis).pdf, CapChart(z_min, 1), (320, 320), 2).sum())
+    total = float(cell_integrals(InFrame(d, axis).pdf, CapChart(z_min, 1), (320, 320), 2).sum())
     assert total == pytest.approx(1.0, abs=3e-3)          # the pdf jumps at every projected edge
     s = d.sample_point(np.random.default_rng(11).random((100_000, 2)))
     np.testing.assert_allclose(s.pdf, d.pdf(s.w), rtol=1e-12)

@@ -21,7 +21,7 @@ from .._vec import dot as _dot
 from ._args import _affine4, _matrix3, _positive3, _rotation3, _sizes, _vector3
 from .base import as_points, as_uniforms, positive_float
 from ._sphere_chart import _sphere_from_u
-from .surfaces import FOUR_PI, TWO_PI, Surface, _INTERSECT_DOC, _sphere_to_u, _unit
+from .surfaces import FOUR_PI, Surface, _INTERSECT_DOC, _sphere_to_u, _unit
 
 if TYPE_CHECKING:
     from .solid_angle import SphereCone
@@ -30,6 +30,22 @@ __all__ = ["EllipsoidSurface", "SphereSurface", "unit_sphere_hit", "unit_sphere_
 
 
 # ----------------------------------------------------------------------------- ray / unit sphere
+
+def _stable_roots(o: np.ndarray, d: np.ndarray):
+    """``(hit, t1, t2)``: whether the line o + t d meets |x| = 1 (b^2 - a c >= 0) and its two
+    roots q / a and c / q (q = -(b + sign(b) sqrt(b^2 - a c)); t1 twice when q = 0), unordered."""
+    a = _dot(d, d)
+    b = _dot(o, d)
+    c = _dot(o, o) - 1.0
+    disc = b * b - a * c
+    hit = disc >= 0.0
+    sq = np.sqrt(np.where(hit, disc, 0.0))
+    q = -(b + np.where(b >= 0.0, sq, -sq))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        t1 = q / a
+        t2 = np.where(q != 0.0, c / np.where(q != 0.0, q, 1.0), t1)
+    return hit, t1, t2
+
 
 def unit_sphere_roots(o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(t_near, t_far)``, t_near <= t_far, the parameters where the line o + t d meets the
@@ -41,16 +57,7 @@ def unit_sphere_roots(o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndar
     checks (hot path); a non-finite root counts as a miss.  Results keep the dtype NumPy
     gives ``o`` and ``d`` (float32 stays float32).
     """
-    a = _dot(d, d)
-    b = _dot(o, d)
-    c = _dot(o, o) - 1.0
-    disc = b * b - a * c
-    hit = disc >= 0.0
-    sq = np.sqrt(np.where(hit, disc, 0.0))
-    q = -(b + np.where(b >= 0.0, sq, -sq))
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        t1 = q / a
-        t2 = np.where(q != 0.0, c / np.where(q != 0.0, q, 1.0), t1)
+    hit, t1, t2 = _stable_roots(o, d)
     t1 = np.where(hit & np.isfinite(t1), t1, np.inf)
     t2 = np.where(hit & np.isfinite(t2), t2, np.inf)
     return np.minimum(t1, t2), np.maximum(t1, t2)
@@ -58,19 +65,10 @@ def unit_sphere_roots(o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 def unit_sphere_hit(o: np.ndarray, d: np.ndarray, t_min) -> np.ndarray:
     """The first hit: the smallest root t > ``t_min`` of :func:`unit_sphere_roots`, ``inf`` if
-    none.  ``t_min`` is a number or an array broadcasting with the rays' leading shape.  (The
-    roots are computed here directly, with fewer passes than through ``unit_sphere_roots``:
-    the renderer calls this on every candidate (ray, sphere) pair.)"""
-    a = _dot(d, d)
-    b = _dot(o, d)
-    c = _dot(o, o) - 1.0
-    disc = b * b - a * c
-    hit = disc >= 0.0
-    sq = np.sqrt(np.where(hit, disc, 0.0))
-    q = -(b + np.where(b >= 0.0, sq, -sq))
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        t1 = q / a
-        t2 = np.where(q != 0.0, c / np.where(q != 0.0, q, 1.0), t1)
+    none.  ``t_min`` is a number or an array broadcasting with the rays' leading shape.  (One
+    finiteness test at the end instead of two: the renderer calls this on every candidate
+    (ray, sphere) pair.)"""
+    hit, t1, t2 = _stable_roots(o, d)
     lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
     t = np.where(lo > t_min, lo, np.where(hi > t_min, hi, np.inf))
     return np.where(hit & np.isfinite(t), t, np.inf)

@@ -9,7 +9,10 @@ its chi-square tests and its agreement with Mitsuba's ``eval``/``pdf_direction``
 ``mis_compensation`` subtracts the mean luminance before building the density (Karlík et al.
 2019, "MIS compensation"): the density is then zero on the dim parts of the map, which only
 another technique (BSDF sampling under MIS) covers; alone, light sampling is biased there,
-and the renderer does not hide it (use it with ``mis-*`` estimators)."""
+and the renderer does not hide it (use it with ``mis-*`` estimators).  ``sampling`` (a vrlab
+parameter, which Mitsuba refuses): ``"luminance"`` (default, as above) or ``"uniform"``
+(directions uniform on the sphere, density 1 / (4 pi): the baseline the luminance map is
+measured against)."""
 from __future__ import annotations
 
 from typing import Any
@@ -39,9 +42,14 @@ class EnvironmentEmitter(Emitter):
 
     is_infinite = True
 
+    SAMPLING = ("luminance", "uniform")
+
     def __init__(self, *, image: Any = None, filename: Any = None, scale: float = 1.0, to_world: Any = None,
-                 mis_compensation: bool = False, sampling_weight: float = 1.0):
-        from ...distributions import EnvironmentMap
+                 mis_compensation: bool = False, sampling_weight: float = 1.0, sampling: str = "luminance"):
+        from ...distributions import EnvironmentMap, UniformSphere
+
+        self.sampling = checks.choice(sampling, "sampling", self.SAMPLING)
+        self._uniform = UniformSphere()
 
         if (image is None) == (filename is None):
             raise ValueError("filename: give either an image or a filename")
@@ -63,14 +71,21 @@ class EnvironmentEmitter(Emitter):
     def from_props(cls, p) -> "EnvironmentEmitter":
         return cls(filename=p.filename("filename"), scale=p.float("scale", 1.0),
                    to_world=p.transform("to_world") if p.has("to_world") else None,
-                   mis_compensation=p.bool("mis_compensation", False), sampling_weight=p.float("sampling_weight", 1.0))
+                   mis_compensation=p.bool("mis_compensation", False), sampling_weight=p.float("sampling_weight", 1.0),
+                   sampling=p.string("sampling", "luminance", cls.SAMPLING))
 
     def sample(self, ref, u):
-        w, pdf = self.map.sample_pdf(np.asarray(u, float))
-        w = np.asarray(w, ref.dtype)
+        if self.sampling == "uniform":
+            w = np.asarray(self._uniform.sample(np.asarray(u, float)), ref.dtype)
+            pdf = np.full(len(ref), 1.0 / (4 * np.pi))
+        else:
+            w, pdf = self.map.sample_pdf(np.asarray(u, float))
+            w = np.asarray(w, ref.dtype)
         return w, pdf, self.radiance(ref, w), np.full(len(ref), np.inf)
 
     def pdf(self, ref, w):
+        if self.sampling == "uniform":
+            return np.full(len(ref), 1.0 / (4 * np.pi))
         return np.asarray(self.map.pdf(np.asarray(w, float)), float)
 
     def radiance(self, ref, w):

@@ -14,7 +14,7 @@ from ..registry import register
 from ..scene_checks import matrix4, rgb
 from .base import Emitter, weight_param
 
-__all__ = ["PointLight", "delta_towards"]
+__all__ = ["DeltaPositionLight", "PointLight", "delta_towards"]
 
 
 def delta_towards(ref: np.ndarray, position: np.ndarray):
@@ -24,11 +24,23 @@ def delta_towards(ref: np.ndarray, position: np.ndarray):
     return scale(v, 1.0 / np.where(dist > 0, dist, 1.0)), dist
 
 
-@register("emitter", "point")
-class PointLight(Emitter):
-    """``PointLight(position=(0, 0, 0), intensity=1, sampling_weight=1)``."""
+class DeltaPositionLight(Emitter):
+    """A light at one point (``position``): it reaches p only along w = (position - p) / d,
+    density 1 in the counting measure, and arrives with ``radiance(ref, w)``."""
 
     is_delta = True
+
+    def sample(self, ref, u):
+        w, dist = delta_towards(ref, self.position)
+        return w, np.ones(len(ref)), self.radiance(ref, w), dist
+
+    def pdf(self, ref, w):
+        return np.zeros(len(ref))
+
+
+@register("emitter", "point")
+class PointLight(DeltaPositionLight):
+    """``PointLight(position=(0, 0, 0), intensity=1, sampling_weight=1)``."""
 
     def __init__(self, *, position: Any = (0.0, 0.0, 0.0), intensity: Any = 1.0, sampling_weight: float = 1.0):
         p = checks.finite_array(position, "position").reshape(-1)
@@ -45,13 +57,6 @@ class PointLight(Emitter):
         pos = p.point("position", (0, 0, 0)) if not p.has("to_world") else matrix4(p.transform("to_world"), "to_world")[:3, 3]
         return cls(position=pos, intensity=p.color("intensity", 1.0, kind="emission"),
                    sampling_weight=p.float("sampling_weight", 1.0))
-
-    def sample(self, ref, u):
-        w, dist = delta_towards(ref, self.position)
-        return w, np.ones(len(ref)), self.radiance(ref, w), dist
-
-    def pdf(self, ref, w):
-        return np.zeros(len(ref))
 
     def radiance(self, ref, w):
         _, dist = delta_towards(ref, self.position)

@@ -21,18 +21,16 @@ from ... import checks
 from ..._vec import matvec3
 from ..registry import register
 from ..scene_checks import matrix4, rgb
-from .base import Emitter, weight_param
-from .point import delta_towards
+from .base import weight_param
+from .point import DeltaPositionLight, delta_towards
 
 __all__ = ["ProjectorLight"]
 
 
 @register("emitter", "projector")
-class ProjectorLight(Emitter):
+class ProjectorLight(DeltaPositionLight):
     """``ProjectorLight(irradiance=1, scale=1, fov=None, fov_axis="x", focal_length=None, to_world=None,
     sampling_weight=1)`` (see the module docstring)."""
-
-    is_delta = True
 
     def __init__(self, *, irradiance: Any = 1.0, scale: float = 1.0, fov: float | None = None, fov_axis: str = "x",
                  focal_length: Any = None, to_world: Any = None, sampling_weight: float = 1.0):
@@ -72,13 +70,6 @@ class ProjectorLight(Emitter):
     @property
     def position(self) -> np.ndarray:
         return self.to_world[:3, 3]
-
-    def sample(self, ref, u):
-        w, dist = delta_towards(ref, self.position)
-        return w, np.ones(len(ref)), self.radiance(ref, w), dist
-
-    def pdf(self, ref, w):
-        return np.zeros(len(ref))
 
     def radiance(self, ref, w):
         from ..textures import SurfacePoints

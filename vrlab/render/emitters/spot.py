@@ -16,17 +16,15 @@ from ... import checks
 from ..._vec import matvec3
 from ..registry import register
 from ..scene_checks import matrix4, rgb
-from .base import Emitter, weight_param
-from .point import delta_towards
+from .base import weight_param
+from .point import DeltaPositionLight, delta_towards
 
 __all__ = ["SpotLight"]
 
 
 @register("emitter", "spot")
-class SpotLight(Emitter):
+class SpotLight(DeltaPositionLight):
     """``SpotLight(to_world=None, intensity=1, cutoff_angle=20, beam_width=None, sampling_weight=1)``."""
-
-    is_delta = True
 
     def __init__(self, *, to_world: Any = None, intensity: Any = 1.0, cutoff_angle: float = 20.0,
                  beam_width: float | None = None, texture: Any = None, sampling_weight: float = 1.0):
@@ -66,13 +64,6 @@ class SpotLight(Emitter):
         ramp = (self._cut - np.arccos(np.clip(cos, -1.0, 1.0))) / max(self._cut - self._beam, 1e-300)
         inner = np.where(cos >= np.cos(self._beam), 1.0, ramp)
         return np.where(cos > np.cos(self._cut), inner, 0.0)
-
-    def sample(self, ref, u):
-        w, dist = delta_towards(ref, self.position)
-        return w, np.ones(len(ref)), self.radiance(ref, w), dist
-
-    def pdf(self, ref, w):
-        return np.zeros(len(ref))
 
     def radiance(self, ref, w):
         w, dist = delta_towards(ref, self.position)

@@ -40,10 +40,13 @@ class Ellipsoid(Shape):
         return self.center, self.to_world[:3, :3].copy()
 
     def uv(self, p, prim):
-        """As Mitsuba's sphere, on the unit sphere the ellipsoid is mapped from."""
-        from .sphere import _sphere_uv
-
-        return _sphere_uv(self.local_points(p))
+        """Mitsuba's sphere: uv = (phi / 2 pi, theta / pi) of the local direction (on the unit
+        sphere the shape is mapped from), phi in [0, 2 pi)."""
+        x = self.local_points(p)
+        phi = np.arctan2(x[:, 1], x[:, 0])
+        phi = np.where(phi < 0, phi + 2 * np.pi, phi)
+        theta = np.arccos(np.clip(x[:, 2] / np.maximum(np.linalg.norm(x, axis=-1), 1e-300), -1.0, 1.0))
+        return np.stack([phi / (2 * np.pi), theta / np.pi], -1)
 
     def parts(self) -> list:
         return [Quadric(self.center, self.to_world[:3, :3].copy(), -1.0 if self.flip_normals else 1.0)]

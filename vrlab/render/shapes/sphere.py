@@ -11,9 +11,8 @@ import numpy as np
 
 from ... import checks
 from ..._vec import dot, norm
-from .. import transforms as tf
 from ..registry import register
-from .base import Quadric, Shape, shape_matrix
+from .ellipsoid import Ellipsoid
 
 __all__ = ["Sphere", "sphere_cos_integral"]
 
@@ -29,25 +28,14 @@ def sphere_cos_integral(center, radius, ref, n) -> tuple[np.ndarray, np.ndarray]
     return np.where(valid, np.pi * (radius / safe) ** 2 * h / safe, 0.0), valid
 
 
-def _sphere_uv(x: np.ndarray) -> np.ndarray:
-    phi = np.arctan2(x[:, 1], x[:, 0])
-    phi = np.where(phi < 0, phi + 2 * np.pi, phi)
-    theta = np.arccos(np.clip(x[:, 2] / np.maximum(np.linalg.norm(x, axis=-1), 1e-300), -1.0, 1.0))
-    return np.stack([phi / (2 * np.pi), theta / np.pi], -1)
-
-
 @register("shape", "sphere")
-class Sphere(Shape):
-    """Mitsuba's ``sphere``: ``center`` (3,), ``radius`` > 0, and the common shape parameters."""
+class Sphere(Ellipsoid):
+    """Mitsuba's ``sphere``: ``center`` (3,), ``radius`` > 0, and the common shape parameters
+    (an ellipsoid of equal radii whose ``to_world`` is a similarity)."""
 
     def __init__(self, *, center: Any = (0.0, 0.0, 0.0), radius: float = 1.0, **common):
-        super().__init__(**common)
-        c = checks.finite_array(center, "center").reshape(-1)
-        if c.shape != (3,):
-            raise ValueError(f"center must be 3 numbers, got {center!r}")
         r = checks.real(radius, "radius", low=0, low_open=True)
-        self.to_world = self.to_world @ tf.translate(c) @ tf.scale(r)
-        self.to_world = shape_matrix(self.to_world)
+        super().__init__(center=center, radii=(r, r, r), **common)
         self._check_similarity()
 
     @classmethod
@@ -72,17 +60,6 @@ class Sphere(Shape):
     def sphere_light(self) -> tuple[np.ndarray, float]:
         return self.sphere()
 
-    def ellipsoid(self) -> tuple[np.ndarray, np.ndarray]:
-        """(center, 3x3 linear map) with world points = center + A @ unit-sphere points."""
-        return self.center, self.to_world[:3, :3].copy()
-
-    def uv(self, p, prim):
-        """Mitsuba's sphere: uv = (phi / 2 pi, theta / pi) of the local direction, phi in [0, 2 pi)."""
-        return _sphere_uv(self.local_points(p))
-
-    def parts(self) -> list:
-        return [Quadric(self.center, self.to_world[:3, :3].copy(), -1.0 if self.flip_normals else 1.0)]
-
     @property
     def area(self) -> float:
         return float(4 * np.pi * self.sphere()[1] ** 2)
@@ -90,11 +67,6 @@ class Sphere(Shape):
     @property
     def bound_radius(self) -> float:
         return self.sphere()[1]
-
-    def surface(self):
-        from ...distributions import EllipsoidSurface
-
-        return EllipsoidSurface.from_matrix(self.to_world)
 
     def cos_integral(self, ref, n):
         c, r = self.sphere()
