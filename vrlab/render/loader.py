@@ -1,6 +1,6 @@
 """Mitsuba 3 scene files -> vrlab scene objects, through the element registry only.
 
-Reading (:mod:`vrlab.render.xml_props`): the XML is parsed with line numbers; ``<include
+Reading (:mod:`vrlab.render.xml_reader`, :mod:`vrlab.render.xml_props`): the XML is parsed with line numbers; ``<include
 filename>`` is replaced by the children of the included file's ``<scene>`` (recursively,
 cycles refused), ``<path value>`` adds a search folder for files, ``<default name value>``
 defines ``$name`` (``load_scene(params=...)`` overrides it).  Building: every object
@@ -172,9 +172,8 @@ def _read_source(source: Any) -> tuple[str, str, Path]:
         raise SceneError(f"{str(path)!r}: the scene file is not UTF-8 text") from None
     except OSError as exc:
         hint = ""
-        from .builtin import list_builtin_scenes      # (builtin imports this module)
-
-        if path.stem in list_builtin_scenes() and not path.exists():
+        shipped = Path(__file__).parent / "scenes" / f"{path.stem}.xml"     # a built-in scene's name
+        if shipped.exists() and not path.exists():
             hint = f"; for the built-in scene use load_scene(builtin_scene_path({path.stem!r}))"
         raise SceneError(f"cannot read scene file {str(path)!r}: {exc.strerror or exc}{hint}") from None
     return text, str(path), path.parent
