@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import checks
 from .base import as_points, as_uniforms
-from .spherical import TWO_PI, _Direction, _phi_u
+from .spherical import TWO_PI, MicrofacetNormals, _phi_u
 
 __all__ = ["Beckmann"]
 
 
-class Beckmann(_Direction):
+class Beckmann(MicrofacetNormals):
     """Beckmann microfacet normals m, density D(m) cos(theta_m) (solid angle).
 
     D(m) = exp(-tan^2 theta / alpha^2) / (pi alpha^2 cos^4 theta) for m.z > 0, else 0
@@ -27,14 +26,6 @@ class Beckmann(_Direction):
     cos theta = 1 / sqrt(1 + tan^2), sin theta = tan theta cos theta; ``invert``:
     u1 = 1 - exp(-tan^2 theta / alpha^2).  ``alpha``: a real in [1e-50, 1e50] (as ``GGX``).
     """
-
-    ALPHA_RANGE = (1e-50, 1e50)
-
-    def __init__(self, alpha: float):
-        self.alpha = checks.real(alpha, "alpha", low=0.0, low_open=True)
-        lo, hi = self.ALPHA_RANGE
-        if not lo <= self.alpha <= hi:
-            raise ValueError(f"alpha must be in [{lo:g}, {hi:g}] (D would under- or overflow), got {self.alpha:g}")
 
     @staticmethod
     def _tan2(m: np.ndarray) -> np.ndarray:

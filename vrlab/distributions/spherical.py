@@ -167,14 +167,9 @@ class PhongLobe(_Direction):
         return {"exponent": self.exponent}
 
 
-class GGX(_Direction):
-    """GGX / Trowbridge–Reitz microfacet normals h, density D(h) cos(theta_h) (solid angle).
-
-    D(h) = alpha^2 / (pi cos^4(theta) (alpha^2 + tan^2(theta))^2)  (Walter et al. 2007,
-    "Microfacet Models for Refraction through Rough Surfaces", eq. 33).  Sampling by
-    inversion: tan^2(theta) = alpha^2 u1 / (1 - u1), phi = 2 pi u2 (eq. 35-36).
-    ``alpha``: a real in [1e-50, 1e50] (beyond, alpha^4 under- or overflows in D).
-    """
+class MicrofacetNormals(_Direction):
+    """What the microfacet normal distributions share: the roughness ``alpha``, a real in
+    [1e-50, 1e50] (beyond, alpha^4 under- or overflows in D)."""
 
     ALPHA_RANGE = (1e-50, 1e50)
 
@@ -183,6 +178,16 @@ class GGX(_Direction):
         lo, hi = self.ALPHA_RANGE
         if not lo <= self.alpha <= hi:
             raise ValueError(f"alpha must be in [{lo:g}, {hi:g}] (D would under- or overflow), got {self.alpha:g}")
+
+
+class GGX(MicrofacetNormals):
+    """GGX / Trowbridge–Reitz microfacet normals h, density D(h) cos(theta_h) (solid angle).
+
+    D(h) = alpha^2 / (pi cos^4(theta) (alpha^2 + tan^2(theta))^2)  (Walter et al. 2007,
+    "Microfacet Models for Refraction through Rough Surfaces", eq. 33).  Sampling by
+    inversion: tan^2(theta) = alpha^2 u1 / (1 - u1), phi = 2 pi u2 (eq. 35-36).
+    ``alpha``: a real in [1e-50, 1e50] (beyond, alpha^4 under- or overflows in D).
+    """
 
     def D(self, h: np.ndarray) -> np.ndarray:
         """The normal distribution function D(h) (per steradian of h, projected area normalised)."""
