@@ -190,3 +190,15 @@ def test_sampling_patterns_figures():
     _check(figs.discrepancy_figure(m.discrepancy_table([16, 32], reps=1)))
     summary, slopes = m.convergence([16, 32, 64], 4)
     _check(figs.convergence_figure(summary, slopes))
+
+
+def test_environment_lighting_figures(tmp_path):
+    from vrlab.distributions import EnvironmentMap
+    from vrlab.experiments import environment_lighting as m
+    paths = m.write_scenes(tmp_path, (40, 30))
+    t, imgs, ref = m.compare(paths, 4, 8)
+    env = EnvironmentMap(m.sky_image(16, 32))
+    d, _, dimg = m.delta_check(paths, 4)
+    for fig in (m.renders_figure(t, imgs, ref), m.map_figure(env, m.sun_fractions(env, 1000)),
+                m.delta_figure(dimg, d)):
+        _check(fig)

@@ -2,7 +2,8 @@
 
 An ``envmap`` is radiance L(w) arriving from infinitely far away in every direction, read from
 a latitude-longitude image.  Direct lighting at a surface point is L_o = int f_r L(w) V cos dw,
-and the techniques are those of any light (lecture 000, "Applications"; lecture 004, MIS):
+and the techniques are those of any light (the CT5202 MIS slides, "Applications": sample the
+BSDF or sample the light; lecture 4 of the Russian course, "Multiple importance sampling"):
 
 * ``bsdf``: w ~ the BSDF's sampling density (cosine-weighted on a diffuse surface);
 * ``light``, uniform map: w uniform on the sphere, p = 1 / (4 pi) (vrlab's
@@ -45,6 +46,7 @@ from matplotlib.patches import Patch
 import numpy as np
 import pandas as pd
 
+from vrlab import checks
 from vrlab.distributions import EnvironmentMap
 from vrlab.distributions.envmap import latlong_direction
 from vrlab.estimators import MIS, DefensiveMixture
@@ -73,16 +75,22 @@ def sky_image(height: int = MAP_SIZE[0], width: int = MAP_SIZE[1], sun: dict = S
     L = y (0.2, 0.4, 0.9) + (1 - y)(0.85, 0.9, 1.0) (zenith blue to a pale horizon), below it a
     dark ground (0.18, 0.15, 0.12); texels within ``sun["radius"]`` degrees of the sun's
     direction (``elevation``, ``azimuth`` in degrees; azimuth 0 = -z, 90 = +x) take its radiance."""
+    height, width = checks.integer(height, "height", low=3), checks.integer(width, "width", low=2)
+    towards = sun_direction(sun)
     j, i = np.meshgrid(np.arange(height), np.arange(width), indexing="ij")
     d = latlong_direction(np.stack([(i + 0.5) / width, j / (height - 1)], -1))
     y = d[..., 1:2]
     img = np.where(y >= 0, y * [0.2, 0.4, 0.9] + (1 - y) * [0.85, 0.9, 1.0], [0.18, 0.15, 0.12])
-    img[d @ sun_direction(sun) >= np.cos(np.radians(sun["radius"]))] = sun["radiance"]
+    img[d @ towards >= np.cos(np.radians(sun["radius"]))] = sun["radiance"]
     return img
 
 
 def sun_direction(sun: dict = SUN) -> np.ndarray:
     """Unit direction to the sun's centre: theta = 90 deg - elevation from +y, u = azimuth / 360."""
+    if not isinstance(sun, dict) or not {"elevation", "azimuth", "radius", "radiance"} <= set(sun):
+        raise TypeError(f"sun: expected a dict with elevation, azimuth, radius (degrees) and radiance, got {sun!r}")
+    checks.real(sun["elevation"], "sun['elevation']", low=-90.0, high=90.0)
+    checks.real(sun["radius"], "sun['radius']", low=0.0, high=90.0, low_open=True)
     return latlong_direction([sun["azimuth"] / 360.0, (90.0 - sun["elevation"]) / 180.0])
 
 
@@ -165,14 +173,8 @@ def methods() -> list[tuple[str, str, object, dict]]:
 def regions(scene, sub: int = 4) -> np.ndarray:
     """(H, W) index of the shape that all ``sub`` x ``sub`` camera rays of the pixel hit, -1 where
     they hit several shapes or the sky (an object's edge)."""
-    integ = DirectLighting(scene)
+    s = DirectLighting(scene).pixel_hits(sub)
     h, w = scene.sensor.height, scene.sensor.width
-    rows, cols = np.divmod(np.arange(h * w), w)
-    pix = np.broadcast_to(np.stack([rows, cols], -1)[:, None, :], (h * w, sub * sub, 2))
-    g = (np.arange(sub) + 0.5) / sub
-    off = np.broadcast_to(np.stack(np.meshgrid(g, g), -1).reshape(1, -1, 2), (h * w, sub * sub, 2))
-    o, d = integ.camera.pixel_rays(pix, off)
-    s = integ.geometry.intersect(o.reshape(-1, 3), d.reshape(-1, 3)).shape.reshape(h * w, -1)
     return np.where((s == s[:, :1]).all(-1), s[:, 0], -1).reshape(h, w)
 
 
@@ -211,8 +213,9 @@ def compare(paths: dict, spp: int, ref_spp: int, seed: int = 11) -> tuple[pd.Dat
 
 
 def sun_fractions(env: EnvironmentMap, n: int = 200_000, seed: int = 5) -> dict:
-    """Probability that a light sample lands within 1.5 sun radii of the sun's centre: luminance
-    sampling (measured on n samples) against uniform sampling ((1 - cos r) / 2, exact)."""
+    """Probability that a light sample of ``env`` lands within 1.5 radii of the centre of the sun
+    ``SUN``: luminance sampling (measured on n samples) against uniform sampling ((1 - cos r) / 2,
+    the cap's solid angle 2 pi (1 - cos r) over 4 pi; exact)."""
     cone = np.cos(np.radians(1.5 * SUN["radius"]))
     w = env.sample(np.random.default_rng(seed).random((n, 2)))
     return {"luminance": float(np.mean(w @ sun_direction() >= cone)), "uniform": (1.0 - cone) / 2.0, "n": n}
@@ -289,6 +292,7 @@ def renders_figure(table: pd.DataFrame, images: dict, ref: np.ndarray):
             for c, h in zip(cols, hatches)]
     ax.set_yscale("log")
     ax.set_xticks(pos, table["method"])
+    ax.set_xlabel("method (light: the envmap sampled uniformly or by luminance × sin θ)")
     ax.set_ylabel(f"relMSE at {spp} spp (dimensionless)")
     ax.set_title("error of each method: all surface pixels, then floor, diffuse sphere, glossy sphere", fontsize=10)
     ax.legend(handles=keys, fontsize=8, ncols=4)
@@ -344,6 +348,7 @@ def gallery_numbers(out: str | Path) -> dict:
 
 def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     """Write the sky and scenes, run the comparison and both checks, write CSV + PNG into ``out``."""
+    full = checks.flag(full, "full")
     out = output_dir(out)
     size, spp, ref_spp = ((320, 240), 32, 4096) if full else ((160, 120), 16, 512)
     paths = write_scenes(out, size)

@@ -222,16 +222,10 @@ def light_free_mask(scene, sub: int = 6) -> np.ndarray:
     A pixel that sees part of a light gets a camera-sampling error (radiance up to 1000 or the
     floor's ~1) that no light-selection strategy touches and that dominates a relMSE at a few
     spp; the comparison uses the other pixels."""
-    integ = DirectLighting(scene)                  # geometry and camera only
+    hit = DirectLighting(scene).pixel_hits(sub)           # geometry and camera only
     h, w = scene.sensor.height, scene.sensor.width
-    rows, cols = np.divmod(np.arange(h * w), w)
-    pix = np.broadcast_to(np.stack([rows, cols], -1)[:, None, :], (h * w, sub * sub, 2))
-    g = (np.arange(sub) + 0.5) / sub
-    off = np.broadcast_to(np.stack(np.meshgrid(g, g), -1).reshape(1, -1, 2), (h * w, sub * sub, 2))
-    o, d = integ.camera.pixel_rays(pix, off)
-    hits = integ.geometry.intersect(o.reshape(-1, 3), d.reshape(-1, 3))
     emitters = np.array([s.emitter is not None for s in scene.shapes] + [False])
-    lit = emitters[np.where(hits.shape >= 0, hits.shape, len(scene.shapes))].reshape(h * w, -1).any(-1)
+    lit = emitters[np.where(hit >= 0, hit, len(scene.shapes))].any(-1)
     lit = np.pad(lit.reshape(h, w), 1)
     near = np.zeros((h, w), bool)
     for dy in range(3):          # and their neighbours: a light can show in a pixel between the rays

@@ -124,6 +124,19 @@ class DirectLighting:
         self.environment = envs[0] if envs else None
         self.radiance = np.concatenate([self.radiance, np.zeros((1, 3), F32)])      # + the environment's row
 
+    def pixel_hits(self, sub: int = 4) -> np.ndarray:
+        """(H*W, sub*sub): the shape hit by each of ``sub`` x ``sub`` camera rays through a pixel
+        (stratum centres; pixels in raster order; negative where a ray leaves the scene). For
+        masks of pixels that see one shape only, or see a light."""
+        sub = checks.integer(sub, "sub", low=1)
+        h, w = self.camera.height, self.camera.width
+        rows, cols = np.divmod(np.arange(h * w), w)
+        pix = np.broadcast_to(np.stack([rows, cols], -1)[:, None, :], (h * w, sub * sub, 2))
+        g = (np.arange(sub) + 0.5) / sub
+        off = np.broadcast_to(np.stack(np.meshgrid(g, g), -1).reshape(1, -1, 2), (h * w, sub * sub, 2))
+        o, d = self.camera.pixel_rays(pix, off)
+        return self.geometry.intersect(o.reshape(-1, 3), d.reshape(-1, 3)).shape.reshape(h * w, sub * sub)
+
     def facing(self, hits: Hits, d: np.ndarray) -> np.ndarray:
         """Whether each hit's surface faces the ray ``d`` (the side an area light emits to): by
         the shading normal on meshes with vertex normals, as Mitsuba's ``area`` emitter judges
