@@ -69,7 +69,7 @@ def test_closed_form_exp_pair():
     check_calibrated(CRNDifference(common=False), (a, b), var_a + var_b, exact=a.exact - b.exact, seed=3)
 
 
-@pytest.mark.parametrize("name", I.names())
+@pytest.mark.parametrize("name", I.names(atoms=False))
 def test_catalogue_common_and_independent(name):
     a = I.get(name)
     b = partner(a)

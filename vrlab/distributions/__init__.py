@@ -9,6 +9,7 @@ from .discrete import AliasTable, CDFTable
 from .frames import Frame, Oriented, orthonormal_basis, to_local, to_world
 from .interval import Exponential, LinearInterval, Product, TruncatedNormal, UniformBox, UniformInterval
 from .mixture import Mixture
+from .point_masses import OffAtoms, PointMasses, atom_mass
 from .planar import Disk, Rectangle, Triangle, concentric_disk
 from .spherical import GGX, CosineHemisphere, PhongLobe, UniformCone, UniformHemisphere, UniformSphere
 from .solid_angle import LightSample, SolidAngleFromArea, SphereCone
@@ -19,7 +20,7 @@ from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 __all__ = [
     "AliasTable", "CDFTable", "Distribution", "Frame", "Oriented", "orthonormal_basis", "to_local", "to_world",
     "Exponential", "LinearInterval", "Product", "TruncatedNormal", "UniformBox", "UniformInterval",
-    "Mixture", "Disk", "Rectangle", "Triangle", "concentric_disk",
+    "Mixture", "OffAtoms", "PointMasses", "atom_mass", "Disk", "Rectangle", "Triangle", "concentric_disk",
     "GGX", "CosineHemisphere", "PhongLobe", "UniformCone", "UniformHemisphere", "UniformSphere",
     "PiecewiseConstant1D", "PiecewiseConstant2D",
     "LightSample", "SolidAngleFromArea", "SphereCone",

@@ -41,6 +41,7 @@ import numpy as np
 
 from .. import checks
 from ..integrands.base import checked_values
+from .atoms import check_atoms
 from .base import Estimator, check_technique, ratio, resolve_distribution, support_probe
 from .importance import MonteCarlo
 from .regression import CoMoments, regression_estimate  # noqa: F401  (CoMoments: public here too)
@@ -159,6 +160,9 @@ class ControlVariate(_Regression):
     control_integral : the known integral(s) theta of the control(s): a number (one
         control) or one value per control (each scalar or batch-shaped); ``None`` for
         named controls.
+        On an integrand with point masses theta is the integral w.r.t. the same mixed measure:
+        h's value at an atom a_k counts as a point mass there, theta = int h dx + sum_k h(a_k)
+        (:mod:`vrlab.distributions.point_masses`).
     alpha : ``"optimal"`` (default; least squares on the same samples, O(1/n) bias),
         or fixed coefficients: a number (used for every control) or one per control
         (last axis K, may carry batch axes); ``alpha=1`` is the plain difference estimator.
@@ -335,6 +339,7 @@ class DefensiveMixture(_Regression):
         return k - 1 if self.controls else 0
 
     def check(self, integrand) -> None:
+        check_atoms(integrand, [self.mixture(integrand)], ["distributions"], self.label)
         if integrand.dim <= 3:
             support_probe(integrand, [self.mixture(integrand)], label="the mixture")
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from .. import checks
 from ..distributions.base import as_float
+from .atoms import check_atoms
 from .base import Estimator, check_technique, ratio, resolve_distribution, support_probe, technique_label
 
 
@@ -29,6 +30,7 @@ class MonteCarlo(Estimator):
 
     def check(self, integrand) -> None:
         dist = resolve_distribution(self.distribution, integrand)
+        check_atoms(integrand, [dist], ["distribution"], self.label)
         if self.probe and self.distribution is not None and integrand.dim <= 3:
             support_probe(integrand, [dist], label=repr(dist))
 

@@ -147,6 +147,10 @@ class MIS(Estimator):
         dists = resolve_all(self.distributions, integrand)
         _check_dims(dists, integrand)
         active = [d for d, c in zip(dists, self.fractions) if c > 0]
+        if getattr(integrand, "atoms", ()):      # point masses (imported here: the renderer needs none)
+            from .atoms import check_atoms
+            check_atoms(integrand, active, [f"distributions[{i}]" for i, c in enumerate(self.fractions) if c > 0],
+                        self.label)
         if self.probe and integrand.dim <= 3:
             support_probe(integrand, active, label=f"{self.label} (techniques with samples)")
 

@@ -12,6 +12,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .. import checks
+from .atoms import check_atoms
 from .base import Estimator, ratio, support_probe
 from .mis import (HEURISTICS, _check_beta_alpha, _check_dims, _check_distributions, _check_fractions,
                   _check_heuristic, _stack_pdfs, mis_weights, resolve_all)
@@ -67,6 +68,8 @@ class OneSampleMIS(Estimator):
         dists = resolve_all(self.distributions, integrand)
         _check_dims(dists, integrand)
         active = [d for d, c in zip(dists, self.probabilities) if c > 0]
+        check_atoms(integrand, active, [f"distributions[{i}]" for i, c in enumerate(self.probabilities) if c > 0],
+                    self.label)
         if self.probe and integrand.dim <= 3:
             support_probe(integrand, active, label=f"{self.label} (techniques with probability > 0)")
 

@@ -34,6 +34,7 @@ import numpy as np
 from .. import checks
 from .._rng import RNGLike
 from ..estimate import Estimate
+from .atoms import check_atoms
 from .base import DEFAULT_CHUNK, Estimator, check_chunk, check_technique, ratio, resolve_distribution, support_probe
 
 
@@ -195,6 +196,16 @@ class RIS(Estimator):
         if dx is not None and dx != integrand.dim:
             raise ValueError(f"source: points of dimension {dx}, but the integrand's domain has dimension "
                              f"{integrand.dim}")
+        check_atoms(integrand, [source], ["source"], self.label)
+        if getattr(integrand, "atoms", ()):
+            t = np.asarray(self.target_for(integrand)(integrand.atom_points), dtype=float)
+            bad = (integrand.atom_weights != 0) & ~np.all(t.reshape(-1, len(integrand.atom_weights)) > 0, 0)
+            if bad.any():
+                k = int(np.argmax(bad))
+                raise ValueError(f"target: it is 0 at the atom x = {integrand.atom_points[k, 0]:g} of integrand "
+                                 f"{integrand.name!r}, which has a point mass there: RIS never keeps that "
+                                 "candidate and misses the atom (read on the mixed measure, a target's value "
+                                 "at an atom is its weight there, as the integrand's)")
         if self.probe and integrand.dim <= 3:
             support_probe(integrand, [_Support(source, self.target_for(integrand))],
                           label=f"{self.label} (source pdf x target)")

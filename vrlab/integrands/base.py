@@ -11,7 +11,14 @@ The contract is checked at every call (``Integrand.__call__``, which every estim
 uses): ``f`` must return real values of shape ``x.shape[:-1]`` (optionally with leading
 batch axes), all finite.  A wrong shape (``(n, 1)`` for ``(n,)``, one scalar for n
 points) or a NaN/inf raises ``ValueError`` naming the integrand and the first bad point.
-Subclasses change ``f``, not ``__call__``.  :func:`vrlab.integrands.lookup.as_integrand` is what
+Subclasses change ``f``, not ``__call__``.
+
+Point masses (``atoms=[(a_k, c_k), ...]``, 1D boxes): the integral is over the mixed measure
+mu = length + counting measure on the atoms, int f dmu = int f dx + sum_k c_k (``exact`` is
+that total), and ``__call__`` returns the weight c_k at x == a_k exactly (``f`` is the
+continuous part, :meth:`Integrand.continuous`); see :mod:`vrlab.distributions.point_masses`.
+Estimators refuse a technique set that cannot produce an atom, ``uniform()`` is the uniform
+density read on mu (0 at the atoms) and ``f2`` is the integral of f^2 dx off the atoms.  :func:`vrlab.integrands.lookup.as_integrand` is what
 estimators accept: an ``Integrand`` or a catalogue name.
 """
 from __future__ import annotations
@@ -40,12 +47,20 @@ class Integrand:
     ``techniques`` (named distributions suited to this integrand: estimators accept
     these names wherever they take a distribution), ``controls`` (named control
     variates: name -> ``(h, integral of h)``, for ``ControlVariate("name")``) and
-    ``targets`` (named unnormalised densities, for ``RIS(target="name")``).
+    ``targets`` (named unnormalised densities, for ``RIS(target="name")``) and ``atoms``
+    (point masses ``[(a_k, c_k), ...]`` on a 1D box: distinct points of the domain, finite
+    weights; ``atom_points`` (k, 1) and ``atom_weights`` (k,) hold them).
     """
+
+    #: point masses ((a_k, c_k), ...); class defaults for subclasses that set their own fields
+    atoms: tuple = ()
+    atom_points: np.ndarray = np.empty((0, 1))
+    atom_weights: np.ndarray = np.empty(0)
 
     def __init__(self, f: Callable[[np.ndarray], np.ndarray], domain: Any, exact: Any = None,
                  name: str | None = None, *, f2: float | None = None, theory: dict | None = None,
-                 techniques: dict | None = None, controls: dict | None = None, targets: dict | None = None):
+                 techniques: dict | None = None, controls: dict | None = None, targets: dict | None = None,
+                 atoms: Any = None):
         if not callable(f):
             raise TypeError(f"f must be callable, got {type(f).__name__}")
         self.f = f
@@ -87,11 +102,23 @@ class Integrand:
         for key, t in self.targets.items():
             if not callable(t):
                 raise TypeError(f"targets[{key!r}]: expected a callable (points -> unnormalised density)")
+        self.atoms, self.atom_points, self.atom_weights = _atoms(atoms, self.bounds)
+
+    def continuous(self, x: np.ndarray) -> np.ndarray:
+        """f(x) without the point masses (checked as ``__call__``): the part integrated dx."""
+        x = np.asarray(x)
+        return checked_values(self.f(x), x, f"integrand {self.name!r}")
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """f(x), checked: real, finite, one value per point (leading batch axes allowed)."""
         x = np.asarray(x)
-        return checked_values(self.f(x), x, f"integrand {self.name!r}")
+        out = checked_values(self.f(x), x, f"integrand {self.name!r}")
+        if not self.atoms:
+            return out
+        eq = x[..., 0][..., None] == self.atom_points[:, 0]       # an atom: its weight (density w.r.t. mu)
+        hit = eq.any(-1)
+        return np.where(hit, self.atom_weights[np.argmax(eq, -1)], out).astype(out.dtype, copy=False) \
+            if hit.any() else out
 
     def technique(self, name: str, arg: str = "distribution"):
         """The distribution named ``name`` in :attr:`techniques` (``ValueError`` naming ``arg``)."""
@@ -106,20 +133,46 @@ class Integrand:
         return _named(self.targets, name, arg, f"integrand {self.name!r} has no target")
 
     def uniform(self):
-        """The uniform distribution on the domain (the default importance sampler)."""
+        """The uniform distribution on the domain (the default importance sampler); with atoms,
+        read on the mixed measure (``OffAtoms``: density 0 at the atoms, which it never produces)."""
         if self.bounds is None:
             return NAMED_DOMAINS[self.domain][2]()
+        if self.atoms:
+            from ..distributions.point_masses import OffAtoms
+            return OffAtoms(UniformBox(self.bounds), self.atom_points)
         return UniformBox(self.bounds)
 
     @property
     def uniform_variance(self) -> float | None:
-        """Var of one uniform-sampling term f(X)/p = |D| f(X): |D| * f2 - exact^2 (closed form)."""
-        if self.f2 is None or self.exact is None or np.ndim(self.exact) != 0:
+        """Var of one uniform-sampling term f(X)/p = |D| f(X): |D| * f2 - exact^2 (closed form);
+        None with atoms (uniform sampling never produces them: it is biased)."""
+        if self.atoms or self.f2 is None or self.exact is None or np.ndim(self.exact) != 0:
             return None
         return self.volume * self.f2 - self.exact**2
 
     def __repr__(self) -> str:
         return f"Integrand({self.name!r}, domain={self.domain!r}, exact={self.exact!r})"
+
+
+def _atoms(atoms: Any, bounds) -> tuple[tuple, np.ndarray, np.ndarray]:
+    """``atoms`` [(a_k, c_k), ...] checked: ``((a_k, c_k), ...)``, points (k, 1), weights (k,)."""
+    if atoms is None or (isinstance(atoms, (list, tuple)) and not atoms):
+        return (), np.empty((0, 1)), np.empty(0)
+    if bounds is None or len(bounds) != 1:
+        raise ValueError("atoms: point masses are supported on 1D box domains only")
+    if isinstance(atoms, (str, bytes, dict)) or not hasattr(atoms, "__len__") or \
+            not all(hasattr(a, "__len__") and len(a) == 2 for a in atoms):
+        raise TypeError(f"atoms: expected a list of pairs (point, weight), got {checks.describe(atoms)}")
+    one = (lambda p: np.ravel(p)[0] if isinstance(p, (list, tuple, np.ndarray)) and np.size(p) == 1 else p)
+    pts = [checks.real(one(a[0]), f"atoms[{k}][0] (the point)") for k, a in enumerate(atoms)]
+    weights = [checks.real(a[1], f"atoms[{k}][1] (the weight)") for k, a in enumerate(atoms)]
+    lo, hi = bounds[0]
+    for k, p in enumerate(pts):
+        if not lo <= p <= hi:
+            raise ValueError(f"atoms[{k}][0]: the point {p:g} lies outside the domain [{lo:g}, {hi:g}]")
+    if len(set(pts)) != len(pts):
+        raise ValueError(f"atoms: the points must be distinct, got {pts}")
+    return (tuple(zip(pts, weights)), np.array(pts, dtype=float)[:, None], np.array(weights, dtype=float))
 
 
 def _named(table: dict, name: Any, arg: str, missing: str):

@@ -24,6 +24,12 @@ Names (``get(name)``; ``names()`` lists them):
   -k_d + (k_s + k_d) p_brdf + k_d P p_light up to the lobe's tails (8e-7 of its mass): the
   defensive mixture with the densities as controls is exact by construction, up to a
   residual variance ~1e-9 of the plain mixture's (what "f in the span" buys).
+* ``point-mass``: 3x^2 on [0, 1] plus a point mass 1/2 at x = 0.3 (a "delta light"),
+  int f dmu = 1 + 1/2 = 3/2 over mu = length + counting at 0.3 (its value there is 1/2).
+  Techniques "continuous" (OffAtoms(2x): never produces the atom) and "mixture"
+  (PointMasses(2x, [0.3], [1/4])); importance sampling with the mixture has
+  Var = int 9x^4 / (2x (3/4)) dx + (1/2)^2 / (1/4) - (3/2)^2 = 3/2 + 1 - 9/4 = 1/4.
+  Uniform sampling (and every recipe built on it) cannot produce the atom and is refused.
 * ``cos-hemisphere``: cos(theta) over the hemisphere = pi; uniform Var = pi^2/3,
   cosine sampling has zero variance.
 * ``cos8-hemisphere``: cos^8(theta) = 2 pi / 9; cosine sampling Var = pi^2/8 - (2pi/9)^2,
@@ -215,6 +221,15 @@ def _lights(lights) -> tuple:
     return tuple(out)
 
 
+def _point_mass(x0: float = 0.3, c: float = 0.5, m: float = 0.25) -> Integrand:
+    ramp = D.LinearInterval(0, 1, 0, 1)                     # p = 2x
+    var_mixture = 9 / (8 * (1 - m)) + c * c / m - (1 + c) ** 2
+    return Integrand(lambda x: 3 * x[..., 0] ** 2, [(0, 1)], 1 + c, "point-mass", f2=9 / 5,
+                     theory={"var:mixture": var_mixture, "smooth": False},
+                     techniques={"continuous": D.OffAtoms(ramp, [x0]), "mixture": D.PointMasses(ramp, [x0], [m])},
+                     atoms=[(x0, c)])
+
+
 def _cos_hemisphere() -> Integrand:
     return Integrand(lambda w: np.clip(w[..., 2], 0, None), "hemisphere", np.pi, "cos-hemisphere",
                      f2=2 * np.pi / 3, theory={"var:uniform": np.pi**2 / 3, "var:cosine": 0.0},
@@ -242,12 +257,17 @@ CATALOGUE = {
     "glossy-light-in-span": _glossy_light_in_span,
     "cos-hemisphere": _cos_hemisphere,
     "cos8-hemisphere": _cosn_hemisphere,
+    "point-mass": _point_mass,
 }
 
+#: Catalogue integrands with point masses (uniform sampling cannot produce their atoms).
+WITH_ATOMS = frozenset({"point-mass"})
 
-def names() -> list[str]:
-    """Names of the catalogue integrands."""
-    return list(CATALOGUE)
+
+def names(*, atoms: bool = True) -> list[str]:
+    """Names of the catalogue integrands; ``atoms=False`` leaves out those with point masses
+    (on which uniform sampling, antithetic pairs of it, strata... cannot produce the atom)."""
+    return [n for n in CATALOGUE if atoms or n not in WITH_ATOMS]
 
 
 def get(name: str) -> Integrand:

@@ -6,7 +6,7 @@ or ``base:arg``.  ``build(name, integrand)`` returns the estimator (settings onl
 :mod:`vrlab.estimators`) and the point set to pass as ``points=`` (a name or ``None`` for
 independent uniforms), or raises ``ValueError`` saying why the recipe does not apply to
 that integrand (no techniques, no known control variate, estimator module not
-installed...).  ``register`` adds recipes of your own (to the same registry).  Arguments are
+installed, techniques that cannot produce an integrand's point masses...).  ``register`` adds recipes of your own (to the same registry).  Arguments are
 checked: recipe names are strings (an unknown one lists the recipes), integrands are
 ``Integrand`` objects or catalogue names, and a recipe's ``:<int>`` argument lies in
 [1, ``MAX_RECIPE_ARG``].
@@ -87,7 +87,15 @@ def get_recipe(name: str) -> Callable[[Any], tuple]:
     recipe, arg = _split(name)
 
     def build_for(integrand):
-        return recipe.build(_integrand(integrand), arg)
+        integrand = _integrand(integrand)
+        built = recipe.build(integrand, arg)
+        if getattr(integrand, "atoms", ()):
+            # point masses: a recipe whose techniques cannot produce an atom (uniform sampling and
+            # everything built on it) does not apply; the estimator's check says why
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                built[0].check(integrand)
+        return built
     build_for.__name__ = name
     return build_for
 
