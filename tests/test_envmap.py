@@ -307,3 +307,27 @@ def test_mitsuba_samples_follow_our_pdf(maps, mi, name):
     assert mass.sum() == pytest.approx(1.0, rel=1e-12)
     res = pooled_chi2(counts, n * mass.ravel(), name=f"mitsuba {name}")
     assert_gof(res, alpha=0.01, m=len(MAPS))
+
+
+class _SinDropped:
+    """Mutation: the luminance map's samples, with the pdf of the (u, v) square taken as a
+    density on the sphere without the 1 / (2 pi^2 sin theta) Jacobian's sin theta."""
+
+    dim, dim_u = 3, 2
+
+    def __init__(self, env):
+        self.env = env
+
+    def sample(self, u):
+        return self.env.sample(u)
+
+    def pdf(self, w):
+        w = np.asarray(w, float)
+        return self.env.pdf(w) * np.sqrt(np.clip(1.0 - w[..., 1] ** 2, 0.0, 1.0))   # latitude from +y
+
+
+def test_a_dropped_sin_theta_fails():
+    wrong = _SinDropped(CASES["random-cdf"])
+    with pytest.raises(AssertionError):
+        assert_gof(chi2_gof(wrong, SphereChart(), (20, 30), n=100_000, rng=7, sub=4, name="sin dropped"), alpha=0.01)
+    assert abs(integrate(wrong.pdf, SphereChart(), (96, 96), quad=8) - 1.0) > 0.05

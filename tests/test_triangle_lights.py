@@ -376,3 +376,30 @@ def test_mesh_agrees_with_mitsuba(tmp_path):
 def test_bad_input(build, exc, name, raises_naming):
     with raises_naming(exc, name):
         build()
+
+
+class _AreaNotConverted:
+    """Mutation: directions sampled as the mesh light does, density left per unit area (1 / A)
+    instead of converted to solid angle (1 / A times d^2 / |cos| at the light)."""
+
+    dim, dim_u = 3, 2
+
+    def __init__(self, d, mesh):
+        self.d, self.area = d, mesh.area
+
+    def sample(self, u):
+        return self.d.sample(u)
+
+    def pdf(self, w):
+        return np.where(self.d.pdf(w) > 0, 1.0 / self.area, 0.0)
+
+
+def test_a_density_not_converted_to_solid_angle_fails():
+    m = octahedron()
+    wrong = _AreaNotConverted(TriangleMeshSolidAngle(m, FAR, "area", "area"), m)
+    pts = np.concatenate([m.vertices, m.sample(np.random.default_rng(0).random((4000, 2)))])
+    with pytest.raises(AssertionError):
+        assert_gof([_chi2(wrong, pts, FAR, rng=3, name="area density")], alpha=0.01)
+    axis, z_min = _aim(OCTA_V, FAR)
+    total = float(cell_integrals(InFrame(wrong, axis).pdf, CapChart(z_min, 1), (320, 320), 2).sum())
+    assert abs(total - 1.0) > 0.1
