@@ -24,7 +24,7 @@ import numpy as np
 
 def check_atoms(integrand, techniques: Sequence, names: Sequence[str], who: str) -> None:
     """Refuse ``techniques`` (with argument ``names``) for ``integrand``'s atoms, see the module."""
-    if not getattr(integrand, "atoms", ()):
+    if not integrand.atoms:
         return
     from ..distributions.point_masses import atom_mass, check_atom_densities
 

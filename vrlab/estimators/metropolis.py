@@ -319,7 +319,7 @@ class MetropolisHastings(Estimator):
         bounds = getattr(integrand, "bounds", None)
         if bounds is None or bounds.shape != box.shape or not np.allclose(bounds, box):
             raise ValueError(f"integrand: its domain must be the sampler's box {box.tolist()}")
-        if getattr(integrand, "atoms", ()):
+        if integrand.atoms:
             raise ValueError(f"integrand: {integrand.name!r} has point masses (atoms at "
                              f"{integrand.atom_points[:, 0].tolist()}); the random-walk chains have a density "
                              "w.r.t. length and never visit an atom: use importance sampling or MIS with "

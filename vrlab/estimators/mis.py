@@ -147,7 +147,7 @@ class MIS(Estimator):
         dists = resolve_all(self.distributions, integrand)
         _check_dims(dists, integrand)
         active = [d for d, c in zip(dists, self.fractions) if c > 0]
-        if getattr(integrand, "atoms", ()):      # point masses (imported here: the renderer needs none)
+        if integrand.atoms:      # point masses (imported here: the renderer needs none)
             from .atoms import check_atoms
             check_atoms(integrand, active, [f"distributions[{i}]" for i, c in enumerate(self.fractions) if c > 0],
                         self.label)

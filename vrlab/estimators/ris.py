@@ -197,7 +197,7 @@ class RIS(Estimator):
             raise ValueError(f"source: points of dimension {dx}, but the integrand's domain has dimension "
                              f"{integrand.dim}")
         check_atoms(integrand, [source], ["source"], self.label)
-        if getattr(integrand, "atoms", ()):
+        if integrand.atoms:
             t = np.asarray(self.target_for(integrand)(integrand.atom_points), dtype=float)
             bad = (integrand.atom_weights != 0) & ~np.all(t.reshape(-1, len(integrand.atom_weights)) > 0, 0)
             if bad.any():

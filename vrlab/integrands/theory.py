@@ -40,7 +40,7 @@ def mc_variance(integrand: Integrand, distribution=None, *, bins: int | None = N
     chart = chart_for(integrand)
     nb = bins or (400 if chart.p == 1 else 96)
 
-    atoms = getattr(integrand, "atoms", ())
+    atoms = integrand.atoms
 
     def g(x):
         f = integrand.continuous(x) if atoms else integrand(x)

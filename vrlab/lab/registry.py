@@ -89,7 +89,7 @@ def get_recipe(name: str) -> Callable[[Any], tuple]:
     def build_for(integrand):
         integrand = _integrand(integrand)
         built = recipe.build(integrand, arg)
-        if getattr(integrand, "atoms", ()):
+        if integrand.atoms:
             # point masses: a recipe whose techniques cannot produce an atom (uniform sampling and
             # everything built on it) does not apply; the estimator's check says why
             with warnings.catch_warnings():

@@ -65,6 +65,8 @@ class PixelIntegrand:
     technique.  ``dim`` is the number of uniforms per pixel sample.
     """
 
+    atoms: tuple = ()       #: no point masses in u-space (delta lights are in the shading integrand's measure)
+
     def __init__(self, scene: Scene, estimator: Any = "mis-power", *, units: int | None = None,
                  light_selection: str = "uniform", emitter_samples: int | None = None,
                  bsdf_samples: int | None = None, ris_candidates: int = 8):
