@@ -20,10 +20,10 @@ techniques side by side with Mitsuba 3 in one run.
    ``light`` with the emitter's ``triangle_sampling="area"`` (Mitsuba's way) against
    ``"spherical"`` (Arvo 1995), at equal CPU time.
 
-**Optimal MIS.**  ``MIS(["light", "bsdf"], heuristic="optimal")`` refuses to render (it fits
-its weights over all samples and has no per-unit values), so this script defines
-:class:`PixelOptimalMIS`, a user's estimator (the public ``vrlab.estimators.Estimator``
-protocol): the paper's estimator in its control-variate form, fitted per pixel over its spp units.
+**Optimal MIS.**  ``MIS(["light", "bsdf"], heuristic="optimal")``: per unit one light and one
+BSDF sample, the balance value Y = sum f / (p_l + p_b) and the control H = sum p_l / (p_l + p_b)
+(mean 1), Y regressed on H - 1 per pixel and channel over the pixel's spp units
+(Kondapaneni et al. 2019 in its control-variate form; ``vrlab.estimators.MIS.unit_outputs``).
 
 **Timing.**  Everything runs in this process: vrlab with ``workers=1``, Mitsuba with one
 thread (``drjit.set_thread_count(1)`` after every scene is loaded).  A time is the CPU time
@@ -49,64 +49,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from vrlab.estimators import Estimator  # noqa: E402
-from vrlab.estimators.control import CoMoments  # noqa: E402
-from vrlab.estimators.regression import regression_estimate  # noqa: E402
+from vrlab.estimators import MIS  # noqa: E402
 from vrlab.metrics import rel_mse  # noqa: E402
 
 W, H = 128, 96
 REF_BATCH = 256        # spp per Mitsuba call of a reference (its float32 film drifts over many samples)
-
-
-# ----------------------------------------------------------------------------- optimal MIS
-class PixelOptimalMIS(Estimator):
-    """Optimal MIS (Kondapaneni, Vévoda, Grittmann, Skřivan, Slusallek & Křivánek 2019, "Optimal
-    Multiple Importance Sampling", ACM TOG 38(4)) of one ``"light"`` and one ``"bsdf"`` sample
-    per unit.  Its F_o = sum_k a_k + (1/N) sum (f - a.p) / q (as in ``vrlab.estimators.mis``) is
-    the balance estimator with controls p_k / q of known mean 1, fitted by least squares.  With
-    q = p_l + p_b (both solid-angle densities times counting over lights, as the shading
-    integrand defines them) a unit is Y = sum_{s=1,2} f(X_s) / q(X_s) and the control
-    H = sum_s p_l(X_s) / q(X_s), E[H] = int p_l = 1; the pixel's estimate is the intercept of
-    the least-squares regression of Y on H - 1 over its spp units, mean(Y) - alpha (mean(H) - 1)
-    with alpha = Cov(Y, H) / Var(H), per pixel and channel (an O(1/spp) bias, as the paper's fit
-    on the same samples).  The second control p_b / q is redundant (the two sum to 2)."""
-
-    evals_per_unit = 2
-    min_units = 3
-
-    def dim_u(self, integrand) -> int:
-        return self.unit_dim(integrand)
-
-    def unit_dim(self, integrand) -> int:
-        return int(integrand.technique("light").dim_u) + int(integrand.technique("bsdf").dim_u)
-
-    def unit_outputs(self, integrand, u: np.ndarray) -> np.ndarray:
-        """Columns (Y, H - 1) of the units ``u (*batch, m, unit_dim)``: light uniforms first."""
-        light, bsdf = integrand.technique("light"), integrand.technique("bsdf")
-        u = np.asarray(u)
-        k = int(light.dim_u)
-        y = h = 0.0
-        for dist, uk in ((light, u[..., :k]), (bsdf, u[..., k:])):
-            x = dist.sample(uk)
-            f = np.asarray(integrand(x), np.float64)
-            pl = np.asarray(light.pdf(x), np.float64)
-            q = pl + np.asarray(bsdf.pdf(x), np.float64)
-            qs = np.where(q > 0, q, 1.0)
-            y = y + np.where(q > 0, f / qs, 0.0)
-            h = h + np.where(q > 0, pl / qs, 0.0)
-        y, h = np.broadcast_arrays(y, h - 1.0)
-        return np.stack([y, h], -1)
-
-    def accumulate(self, outputs: np.ndarray):
-        return CoMoments().add(np.asarray(outputs))
-
-    def summarize(self, stats):
-        with np.errstate(invalid="ignore", divide="ignore"):
-            r = regression_estimate(stats, 0.0, "optimal")
-        return r["value"], r["stderr"]
-
-    def statistics_from_state(self, state: dict):
-        return CoMoments.from_state(state)
 
 
 # ----------------------------------------------------------------------------- scenes
@@ -340,7 +287,8 @@ def main(argv=None) -> int:
                 jobs.append(("env", kind, env_scene(kind, env, None), {
                     "vrlab bsdf": (lum, "bsdf"), "vrlab light, uniform map": (uni, "light"),
                     "vrlab light, luminance map": (lum, "light"), "vrlab mis-balance": (lum, "mis-balance"),
-                    "vrlab mis-power": (lum, "mis-power"), "vrlab optimal MIS (per pixel)": (lum, PixelOptimalMIS())}))
+                    "vrlab mis-power": (lum, "mis-power"),
+                    "vrlab mis-optimal": (lum, MIS(["light", "bsdf"], heuristic="optimal"))}))
         if "mesh" in args.parts:
             for mesh in ("quad", "ball"):
                 for view in MESH_VIEWS:

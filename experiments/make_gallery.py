@@ -128,8 +128,8 @@ GALLERY: list[Entry] = [
           "A diffuse and a glossy sphere under a sky with a small sun (2° radius), {spp} spp and two evaluations per "
           "camera ray for every method. relMSE: BSDF sampling {bsdf} (it rarely finds the sun), light sampling of the map "
           "uniformly {uniform} and by luminance × sin θ {luminance} ({gain}× lower; its error mostly in the glossy "
-          "reflection), MIS {balance} (balance), {power} (power) and {optimal} (optimal weights in their "
-          "control-variate form)."),
+          "reflection), MIS {balance} (balance), {power} (power) and {optimal} (optimal weights, fitted per "
+          "pixel)."),
 ]
 
 

@@ -274,6 +274,37 @@ def test_optimal_never_worse_than_balance(name):
         assert vo < 1e-20
 
 
+@pytest.mark.parametrize("fractions", [[1, 1], [2, 1]])
+@pytest.mark.parametrize("name", list(PAIRS))
+def test_optimal_per_unit_is_unbiased_with_the_optimal_variance(name, fractions):
+    """The renderer's optimal MIS (``unit_outputs`` -> regression on the density controls
+    H_k - 1): unbiased, and its variance over replicates is the optimal one,
+    Var = (1/N) int (f - a.p)^2 / q with N = m sum_k c_k (Kondapaneni et al. 2019: at their a,
+    E_k[(f - a.p)/q] = 0 for every technique, so the unit's variance is the same integral)."""
+    integrand, dists = techniques(name)
+    est = MIS(dists, fractions, "optimal")
+    m, R = 400, 300
+    u = np.random.default_rng(17).random((R, m, est.unit_dim(integrand)))
+    out = est.unit_outputs(integrand, u)
+    assert out.shape == (R, m, 2) and est.min_units == 3
+    assert abs(out[..., 1].mean()) < 5 * out[..., 1].std() / np.sqrt(R * m)          # E[H_0] = 1
+    value, stderr = est.fold(out)
+    theory = optimal_variance(Quadrature(integrand, dists), dists, np.array(fractions) * m)
+    v = np.var(value, ddof=1)
+    if theory > 1e-12:
+        assert variance_band_ok(v, R, theory * (1 + 3 / m)), (v, theory)    # + the fit's O(K/m)
+        assert np.mean(stderr**2) == pytest.approx(theory, rel=0.1)
+        pooled = np.mean(value)
+        assert abs(pooled - integrand.exact) < 4 * np.sqrt(v / R), (pooled, integrand.exact)
+    else:
+        assert v < 1e-20 and np.allclose(value, integrand.exact)
+    # the controls' known mean is 1: centring them at anything else biases the estimate
+    wrong = out.copy()
+    wrong[..., 1] += 0.2
+    if theory > 1e-12 and np.any(np.abs(est.details(est.accumulate(out))["alpha"]) > 0.05):
+        assert abs(np.mean(est.fold(wrong)[0]) - integrand.exact) > 8 * np.sqrt(v / R)
+
+
 # ---------------------------------------------------------------------------------------
 # one-sample MIS
 # ---------------------------------------------------------------------------------------

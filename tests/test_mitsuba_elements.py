@@ -273,6 +273,18 @@ def test_envmap_agrees_with_mitsuba(tmp_path, extra):
                                      f'<float name="scale" value="1.5"/>{extra}</emitter>', lights=False))
 
 
+def test_optimal_mis_agrees_with_mitsuba_under_mixed_lights(tmp_path):
+    """MIS with the optimal heuristic (a per-pixel regression on the density controls) on a
+    glossy sphere lit by an environment map, a point light and two area lights: unbiased up to
+    its O(1/spp) fit, so it must pass Mitsuba's criterion as the other heuristics do."""
+    from vrlab.estimators import MIS
+
+    env = _envmap_file(tmp_path)
+    assert_agrees_with_mitsuba(scene(SHAPES["sphere"] + EMITTERS["point"] + f'<emitter type="envmap"><string '
+                                     f'name="filename" value="{env}"/></emitter>'),
+                               estimator=MIS(["light", "bsdf"], heuristic="optimal"))
+
+
 @pytest.mark.parametrize("kind", ["projector colour", "projector bitmap", "spot bitmap"])
 def test_projected_textures_agree_with_mitsuba(tmp_path, kind):
     from PIL import Image

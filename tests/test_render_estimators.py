@@ -37,6 +37,8 @@ ESTIMATORS = {
     "mis-maximum": lambda: MIS(["light", "bsdf"], heuristic="maximum"),
     "mis-cutoff": lambda: MIS(["light", "bsdf"], fractions=[2, 1], heuristic="cutoff", alpha=0.3),
     "mis-user-heuristic": lambda: MIS(["light", "bsdf"], heuristic=user_estimators.balance),
+    "mis-optimal": lambda: MIS(["light", "bsdf"], heuristic="optimal"),
+    "mis-optimal-3-uneven": lambda: MIS(["light", "cosine", "bsdf"], fractions=[2, 1, 1], heuristic="optimal"),
     "one-sample-balance": lambda: OneSampleMIS(["bsdf", "light"]),
     "one-sample-power": lambda: OneSampleMIS(["bsdf", "light"], probabilities=[1, 3], heuristic="power"),
     "antithetic-cosine": lambda: Antithetic("cosine"),
@@ -140,8 +142,10 @@ def test_estimators_without_unit_values_and_bad_names_are_refused(raises_naming)
         render(SC, 4, MonteCarlo("nope"))
     with raises_naming(ValueError, "distributions[1]"):
         render(SC, 4, MIS(["light", "glossy"]))
-    with raises_naming(ValueError, "heuristic"):
-        render(SC, 4, MIS(["light", "bsdf"], heuristic="optimal"))
+    with raises_naming(ValueError, "optimal_pilot"):              # a pilot needs the whole sample set
+        render(SC, 4, MIS(["light", "bsdf"], heuristic="optimal", optimal_pilot=0.2))
+    with raises_naming(ValueError, "spp"):                      # K - 1 = 1 fitted coefficient: K + 1 = 3 units
+        render(SC, 2, MIS(["light", "bsdf"], heuristic="optimal"))
     with raises_naming(ValueError, "spp"):                      # a fitted control needs K + 2 samples
         render(SC, 2, ControlVariate("lambertian", distribution="light"))
 

@@ -46,7 +46,7 @@ from ..estimate import Estimate, Moments
 from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, point_engine, ratio,
                    support_probe)
 
-from .regression import CoMoments
+from .regression import CoMoments, regression_estimate
 from .heuristics import (HEURISTICS, _check_beta_alpha, _check_dims, _check_distributions,  # noqa: F401
                          _check_fractions, _check_heuristic, _stack_pdfs, check_heuristic_weights, mis_weights,
                          resolve_all, split_counts, unit_counts)
@@ -181,26 +181,44 @@ class MIS(Estimator):
         dists = resolve_all(self.distributions, integrand)
         return int(sum(c * int(d.dim_u) for c, d in zip(self.unit_counts(), dists)))
 
-    def unit_values(self, integrand, u: np.ndarray) -> np.ndarray:
-        """Unit values sum_i (1/c_i) sum_j w_i(X_ij) f(X_ij) / p_i(X_ij) for the unit counts c
-        (eq. 9.3 with n_i = c_i), from uniforms ``u (*batch, m, unit_dim)``: columns of
-        technique 0's c_0 samples first, then technique 1's, ...  Not for ``optimal``."""
-        if self.heuristic == "optimal":
-            raise ValueError("heuristic: 'optimal' fits its weights over all samples and has no per-unit values; "
-                             "use another heuristic per unit")
+    def _unit_samples(self, integrand, u: np.ndarray):
+        """Yield ``(i, c_i, x)``: technique i's c_i samples of each of the m units in ``u
+        (*batch, m, unit_dim)`` (columns of technique 0's c_0 samples first, then technique
+        1's, ...), as points ``(*batch, m c_i, dim)``, unit after unit."""
         dists = resolve_all(self.distributions, integrand)
         counts = self.unit_counts()
         u = np.asarray(u, dtype=float)
         if u.ndim < 2 or u.shape[-1] != self.unit_dim(integrand):
             raise ValueError(f"u: expected uniforms (..., m, {self.unit_dim(integrand)}), got shape {u.shape}")
-        m, col, total = u.shape[-2], 0, 0.0
+        m, col = u.shape[-2], 0
         for i, dist in enumerate(dists):
             c, d = int(counts[i]), int(dist.dim_u)
             if c == 0:
                 continue
             ui = u[..., col:col + c * d].reshape(u.shape[:-2] + (m * c, d))   # unit after unit
             col += c * d
-            x = dist.sample(ui)
+            yield i, c, dist.sample(ui)
+
+    @staticmethod
+    def _per_unit(v: np.ndarray, c: int, axis: int = -1) -> np.ndarray:
+        """Sum the c consecutive samples of each unit along ``axis`` (m c -> m)."""
+        if c == 1:
+            return v
+        v = np.moveaxis(v, axis, -1)
+        return np.moveaxis(v.reshape(v.shape[:-1] + (v.shape[-1] // c, c)).sum(-1), -1, axis)
+
+    def unit_values(self, integrand, u: np.ndarray) -> np.ndarray:
+        """Unit values sum_i (1/c_i) sum_j w_i(X_ij) f(X_ij) / p_i(X_ij) for the unit counts c
+        (eq. 9.3 with n_i = c_i), from uniforms ``u (*batch, m, unit_dim)``: columns of
+        technique 0's c_0 samples first, then technique 1's, ...  Not for ``optimal``, whose
+        estimate is a regression over units (:meth:`unit_outputs`)."""
+        if self.heuristic == "optimal":
+            raise ValueError("heuristic: 'optimal' fits its weights over all units and has no unit values; "
+                             "its unit_outputs are the balance value and the density controls")
+        dists = resolve_all(self.distributions, integrand)
+        counts = self.unit_counts()
+        total = 0.0
+        for i, c, x in self._unit_samples(integrand, u):
             f = integrand(x)
             if self.heuristic == "balance":  # (1/c_i) w_i f / p_i = f / sum_k c_k p_k
                 q = 0.0
@@ -213,12 +231,82 @@ class MIS(Estimator):
                 P = _stack_pdfs(dists, x)
                 w = mis_weights(P * counts.astype(P.dtype), self.heuristic, beta=self.beta, alpha=self.alpha)
                 v = ratio(w[..., i], P.dtype.type(c) * P[..., i]) * f
-            v = v if c == 1 else v.reshape(v.shape[:-1] + (m, c)).sum(-1)
+            v = self._per_unit(v, c)
             if isinstance(total, np.ndarray) and total.shape == v.shape:
                 total += v
             else:
                 total = total + v
         return total
+
+    # -- optimal MIS per unit (the renderer's view): a regression on density controls ------
+    @property
+    def min_units(self) -> int:  # type: ignore[override]
+        """Units one fold needs: 1 (2 for a standard error); ``optimal`` fits K - 1
+        coefficients with a residual variance, so K + 1 (K: techniques with samples)."""
+        return int(np.sum(self.fractions > 0)) + 1 if self.heuristic == "optimal" else 1
+
+    def unit_outputs(self, integrand, u: np.ndarray) -> np.ndarray:
+        """Per unit, ``(*batch, m, c)``.  For the explicit heuristics one column, the unit value.
+
+        For ``optimal``, Kondapaneni et al.'s F_o = sum_k a_k + (1/N) sum (f - a.p) / q as a
+        control-variate estimate over units: with the unit counts c_k and q = sum_k c_k p_k,
+        column 0 is the balance value Y = sum_s f(X_s) / q(X_s) over the unit's samples, and
+        columns 1.. are H_k - 1 with H_k = sum_s p_k(X_s) / q(X_s) for the first K - 1 active
+        techniques.  E[H_k] = sum_i c_i int p_i p_k / q = int p_k = 1 for every normalised
+        density p_k (the last control is redundant: sum_k c_k H_k = sum_k c_k), so
+        :meth:`summarize`'s least-squares intercept mean(Y) - a.(mean(H) - 1) is F_o with a
+        fitted on the same units (consistent, O(1/m) bias, as the paper's fit on the same
+        samples).  Densities must integrate to 1 over what their techniques sample (the
+        renderer's do: a sample wasted below the horizon keeps its density)."""
+        if self.heuristic != "optimal":
+            return super().unit_outputs(integrand, u)
+        if self.optimal_pilot > 0:
+            raise ValueError("optimal_pilot: per unit (the renderer) the optimal weights are fitted on the units "
+                             "themselves; use optimal_pilot=0")
+        dists = resolve_all(self.distributions, integrand)
+        counts = self.unit_counts()
+        active = [k for k in range(len(dists)) if counts[k]]
+        y = h = 0.0
+        for _, c, x in self._unit_samples(integrand, u):
+            f = integrand(x)
+            P = _stack_pdfs([dists[k] for k in active], x)                    # (..., m c, K)
+            q = P @ counts[active].astype(P.dtype)
+            y = y + self._per_unit(ratio(f, q), c)
+            h = h + self._per_unit(ratio(P[..., :-1], q[..., None]), c, axis=-2)
+        y, h = np.asarray(y), np.asarray(h) - 1.0
+        shape = np.broadcast_shapes(y.shape, h.shape[:-1])          # (RGB, ...) integrand batches lead
+        return np.concatenate([np.broadcast_to(y, shape)[..., None], np.broadcast_to(h, shape + h.shape[-1:])], -1)
+
+    def accumulate(self, outputs: np.ndarray):
+        """``optimal``: the :class:`CoMoments` of the columns (Y, H - 1); otherwise the moments
+        of the unit values."""
+        if self.heuristic != "optimal":
+            return super().accumulate(outputs)
+        return CoMoments().add(np.asarray(outputs))
+
+    def summarize(self, stats) -> tuple[np.ndarray, np.ndarray]:
+        """``optimal``: the intercept of the least-squares fit of Y on the controls and its
+        standard error (:func:`~vrlab.estimators.regression.regression_estimate`)."""
+        if not isinstance(stats, CoMoments):
+            return super().summarize(stats)
+        r = self._regression(stats)
+        return r["value"], r["stderr"]
+
+    def details(self, stats) -> dict:
+        if not isinstance(stats, CoMoments):
+            return super().details(stats)
+        r = self._regression(stats)
+        return {"variance": r["variance"], "alpha": r["alpha"], "variance_factor": r["variance_factor"]}
+
+    @staticmethod
+    def _regression(stats: CoMoments) -> dict:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return regression_estimate(stats, 0.0, "optimal")
+
+    def statistics_from_state(self, state: dict):
+        if state.get("kind") == "CoMoments":
+            return CoMoments.from_state(state)
+        return super().statistics_from_state(state)
 
     def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
                  chunk: int = DEFAULT_CHUNK) -> Estimate:

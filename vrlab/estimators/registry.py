@@ -26,8 +26,9 @@ recipe                 estimator                                                
 ``mc``                 ``MonteCarlo()``: uniform sampling of the domain                     lab
 ``is:<t>``             ``MonteCarlo(integrand.techniques[t])``                              lab
 ``mis-<h>[:<a+b>]``    ``MIS(techniques, heuristic=h)``; h in balance, power, max, cutoff,  lab
-                       optimal (Veach & Guibas 1995; Kondapaneni et al. 2019); balance and  render
-                       power also render ``MIS(["light", "bsdf"], fractions=[n_l, n_b])``
+                       optimal (Veach & Guibas 1995; Kondapaneni et al. 2019); balance,     render
+                       power and optimal also render ``MIS(["light", "bsdf"],
+                       fractions=[n_l, n_b])`` (optimal: fitted per pixel)
 ``mixture``            ``OneSampleMIS(["bsdf", "light"], probabilities=[n_b, n_l])``        render
 ``onesample[:<a+b>]``  ``OneSampleMIS(techniques)`` (Veach 1997, 9.2.4)                     lab
 ``defensive[:<a+b>]``  ``DefensiveMixture``: techniques mixed with uniform, as controls     lab
@@ -209,7 +210,8 @@ register_recipe("is", "MonteCarlo(techniques[t]): importance sampling with one t
 _SAMPLES_AND_LIGHTS = ("emitter_samples", "bsdf_samples", "light_selection")
 _HEURISTICS = {"balance": "balance", "power": "power", "max": "maximum", "cutoff": "cutoff", "optimal": "optimal"}
 _MIS_HELP = {"balance": "light and BSDF samples, MIS balance heuristic",
-             "power": "light and BSDF samples, MIS power heuristic, as Mitsuba's direct integrator"}
+             "power": "light and BSDF samples, MIS power heuristic, as Mitsuba's direct integrator",
+             "optimal": "light and BSDF samples, optimal MIS weights fitted per pixel (Kondapaneni et al. 2019)"}
 
 
 def _mis_builder(short: str, heuristic: str) -> LabBuilder:

@@ -12,12 +12,11 @@ BSDF or sample the light; lecture 4 of the Russian course, "Multiple importance 
   p_w = p_uv / (2 pi^2 sin theta) (Mitsuba 3 convention, src/emitters/envmap.cpp;
   :class:`vrlab.distributions.EnvironmentMap`);
 * MIS of light (luminance) and BSDF, one sample of each: ``mis-balance``, ``mis-power`` and
-  the optimal weights of Kondapaneni et al. (2019).  The renderer refuses
-  ``MIS(heuristic="optimal")`` (no per-sample values: it fits its weights over all samples);
-  its estimator F_o = sum_k a_k + (1/N) sum (f - a.p)/q is a control-variate estimator with the
-  densities p_k as controls (Kondapaneni et al. 2019), which ``DefensiveMixture(["light",
-  "bsdf"], defensive=0)`` computes with the techniques drawn at random (Owen & Zhou 2000),
-  a fitted per pixel by least squares (consistent, O(1/spp) bias).
+  the optimal weights of Kondapaneni et al. (2019), ``MIS(["light", "bsdf"],
+  heuristic="optimal")``.  Its estimator F_o = sum_k a_k + (1/N) sum (f - a.p)/q is the
+  balance estimator with the densities p_k / q as control variates of known mean 1; the
+  renderer fits a per pixel by least squares over the pixel's units (consistent, O(1/spp)
+  bias; :meth:`vrlab.estimators.MIS.unit_outputs`).
 
 Questions answered (tables ``environment_lighting_*.csv``, figures ``*.png``):
 
@@ -27,7 +26,7 @@ Questions answered (tables ``environment_lighting_*.csv``, figures ``*.png``):
   ``mis-power`` reference, over all surface pixels and per object;
 * a closed form: a diffuse plane of albedo rho under a ``constant`` environment L, unoccluded
   and facing up, reflects L_o = int (rho/pi) L cos dw = rho L exactly: every estimator's
-  image mean within 4 standard errors (BSDF sampling and the control-variate form have zero
+  image mean within 4 standard errors (BSDF sampling and optimal MIS have zero
   variance here: f = rho L p_bsdf);
 * delta lights: with a ``point`` light added, ``bsdf`` is refused (no direction sample can
   reach it), while MIS gives the light sample weight 1 there and stays unbiased (image mean
@@ -49,7 +48,7 @@ import pandas as pd
 from vrlab import checks
 from vrlab.distributions import EnvironmentMap
 from vrlab.distributions.envmap import latlong_direction
-from vrlab.estimators import MIS, DefensiveMixture
+from vrlab.estimators import MIS
 from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 from vrlab.metrics import rel_mse, relative_squared_error
 from vrlab.render import load_scene, render
@@ -64,7 +63,7 @@ SUN = {"elevation": 40.0, "azimuth": 60.0, "radius": 2.0, "radiance": (2500.0, 2
 MAP_SIZE = (128, 256)                  # (H, W) of the lat-long image
 REGIONS = {"floor": 0, "diffuse sphere": 1, "glossy sphere": 2}     # shape index in the scene
 RHO, L_CONST = (0.7, 0.5, 0.3), (0.8, 1.0, 1.25)                 # the closed-form check
-OPTIMAL = "optimal (CV form)"
+OPTIMAL = "mis-optimal"
 COLOURS = {"bsdf": "C1", "light, uniform map": "C7", "light, luminance map": "C0", "mis-balance": "C2",
            "mis-power": "C3", OPTIMAL: "C4"}
 
@@ -155,9 +154,9 @@ def write_scenes(out: Path, size: tuple[int, int]) -> dict:
     return paths
 
 
-def optimal_mis() -> DefensiveMixture:
-    """Optimal MIS in its control-variate form: q = (p_light + p_bsdf) / 2, a fitted per pixel."""
-    return DefensiveMixture(["light", "bsdf"], defensive=0.0)
+def optimal_mis() -> MIS:
+    """Optimal MIS of one light and one BSDF sample per unit (a fitted per pixel)."""
+    return MIS(["light", "bsdf"], heuristic="optimal")
 
 
 def methods() -> list[tuple[str, str, object, dict]]:
@@ -167,7 +166,7 @@ def methods() -> list[tuple[str, str, object, dict]]:
             ("light, luminance map", "luminance", "light", {"emitter_samples": 2}),
             ("mis-balance", "luminance", "mis-balance", {}),
             ("mis-power", "luminance", "mis-power", {}),
-            (OPTIMAL, "luminance", optimal_mis(), {"units": 2})]
+            (OPTIMAL, "luminance", optimal_mis(), {})]
 
 
 def regions(scene, sub: int = 4) -> np.ndarray:
@@ -227,7 +226,7 @@ def constant_check(n: int, spp: int, seed: int = 21) -> pd.DataFrame:
     exact = np.multiply(RHO, L_CONST)
     rows = []
     for k, (label, est, kw) in enumerate((("bsdf", "bsdf", {}), ("light", "light", {}), ("mis-balance", "mis-balance", {}),
-                                          ("mis-power", "mis-power", {}), (OPTIMAL, optimal_mis(), {"units": 2}))):
+                                          ("mis-power", "mis-power", {}), (OPTIMAL, optimal_mis(), {}))):
         mean, se = image_mean(render(scene, spp, est, rng=[seed, k], **kw))
         rows += [{"method": label, "channel": c, "spp": spp, "mean": mean[i], "stderr": se[i], "exact": exact[i]}
                  for i, c in enumerate("RGB")]
@@ -365,11 +364,6 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
     delta, refusal, delta_images = delta_check(paths, 256 if full else 64)
     delta.to_csv(out / "environment_lighting_point.csv", index=False)
     save_figure(delta_figure(delta_images, delta), out / "environment_lighting_point.png")
-    try:
-        render(paths["scene"], 1, MIS(["light", "bsdf"], heuristic="optimal"), width=4, height=3)
-        optimal_refusal = ""
-    except ValueError as exc:
-        optimal_refusal = str(exc)
 
     rel = table.set_index("method")["relmse"]
     return {
@@ -377,7 +371,7 @@ def main(out: str | Path = DEFAULT_OUT, full: bool = False) -> dict:
         "relmse": rel.to_dict(), "seconds": table.set_index("method")["seconds"].to_dict(),
         "luminance_gain": float(rel["light, uniform map"] / rel["light, luminance map"]),
         "sun_fraction": fractions, "constant_ok": bool(const["ok"].all()),
-        "bsdf_refusal": refusal, "optimal_refusal": optimal_refusal,
+        "bsdf_refusal": refusal,
         "size": size, "spp": spp, "ref_spp": ref_spp, "ref_seconds": table.attrs["ref_seconds"],
         "files": sorted(p.name for p in out.iterdir()),
     }
