@@ -167,7 +167,7 @@ def test_shading_integrand_techniques_are_distributions_with_exact_densities():
     for name, tech in sh.techniques.items():
         u = g.random((2, 200_000, tech.dim_u))
         x = tech.sample(u)
-        assert x.shape == (2, 200_000, 4)
+        assert x.shape == (2, 200_000, 5) and np.all(x[..., 4] == 0)          # no delta lobes
         v = sh(x) / np.maximum(tech.pdf(x), 1e-30)[None]
         est = v.mean(-1)[1]                       # green channel, both points
         se = v.std(-1)[1] / np.sqrt(200_000)

@@ -104,6 +104,13 @@ class PixelIntegrand:
             raise ValueError(f"estimator: {self.estimator.label} samples only {', '.join(sorted(used))}, which never "
                              f"reach the scene's delta emitters ({', '.join(names)}): its image would miss their "
                              "light; use an estimator with the 'light' technique (e.g. 'light', 'mis-power')")
+        if "bsdf" not in used:             # delta lobes (smooth mirrors, refraction): only BSDF sampling finds them
+            missed = sorted({f"{b.type} ({lobe})" for b in lit.bsdfs for lobe in b.DELTA if f"bsdf:{lobe}" not in used})
+            if missed:
+                raise ValueError(f"estimator: {self.estimator.label} samples only {', '.join(sorted(used))}, which never "
+                                 f"reach the delta lobes of the scene's BSDFs ({', '.join(missed)}): its image would "
+                                 "miss what they reflect; use an estimator with the 'bsdf' technique (e.g. 'bsdf', "
+                                 "'mis-power')")
 
     @property
     def label(self) -> str:

@@ -31,10 +31,12 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
   ``to_world``, ``flip_normals``, one
   nested ``<bsdf>`` (default ``diffuse`` 0.5; black for an emitter) and an optional
   ``<emitter type="area">``;
-* BSDFs: ``diffuse`` (``reflectance``), ``roughconductor`` (``distribution``
+* BSDFs: ``diffuse`` (``reflectance``), ``conductor`` (a smooth metal, a delta lobe:
+  ``material`` or ``eta``/``k``, ``specular_reflectance``), ``roughconductor`` (``distribution``
   beckmann/ggx, ``alpha``, ``material`` none, ``specular_reflectance``,
   ``sample_visible``), ``twosided`` (one nested BSDF) and the *vrlab* ``phong``;
-  ``reflectance``, ``specular_reflectance`` and ``alpha`` may be textures;
+  ``reflectance``, ``specular_reflectance``, ``eta``, ``k`` and ``alpha`` may be textures;
+  a BSDF's lobes are techniques ``"bsdf:<lobe>"`` (:mod:`vrlab.render.bsdfs.base`);
 * emitters: ``area`` (``radiance``, a colour or a texture) inside a shape; the delta
   lights ``point`` (``position`` or ``to_world``, ``intensity``), ``spot`` (``to_world``,
   ``intensity``, ``cutoff_angle``, ``beam_width``) and ``directional`` (``direction`` or

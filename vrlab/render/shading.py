@@ -6,17 +6,23 @@ At a surface point p with normal n, BSDF f_r and outgoing direction wo, direct l
 
 light j contributing where it is the first thing seen along w (V_j) and faces p.  The
 points of this integrand are directions *with the light they reach*, ``x = (w_x, w_y,
-w_z, j)`` (world direction, light index as a float; j = -1 for none): the measure is
-solid angle times counting over lights, so ``f(w, j) = f_r cos L_e,j V_j``.  This is what
+w_z, j, k + 1)`` (world direction, light index as a float, j = -1 for none; k = -1, or the
+index of the BSDF's delta lobe that produced w, stored as k + 1): the measure is solid angle times counting
+over lights, so ``f(w, j) = f_r cos L_e,j V_j``, plus counting over the atoms of delta
+lights (one direction each) and of delta BSDF lobes (a smooth mirror or refraction: one
+direction per wo, k >= 0, where f is the lobe's integral of f_r |cos|, ``delta_value``).  This is what
 lets every technique be an ordinary distribution with an exact density (Veach 1997, 9.2:
 MIS needs every technique's pdf at every sample):
 
-* ``"bsdf"``, ``"cosine"``, ``"uniform"``: w from the BSDF lobe / cos/pi / 1/(2 pi) on the
+* ``"bsdf"``, ``"cosine"``, ``"uniform"``: w from the BSDF's lobes / cos/pi / 1/(2 pi) on the
   hemisphere of n, and j = the light first seen along w (a traced ray).  Density
-  p(w) [j is first seen along w]: at a light sample hidden behind something it is 0.
+  p(w) [j is first seen along w]: at a light sample hidden behind something it is 0.  At a
+  delta lobe's atom the ``"bsdf"`` density is the lobe's probability P_k(wo), the others' 0.
+* ``"bsdf:<lobe>"`` for each lobe of a BSDF with several (``LOBES``): that lobe alone
+  (density 1 at its atom for a delta lobe), for MIS or one-sample MIS over lobes.
 * ``"light"``: light j with probability P_j (``light_selection``), then w towards it
   (spheres by their cone, other shapes by area, converted to solid angle, counting every
-  hit of the ray with light j).  Density P_j p_j(w), occluded or not.
+  hit of the ray with light j).  Density P_j p_j(w), occluded or not; 0 at delta lobes' atoms.
 
 Named extras for the estimators (:class:`vrlab.Integrand` ``controls`` / ``targets``):
 
@@ -50,10 +56,11 @@ _WARPS = {"cosine": CosineHemisphere(), "uniform": UniformHemisphere()}
 class _Rows:
     """What is known about the rows (samples) of one point array: directions, lights, rays."""
 
-    __slots__ = ("x", "w", "wl", "j", "first", "front", "le", "le_raw", "y", "hit_p", "pdfs")
+    __slots__ = ("x", "w", "wl", "j", "lobe", "first", "front", "le", "le_raw", "y", "hit_p", "pdfs")
 
-    def __init__(self, x, w, wl, j):
+    def __init__(self, x, w, wl, j, lobe=None):
         self.x, self.w, self.wl, self.j = x, w, wl, j
+        self.lobe = lobe                  # None: every row a continuous point (k = -1)
         self.first = self.front = self.le = self.le_raw = self.y = self.hit_p = None
         self.pdfs: dict = {}
 
@@ -64,7 +71,8 @@ class ShadingIntegrand(Integrand):
     ``lighting``: the scene's :class:`~vrlab.render.direct.DirectLighting`; ``group``: the
     BSDF group; ``p``, ``n``, ``wo`` (N, 3): points, unit geometric normals and outgoing
     directions (world); ``ns``: unit shading normals (default ``n``; a mesh's interpolated
-    vertex normals), whose frame the BSDF is evaluated in, as in Mitsuba.  Points ``x (N, m, 4)``; values ``(3, N, m)`` (RGB first: a batch axis).
+    vertex normals), whose frame the BSDF is evaluated in, as in Mitsuba.  Points ``x (N, m, 5)``
+    (direction, light, delta lobe); values ``(3, N, m)`` (RGB first: a batch axis).
     """
 
     def __init__(self, lighting, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
@@ -83,7 +91,7 @@ class ShadingIntegrand(Integrand):
         self.frame = Frame._trusted(ns)         # hit normals are unit vectors (geometry normalises them)
         self.wo_l = self.frame.to_local(wo)
         self.kd = lighting.kd[group] if values is None else np.asarray(self.bsdf.diffuse_albedo(), float)
-        self.name, self.domain, self.dim, self.volume = "direct lighting", "directions x lights", 4, 4 * np.pi
+        self.name, self.domain, self.dim, self.volume = "direct lighting", "directions x lights", 5, 4 * np.pi
         self.bounds, self.exact, self.f2, self.theory = None, None, None, {}
         self._valid = self._lambertian_value = None            # the control's integral: on first use
         self._cache: dict[int, _Rows] = {}
@@ -94,8 +102,11 @@ class ShadingIntegrand(Integrand):
     # cyclic garbage collector runs: about 3.5 MB of page faults per tile in a fresh worker.
     @property
     def techniques(self) -> dict:
-        return {"bsdf": _Directional(self, None), "cosine": _Directional(self, "cosine"),
-                "uniform": _Directional(self, "uniform"), "light": _LightTechnique(self)}
+        out = {"bsdf": _Directional(self, None), "cosine": _Directional(self, "cosine"),
+               "uniform": _Directional(self, "uniform"), "light": _LightTechnique(self)}
+        if len(self.bsdf.LOBES) > 1 or self.bsdf.DELTA:
+            out.update({f"bsdf:{name}": _Lobe(self, name) for name in self.bsdf.LOBES})
+        return out
 
     @property
     def controls(self) -> dict:
@@ -114,7 +125,18 @@ class ShadingIntegrand(Integrand):
 
     def f(self, x: np.ndarray) -> np.ndarray:
         r = self.rows(x)
-        return self._rgb(self.bsdf_for(x.shape[-2]).eval(self.rep(self.wo_l, x), r.wl) * self.emission(r), x)
+        return self._rgb(self.bsdf_value(x, r) * self.emission(r), x)
+
+    def bsdf_value(self, x: np.ndarray, r: "_Rows") -> np.ndarray:
+        """f_r |cos theta_i| at the rows' directions ``(R, 3)``; at a delta lobe's atom (k >= 0)
+        the lobe's ``delta_value`` instead."""
+        bsdf, wo = self.bsdf_for(x.shape[-2]), self.rep(self.wo_l, x)
+        v = bsdf.eval(wo, r.wl)
+        if r.lobe is not None:
+            for k in np.unique(r.lobe[r.lobe >= 0]):
+                d = np.broadcast_to(bsdf.delta_value(bsdf.LOBES[k], wo)[1], v.shape)
+                v = np.where((r.lobe == k)[:, None], d, v).astype(v.dtype, copy=False)
+        return v
 
     def uniform(self):
         return _Directional(self, "uniform")
@@ -150,13 +172,16 @@ class ShadingIntegrand(Integrand):
         """RGB rows ``(R, 3)`` as values ``(3, *x.shape[:-1])``."""
         return values.T.reshape((3,) + x.shape[:-1])          # a view when each point has one sample
 
-    def new_points(self, w: np.ndarray, j: np.ndarray, shape: tuple) -> tuple[np.ndarray, _Rows]:
-        """Sample points ``x (*shape, 4)`` from rows ``w (R, 3)``, ``j (R,)``, with their cached rows."""
-        x = np.empty((len(w), 4), F32)
+    def new_points(self, w: np.ndarray, j: np.ndarray, shape: tuple,
+                   lobe: np.ndarray | None = None) -> tuple[np.ndarray, _Rows]:
+        """Sample points ``x (*shape, 5)`` from rows ``w (R, 3)``, ``j (R,)`` and delta lobes
+        ``lobe (R,)`` (None: all -1), with their cached rows."""
+        x = np.empty((len(w), 5), F32)
         x[:, :3] = w
         x[:, 3] = j
-        x = x.reshape(shape + (4,))
-        r = _Rows(x, w, None, j)
+        x[:, 4] = 0 if lobe is None else lobe + 1          # stored as k + 1: zeros are continuous points
+        x = x.reshape(shape + (5,))
+        r = _Rows(x, w, None, j, None if lobe is None or not np.any(lobe >= 0) else lobe)
         self._cache[id(x)] = r
         return x, r
 
@@ -165,11 +190,13 @@ class ShadingIntegrand(Integrand):
         r = self._cache.get(id(x))
         if r is None or r.x is not x:
             x = np.asarray(x)
-            if x.ndim != 3 or x.shape[0] != len(self.p) or x.shape[-1] != 4:
-                raise ValueError(f"x: expected points (N={len(self.p)}, m, 4) (direction, light), got {x.shape}")
+            if x.ndim != 3 or x.shape[0] != len(self.p) or x.shape[-1] != 5:
+                raise ValueError(f"x: expected points (N={len(self.p)}, m, 5) (direction, light, delta lobe), "
+                                 f"got {x.shape}")
             w = np.asarray(x[..., :3], F32).reshape(-1, 3)
             j = np.rint(np.asarray(x[..., 3], float)).astype(np.int64).reshape(-1)
-            r = _Rows(x, w, None, j)
+            lobe = np.rint(np.asarray(x[..., 4], float)).astype(np.int64).reshape(-1) - 1
+            r = _Rows(x, w, None, j, lobe if np.any(lobe >= 0) else None)
             self._cache[id(x)] = r
         if r.wl is None:
             r.wl = self.rep_frame(x.shape[-2]).to_local(r.w)
@@ -257,6 +284,8 @@ class ShadingIntegrand(Integrand):
                 r.pdfs["light"] = np.zeros(len(r.j), F32)
             else:
                 r.pdfs["light"] = lit.lights.pdf(self.rep(self.p, r.x), r.w, r.j, r.hit_p).astype(F32)
+                if r.lobe is not None:                       # no light sample is a delta lobe's atom
+                    r.pdfs["light"][r.lobe >= 0] = 0
         return r.pdfs["light"]
 
     # ---------------------------------------------------------------- named extras
@@ -269,6 +298,8 @@ class ShadingIntegrand(Integrand):
             self.control("lambertian")
         jj = np.maximum(r.j, 0)
         valid = self.rep(self._valid, x)[np.arange(len(jj)), jj] & (r.j >= 0) & (self.light_pdf(r) > 0)
+        if r.lobe is not None:                               # h lives on the continuous part
+            valid &= r.lobe < 0
         kd = self.kd if self.kd.ndim == 1 else self.rep(self.kd, x)          # per point when textured
         g = (kd / np.pi) * lit.light_radiance(r.j) * np.clip(r.wl[:, 2:3], 0.0, None)
         return self._rgb(scale(g, valid), x)
@@ -284,15 +315,14 @@ class ShadingIntegrand(Integrand):
         r = self.rows(x)
         if r.front is None:          # not a sample of a technique: the traced ray decides the facing
             self.first_seen(r)
-        fr = self.bsdf_for(x.shape[-2]).eval(self.rep(self.wo_l, x), r.wl)
-        t = luminance(fr) * luminance(self.unshadowed_emission(r))
+        t = luminance(self.bsdf_value(x, r)) * luminance(self.unshadowed_emission(r))
         return np.where(r.front & (r.j >= 0), np.maximum(t, 0.0), 0.0).reshape(x.shape[:-1])
 
 
 class _Directional:
     """``"bsdf"`` (warp None), ``"cosine"`` or ``"uniform"``: w from a local warp, j traced."""
 
-    dim_u, dim_x, measure = 2, 4, "solid angle x lights"
+    dim_u, dim_x, measure = 2, 5, "solid angle x lights"
 
     def __init__(self, shading: ShadingIntegrand, warp: str | None):
         self.s, self.warp = shading, warp
@@ -301,10 +331,32 @@ class _Directional:
     def __repr__(self) -> str:
         return f"ShadingTechnique({self.key!r})"
 
-    def _local_pdf(self, wo_l: np.ndarray, wl: np.ndarray) -> np.ndarray:
-        if self.warp is None:
-            return self.s.bsdf.pdf(wo_l, wl)
-        return np.asarray(_WARPS[self.warp].pdf(wl), F32)
+    def _local_pdf(self, wo_l: np.ndarray, wl: np.ndarray, lobe: np.ndarray | None) -> np.ndarray:
+        """The density at continuous points; at a delta lobe's atom (``lobe`` >= 0) the
+        BSDF's probability of that lobe (the other warps: 0)."""
+        if self.warp is not None:
+            p = np.asarray(_WARPS[self.warp].pdf(wl), F32)
+            return p if lobe is None else np.where(lobe >= 0, F32(0), p)
+        bsdf = self.s.bsdf_for(len(wl) // max(len(self.s.p), 1) or 1)
+        if lobe is None:
+            return bsdf.pdf(wo_l, wl)
+        dist = bsdf.distribution(wo_l)
+        p = np.broadcast_to(np.asarray(dist.pdf(wl), F32), lobe.shape)
+        k = np.maximum(lobe, 0)
+        mass = np.take_along_axis(np.broadcast_to(dist.probabilities, lobe.shape + dist.probabilities.shape[-1:]),
+                                  k[:, None], -1)[:, 0]
+        return np.where(lobe >= 0, mass, p).astype(F32)
+
+    def _draw(self, wo_l: np.ndarray, u2: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Local directions and their delta lobes (None: all continuous)."""
+        if self.warp is not None:
+            return np.asarray(_WARPS[self.warp].sample(u2), F32), None
+        bsdf = self.s.bsdf_for(len(u2) // max(len(self.s.p), 1) or 1)
+        if not bsdf.DELTA:
+            return np.asarray(bsdf.distribution(wo_l).sample(u2)), None
+        wl, k = bsdf.sample_lobe(wo_l, u2)
+        delta = np.isin(np.asarray(bsdf.LOBES)[k], bsdf.DELTA)
+        return np.asarray(wl), np.where(delta, k, -1)
 
     def sample(self, u: np.ndarray) -> np.ndarray:
         s, lit = self.s, self.s.lighting
@@ -312,17 +364,14 @@ class _Directional:
         shape = u.shape[:-1]
         u2 = uniforms32(u.reshape(-1, 2))
         wo_l = s.rep(s.wo_l, u)
-        if self.warp is None:
-            wl = np.asarray(s.bsdf.distribution(wo_l).sample(u2))
-        else:
-            wl = np.asarray(_WARPS[self.warp].sample(u2), F32)
+        wl, lobe = self._draw(wo_l, u2)
         w = s.rep_frame(shape[-1]).to_world(wl)
         hits, le = lit.trace(s.rep(s.p, u), s.rep(s.n, u), w)
         j = lit.light_hit(hits)
-        x, r = s.new_points(w, j, shape)
+        x, r = s.new_points(w, j, shape, lobe)
         r.wl, r.le, r.hit_p = wl, le, hits.p
         r.first, r.front = np.ones(len(j), bool), lit.facing(hits, w)
-        r.pdfs[self.key] = self._local_pdf(wo_l, wl)
+        r.pdfs[self.key] = self._local_pdf(wo_l, wl, r.lobe)
         return x
 
     def pdf(self, x: np.ndarray) -> np.ndarray:
@@ -334,14 +383,38 @@ class _Directional:
             lights = s.lighting.lights
             if lights is not None and lights.is_delta.any():       # no direction sample hits a delta light
                 ok = ok & ~lights.is_delta[np.maximum(r.j, 0)]
-            r.pdfs[self.key] = np.where(ok, self._local_pdf(s.rep(s.wo_l, x), r.wl), 0.0)
+            r.pdfs[self.key] = np.where(ok, self._local_pdf(s.rep(s.wo_l, x), r.wl, r.lobe), 0.0)
         return r.pdfs[self.key].reshape(x.shape[:-1])
+
+
+class _Lobe(_Directional):
+    """``"bsdf:<name>"``: the BSDF's lobe ``name`` alone (a delta lobe: its one direction,
+    density 1 at its atom and 0 elsewhere; a continuous lobe: 0 at every atom)."""
+
+    def __init__(self, shading: ShadingIntegrand, name: str):
+        super().__init__(shading, None)
+        self.name, self.key = name, f"bsdf:{name}"
+        bsdf = shading.bsdf
+        self.index, self.delta = bsdf.LOBES.index(name), name in bsdf.DELTA
+
+    def _local_pdf(self, wo_l, wl, lobe):
+        if self.delta:
+            return np.zeros(len(wl), F32) if lobe is None else (lobe == self.index).astype(F32)
+        bsdf = self.s.bsdf_for(len(wl) // max(len(self.s.p), 1) or 1)
+        p = np.asarray(bsdf.lobe(self.name, wo_l).pdf(wl), F32)
+        return p if lobe is None else np.where(lobe >= 0, F32(0), p)
+
+    def _draw(self, wo_l, u2):
+        bsdf = self.s.bsdf_for(len(u2) // max(len(self.s.p), 1) or 1)
+        wl = np.asarray(bsdf.lobe(self.name, wo_l).sample(u2))
+        wl = np.broadcast_to(wl, (len(u2), 3))
+        return wl, (np.full(len(u2), self.index) if self.delta else None)
 
 
 class _LightTechnique:
     """``"light"``: light j ~ P (one uniform), w towards it (two uniforms)."""
 
-    dim_u, dim_x, measure = 3, 4, "solid angle x lights"
+    dim_u, dim_x, measure = 3, 5, "solid angle x lights"
 
     def __init__(self, shading: ShadingIntegrand):
         self.s = shading

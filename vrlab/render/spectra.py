@@ -329,20 +329,21 @@ IOR_TABLE: dict[str, float] = {
 }
 
 
-def ior(value) -> float:
+def ior(value, name: str = "value") -> float:
     """Index of refraction of ``value``: a name of :data:`IOR_TABLE` (case-insensitive, like
-    Mitsuba 3's ``lookup_ior`` in include/mitsuba/render/ior.h) or a positive finite number."""
+    Mitsuba 3's ``lookup_ior`` in include/mitsuba/render/ior.h) or a positive finite number;
+    errors name the parameter ``name`` (e.g. ``"int_ior"``)."""
     if isinstance(value, str):
         try:
             return IOR_TABLE[value.lower()]
         except KeyError:
-            raise ValueError(f"value: unknown index of refraction {value!r}; give a positive number or one "
+            raise ValueError(f"{name}: unknown index of refraction {value!r}; give a positive number or one "
                              f"of: {', '.join(IOR_TABLE)}") from None
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"value: expected a positive number or one of the names {', '.join(IOR_TABLE)}, "
+        raise TypeError(f"{name}: expected a positive number or one of the names {', '.join(IOR_TABLE)}, "
                         f"got {type(value).__name__}")
     if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"value: an index of refraction must be positive and finite, got {value}, or one of "
+        raise ValueError(f"{name}: an index of refraction must be positive and finite, got {value}, or one of "
                          f"the names {', '.join(IOR_TABLE)}")
     return float(value)
 

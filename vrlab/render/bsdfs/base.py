@@ -17,8 +17,18 @@ Conventions (those of Mitsuba 3's ``BSDF.eval``/``sample``):
   solid angle) so the estimators (``MonteCarlo``, MIS, ...) can use BSDF sampling.
   ``wo`` broadcasts against the leading shape of ``u``: for per-pixel ``wo`` of shape
   ``(*batch, 3)`` and uniforms ``(*batch, n, 2)`` pass ``wo[..., None, :]``.
-* Every model is one-sided: f = 0 when wo.z <= 0 or wi.z <= 0 (``twosided`` makes a
-  BSDF two-sided).
+* Every reflecting model is one-sided: f = 0 when wo.z <= 0 or wi.z <= 0 (``twosided``
+  makes a BSDF two-sided); a transmitting one (``dielectric``...) overrides ``eval`` with
+  f |cos(theta_i)| on both sides.
+* **Lobes.**  ``LOBES`` names the parts a BSDF samples (``("diffuse",)``, a plastic's
+  ``("specular", "diffuse")``...), ``lobe_probabilities(wo) (..., L)`` the probabilities with
+  which ``sample`` picks them (Mitsuba's choice), ``lobe(name, wo)`` each as a distribution
+  (the shading integrand's techniques ``"bsdf:<name>"``), and ``distribution(wo)`` their
+  :class:`~vrlab.distributions.LobeMixture` (the ``"bsdf"`` technique), whose ``pdf`` is
+  the BSDF's.  ``DELTA`` names the delta lobes (a smooth mirror or refraction): one
+  direction per wo, no density in solid angle; ``delta_value(name, wo) -> (wi, value)``
+  gives that direction and the integral of f |cos| over it (RGB), and the mixture's
+  ``lobe_probability`` the mass of its atom (the mixed measure of delta lights).
 * Every model is a registered scene element (:mod:`vrlab.render.registry`): one module
   per Mitsuba plugin in this package; ``from_props`` reads it from a scene file and the
   constructor takes the same parameters as keyword arguments.
@@ -46,6 +56,7 @@ from ... import checks
 from ..._vec import dot as vdot
 from ..._vec import outer3, scale
 from ...distributions.base import Distribution, as_points, as_uniforms
+from ...distributions.lobes import DeltaDirection, LobeMixture
 from ..registry import Element
 from ..scene_checks import MAX_ALPHA, MAX_VALUE
 
@@ -147,6 +158,10 @@ class BSDFModel(Element):
 
     kind = "bsdf"
     twosided = False
+    #: the lobes ``sample`` picks from, by name (techniques ``"bsdf:<name>"`` of the renderer)
+    LOBES: tuple = ("reflection",)
+    #: the delta lobes among them (one direction per wo: a smooth mirror or refraction)
+    DELTA: tuple = ()
     #: the parameters that may be textures (evaluated at the shading points by :meth:`at`)
     TEXTURED: tuple = ()
     #: those of them that are scalars (a texture's ``eval_1``, e.g. a roughness)
@@ -199,16 +214,70 @@ class BSDFModel(Element):
         wo, wi = dirs(wo, wi)
         return scale(self.f(wo, wi), np.clip(wi[..., 2], 0.0, None))
 
-    def distribution(self, wo: np.ndarray) -> BSDFDirections:
-        """A vrlab distribution of wi for this ``wo`` (see the module notes on broadcasting)."""
-        return BSDFDirections(self, wo)
+    def distribution(self, wo: np.ndarray) -> Distribution:
+        """A vrlab distribution of wi for this ``wo`` (see the module notes on broadcasting):
+        one lobe's own, or the :class:`~vrlab.distributions.LobeMixture` of several."""
+        if len(self.LOBES) == 1 and not self.DELTA:
+            return BSDFDirections(self, wo)
+        wo = as_points(wo, 3, "wo")
+        return LobeMixture([self.lobe(name, wo) for name in self.LOBES], self.lobe_probabilities(wo))
+
+    # -- lobes (see the module notes) -----------------------------------------------------
+    def lobe_probabilities(self, wo: np.ndarray) -> np.ndarray:
+        """``(..., L)``: the probability that ``sample`` picks each lobe at ``wo`` (default:
+        the one lobe, always)."""
+        wo = as_points(wo, 3, "wo")
+        return np.ones(wo.shape[:-1] + (len(self.LOBES),))
+
+    def lobe(self, name: str, wo: np.ndarray) -> Distribution:
+        """Lobe ``name``'s directions for ``wo`` as a distribution (solid angle, whole
+        sphere; a delta lobe: :class:`~vrlab.distributions.DeltaDirection`)."""
+        self._check_lobe(name)
+        if name in self.DELTA:
+            return DeltaDirection(self.delta_value(name, wo)[0])
+        if len(self.LOBES) == 1:
+            return BSDFDirections(self, wo)
+        raise NotImplementedError(f"{type(self).__name__} does not expose its lobe {name!r}")  # pragma: no cover
+
+    def delta_value(self, name: str, wo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(wi (..., 3), value (..., 3))``: delta lobe ``name``'s direction for ``wo`` and
+        the integral of f |cos theta_i| over it (RGB)."""
+        raise ValueError(f"lobe: {type(self).__name__} has no delta lobe {name!r}")
+
+    def _check_lobe(self, name: str) -> None:
+        if name not in self.LOBES:
+            raise ValueError(f"lobe: {type(self).__name__} has lobes {', '.join(map(repr, self.LOBES))}, "
+                             f"not {name!r}")
+
+    def sample_lobe(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(wi, k)``: a sampled direction and the index (into ``LOBES``) of its lobe."""
+        dist = self.distribution(wo)
+        u = as_uniforms(u, 2)
+        if isinstance(dist, LobeMixture):
+            return dist.sample_lobe(u)
+        wi = np.asarray(dist.sample(u))
+        return wi, np.zeros(wi.shape[:-1], np.int64)
 
     def sample(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(wi, weight, pdf)`` with weight = f cos / pdf (RGB; 0 where pdf is 0)."""
+        """``(wi, weight, pdf)`` with weight = f |cos| / pdf (RGB; 0 where pdf is 0).  A delta
+        lobe's direction has pdf = the lobe's probability P_k and weight = its
+        ``delta_value`` / P_k (Mitsuba's convention)."""
         wo = as_points(wo, 3, "wo")
-        wi = self._sample_direction(wo, as_uniforms(u, 2))
-        p = self.pdf(wo, wi)
-        val = self.eval(wo, wi)
+        u = as_uniforms(u, 2)
+        if self.DELTA:
+            dist = self.distribution(wo)
+            wi, k = dist.sample_lobe(u)
+            p, val = np.asarray(dist.pdf(wi)), self.eval(wo, wi)
+            p, val = np.broadcast_to(p, k.shape).copy(), np.broadcast_to(val, k.shape + (3,)).copy()
+            for i, name in enumerate(self.LOBES):
+                if name in self.DELTA and np.any(k == i):
+                    d = np.broadcast_to(self.delta_value(name, wo)[1], val.shape)
+                    p = np.where(k == i, np.broadcast_to(dist.lobe_probability(i), k.shape), p)
+                    val = np.where((k == i)[..., None], d, val)
+        else:
+            wi = self._sample_direction(wo, u)
+            p = self.pdf(wo, wi)
+            val = self.eval(wo, wi)
         pos = (p > 0)[..., None]
         weight = np.where(pos, val / np.where(pos, p[..., None], 1.0), 0.0)
         return wi, weight, p

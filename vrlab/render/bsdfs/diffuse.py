@@ -18,6 +18,7 @@ class Diffuse(BSDFModel):
     """Lambertian reflector (Mitsuba ``diffuse``): f = R / pi, cosine-weighted sampling
     p(wi) = cos(theta_i) / pi, so weight = R exactly."""
 
+    LOBES = ("diffuse",)
     TEXTURED = ("reflectance",)
 
     def __init__(self, reflectance: Any = 0.5):

@@ -45,6 +45,7 @@ class RoughConductor(BSDFModel):
     """
 
     DISTRIBUTIONS = ("ggx", "beckmann")
+    LOBES = ("glossy",)
     TEXTURED = ("specular_reflectance", "alpha")
     SCALAR_TEXTURES = ("alpha",)
 

@@ -55,6 +55,26 @@ class TwoSided(BSDFModel):
     def sample(self, wo, u):
         return self.inner.sample(wo, u)
 
+    @property
+    def LOBES(self) -> tuple:  # noqa: N802 - the nested BSDF's class constant
+        return self.inner.LOBES
+
+    @property
+    def DELTA(self) -> tuple:  # noqa: N802
+        return self.inner.DELTA
+
+    def lobe_probabilities(self, wo):
+        return self.inner.lobe_probabilities(wo)
+
+    def lobe(self, name, wo):
+        return self.inner.lobe(name, wo)
+
+    def delta_value(self, name, wo):
+        return self.inner.delta_value(name, wo)
+
+    def sample_lobe(self, wo, u):
+        return self.inner.sample_lobe(wo, u)
+
     def diffuse_albedo(self):
         return self.inner.diffuse_albedo()
 
