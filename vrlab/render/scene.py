@@ -34,7 +34,8 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
 * BSDFs: ``diffuse`` (``reflectance``), ``conductor`` (a smooth metal, a delta lobe:
   ``material`` or ``eta``/``k``, ``specular_reflectance``), ``roughconductor`` (``distribution``
   beckmann/ggx, ``alpha``, ``material`` none, ``specular_reflectance``,
-  ``sample_visible``), ``twosided`` (one nested BSDF) and the *vrlab* ``phong``;
+  ``sample_visible``), ``blendbsdf`` (``weight``, two nested BSDFs), ``twosided`` (one nested
+  BSDF) and the *vrlab* ``phong``;
   ``reflectance``, ``specular_reflectance``, ``eta``, ``k`` and ``alpha`` may be textures;
   a BSDF's lobes are techniques ``"bsdf:<lobe>"`` (:mod:`vrlab.render.bsdfs.base`);
 * emitters: ``area`` (``radiance``, a colour or a texture) inside a shape; the delta

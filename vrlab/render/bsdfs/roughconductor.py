@@ -15,18 +15,20 @@ from ...distributions import GGX, Beckmann
 from ...distributions.base import as_points
 from ..registry import register
 from .base import BSDFModel, alpha_param, color_param, dirs, plain, reflect, shape_of, times_rgb
+from .fresnel import conductor_index, conductor_index_from_props, fresnel_conductor
 
 __all__ = ["RoughConductor"]
 
 
 @register("bsdf", "roughconductor")
 class RoughConductor(BSDFModel):
-    """Rough conductor with Fresnel = 1 (Mitsuba 3 ``roughconductor`` with ``material="none"``,
-    its default), isotropic roughness ``alpha``.  Mitsuba samples visible normals by
+    """Rough conductor (Mitsuba 3 ``roughconductor``), isotropic roughness ``alpha``.  Mitsuba samples visible normals by
     default (``sample_visible=true``); vrlab samples the full NDF either way: the
     expected image is the same, only the noise differs.
 
-    f = R D(m) G(wi, wo, m) / (4 cos theta_i cos theta_o), m = normalize(wi + wo),
+    f = R F(wo·m) D(m) G(wi, wo, m) / (4 cos theta_i cos theta_o), m = normalize(wi + wo),
+    F the conductor Fresnel term of eta + i k (``material`` or ``eta``/``k`` as in
+    :mod:`~vrlab.render.bsdfs.conductor`; ``"none"``, the default, is F = 1),
     G = G1(wi, m) G1(wo, m) (separable Smith, Heitz 2014), G1(v, m) = 0 when
     (v·m) cos theta_v <= 0, and 1 at normal incidence (tan theta_v = 0):
 
@@ -46,11 +48,11 @@ class RoughConductor(BSDFModel):
 
     DISTRIBUTIONS = ("ggx", "beckmann")
     LOBES = ("glossy",)
-    TEXTURED = ("specular_reflectance", "alpha")
+    TEXTURED = ("specular_reflectance", "alpha", "eta", "k")
     SCALAR_TEXTURES = ("alpha",)
 
     def __init__(self, alpha: Any = 0.1, distribution: str = "beckmann", specular_reflectance: Any = 1.0,
-                 sample_visible: bool = True):
+                 sample_visible: bool = True, material: str = "none", eta: Any = None, k: Any = None):
         from ..textures import Texture
 
         checks.choice(distribution, "distribution", self.DISTRIBUTIONS)
@@ -62,15 +64,16 @@ class RoughConductor(BSDFModel):
             self.normals = GGX(self.alpha) if distribution == "ggx" else Beckmann(self.alpha)
         self.specular_reflectance = color_param(specular_reflectance, "specular_reflectance")
         self.sample_visible = checks.flag(sample_visible, "sample_visible")
+        self.material = material
+        self.eta, self.k = conductor_index(material, eta, k)
 
     @classmethod
     def from_props(cls, p) -> "RoughConductor":
-        p.string("material", "none", ("none",))
         alpha = p.object("alpha", ("texture",)) if p.has("alpha") and p.element("alpha").tag == "texture" \
             else p.float("alpha", 0.1)
         return cls(alpha=alpha, distribution=p.string("distribution", "beckmann", cls.DISTRIBUTIONS),
                    specular_reflectance=p.texture("specular_reflectance", 1.0),
-                   sample_visible=p.bool("sample_visible", True))
+                   sample_visible=p.bool("sample_visible", True), **conductor_index_from_props(p))
 
     def at(self, values: dict) -> "RoughConductor":
         """The BSDF at N points: a textured roughness becomes per-row alpha (N,) in the normal
@@ -125,7 +128,11 @@ class RoughConductor(BSDFModel):
         ok = ok & (cos_o > 0) & (cos_i > 0)
         denom = 4.0 * np.where(ok, cos_o * cos_i, 1.0)
         val = np.where(ok, self.D(m) * self.G(wi, wo, m) / denom, 0.0)
-        return times_rgb(val, self.specular_reflectance, val.dtype)
+        if self.material == "none" and not self.textures.keys() & {"eta", "k"} and \
+                np.all(np.asarray(self.eta) == 0) and np.all(np.asarray(self.k) == 1):
+            return times_rgb(val, self.specular_reflectance, val.dtype)      # F = 1: a perfect mirror's facets
+        F = fresnel_conductor(np.clip(vdot(wo, m), 0.0, 1.0), self.eta, self.k)
+        return (val[..., None] * F * self.specular_reflectance).astype(val.dtype, copy=False)
 
     def pdf(self, wo, wi):
         wo, wi = dirs(wo, wi)
@@ -141,6 +148,7 @@ class RoughConductor(BSDFModel):
 
     def _repr_fields(self):
         return {"alpha": self.alpha, "distribution": self.distribution_type,
-                "specular_reflectance": plain(self.specular_reflectance)}
+                "specular_reflectance": plain(self.specular_reflectance), "material": self.material,
+                "eta": plain(self.eta), "k": plain(self.k)}
 
 
