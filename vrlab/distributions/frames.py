@@ -135,7 +135,8 @@ def to_local(w: np.ndarray, n: np.ndarray) -> np.ndarray:
 
 
 class Oriented(Distribution):
-    """A local-frame direction distribution turned to point its +z along ``axis``.
+    """A local-frame direction distribution turned to point its +z along ``axis`` (or into a
+    given :class:`Frame`: local x, y, z along its t, b, n).
 
     ``axis`` has shape ``(..., 3)`` and broadcasts against the leading shape of the
     samples: for per-pixel normals of shape ``(*batch, 3)`` and uniforms
@@ -153,9 +154,12 @@ class Oriented(Distribution):
         if getattr(local, "dim_x", 3) != 3:
             raise ValueError(f"local: the local distribution must produce 3D directions, got dim_x={local.dim_x!r}")
         self.local = local
-        self.axis = normalize(axis, "axis")
         self.dim_u = local.dim_u
-        self._frame = None
+        if isinstance(axis, Frame):              # a whole frame (a tangent along dp/du, as a normal map's)
+            self.axis, self._frame = axis.n, axis
+        else:
+            self.axis = normalize(axis, "axis")
+            self._frame = None
 
     @property
     def frame(self) -> Frame:

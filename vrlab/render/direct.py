@@ -161,6 +161,25 @@ class DirectLighting:
                 ns[rows] = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
         return ns
 
+    def tangents(self, group: int, hits: Hits, rows) -> tuple[np.ndarray, np.ndarray] | None:
+        """World ``(dp_du, dp_dv)`` ``(N, 3)`` at the camera hits ``rows`` when BSDF group
+        ``group`` needs a tangent frame (anisotropic roughness, normal and bump maps), else
+        None.  Shapes without a surface parametrisation give the tangents of
+        :func:`~vrlab.distributions.orthonormal_basis`."""
+        if not self.bsdfs[group].needs_tangents:
+            return None
+        from ..distributions.frames import orthonormal_basis
+
+        shape, p, prim, n = hits.shape[rows], hits.p[rows], hits.prim[rows], hits.n[rows]
+        du, dv = (np.empty((len(shape), 3)) for _ in range(2))
+        for k in np.unique(shape):
+            sel = np.flatnonzero(shape == k)
+            try:
+                du[sel], dv[sel] = self.shapes[k].uv_derivatives(p[sel], prim[sel], n[sel])
+            except ValueError:                           # no uv: Mitsuba's coordinate system of n
+                du[sel], dv[sel] = orthonormal_basis(np.asarray(n[sel], float))
+        return du, dv
+
     def bsdf_values(self, group: int, hits: Hits, rows) -> dict | None:
         """The textured parameters of BSDF group ``group`` at the camera hits ``rows``
         (``{name: (N, 3)}``), or None for an untextured BSDF: each shape's textures are

@@ -117,12 +117,14 @@ class PixelIntegrand:
         return self.estimator.label
 
     def shading(self, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
-                ns: np.ndarray | None = None, values: dict | None = None) -> ShadingIntegrand:
+                ns: np.ndarray | None = None, values: dict | None = None,
+                tangents: tuple | None = None) -> ShadingIntegrand:
         """The shading integrand at points ``p`` (geometric normals ``n``, shading normals ``ns``,
-        towards ``wo``) of BSDF group ``group`` (``values``: its textured parameters there)."""
+        towards ``wo``) of BSDF group ``group`` (``values``: its textured parameters there;
+        ``tangents``: world ``(dp_du, dp_dv)`` for a BSDF that needs a tangent frame)."""
         if not self.lighting.bsdfs:
             raise ValueError("scene: it has no shapes to shade")
-        return ShadingIntegrand(self.lighting, group, p, n, wo, ns, values)
+        return ShadingIntegrand(self.lighting, group, p, n, wo, ns, values, tangents)
 
     def outputs(self, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Unit outputs ``(3, P, S, c)`` of S samples in each of P pixels ``(P, 2)`` = (row,
@@ -164,7 +166,7 @@ class PixelIntegrand:
                 wo = np.negative(wo, out=wo)
                 if n_shading is not None:
                     ns = np.take(n_shading, rows, axis=0)
-            sh = self.shading(g, p, n, wo, ns, lit.bsdf_values(g, hits, rows))
+            sh = self.shading(g, p, n, wo, ns, lit.bsdf_values(g, hits, rows), lit.tangents(g, hits, rows))
             ug = ug.reshape(len(ug), self.units, self.unit_dim)
             vals = np.asarray(self.estimator.unit_outputs(sh, ug))
             vals = np.broadcast_to(vals, (3,) + vals.shape[-3:])

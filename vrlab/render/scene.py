@@ -34,9 +34,14 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
 * BSDFs: ``diffuse`` (``reflectance``), ``conductor`` (a smooth metal, a delta lobe:
   ``material`` or ``eta``/``k``, ``specular_reflectance``), ``roughconductor`` (``distribution``
   beckmann/ggx, ``alpha``, ``material`` none, ``specular_reflectance``,
-  ``sample_visible``), ``blendbsdf`` (``weight``, two nested BSDFs), ``twosided`` (one nested
-  BSDF) and the *vrlab* ``phong``;
-  ``reflectance``, ``specular_reflectance``, ``eta``, ``k`` and ``alpha`` may be textures;
+  ``sample_visible``), ``plastic`` (a delta coating over a diffuse base: ``int_ior``,
+  ``ext_ior``, ``diffuse_reflectance``, ``specular_reflectance``, ``nonlinear``),
+  ``dielectric`` and ``thindielectric`` (delta reflection and transmission, both sides:
+  ``int_ior``, ``ext_ior`` as numbers or names, ``specular_reflectance``,
+  ``specular_transmittance``), ``blendbsdf`` (``weight``, two nested BSDFs), ``normalmap``
+  (``normalmap`` texture, one nested BSDF), ``twosided`` (one nested BSDF) and the *vrlab*
+  ``phong``; ``reflectance``, ``diffuse_reflectance``, ``specular_reflectance``,
+  ``specular_transmittance``, ``eta``, ``k``, ``alpha`` and ``weight`` may be textures;
   a BSDF's lobes are techniques ``"bsdf:<lobe>"`` (:mod:`vrlab.render.bsdfs.base`);
 * emitters: ``area`` (``radiance``, a colour or a texture) inside a shape; the delta
   lights ``point`` (``position`` or ``to_world``, ``intensity``), ``spot`` (``to_world``,

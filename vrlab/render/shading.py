@@ -76,19 +76,24 @@ class ShadingIntegrand(Integrand):
     """
 
     def __init__(self, lighting, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
-                 ns: np.ndarray | None = None, values: dict | None = None):
+                 ns: np.ndarray | None = None, values: dict | None = None, tangents: tuple | None = None):
         self.lighting = lighting
+        p, n, wo = (np.asarray(a, F32) for a in (p, n, wo))
+        ns = n if ns is None else np.asarray(ns, F32)
+        flip = side(dot(wo, ns)) if lighting.twosided[group] else None
+        if flip is not None:
+            ns = scale(ns, flip)
+        self.p, self.n, self.ns = p, n, ns      # geometric normals offset the rays, shading ones give the frame
+        if tangents is None:
+            self.frame = Frame._trusted(ns)     # hit normals are unit vectors (geometry normalises them)
+        else:
+            self.frame, local = self._tangent_frame(ns, flip, *tangents)
+            values = {**(values or {}), **local}
         self._values = values
         self._bsdf = lighting.bsdfs[group]
         # a textured BSDF at these points (one row each); untextured: the group's own
         self.bsdf = self._bsdf if values is None else self._bsdf.at(values)
         self._bsdf_rows: dict = {}
-        p, n, wo = (np.asarray(a, F32) for a in (p, n, wo))
-        ns = n if ns is None else np.asarray(ns, F32)
-        if lighting.twosided[group]:
-            ns = scale(ns, side(dot(wo, ns)))
-        self.p, self.n, self.ns = p, n, ns      # geometric normals offset the rays, shading ones give the frame
-        self.frame = Frame._trusted(ns)         # hit normals are unit vectors (geometry normalises them)
         self.wo_l = self.frame.to_local(wo)
         self.kd = lighting.kd[group] if values is None else np.asarray(self.bsdf.diffuse_albedo(), float)
         self.name, self.domain, self.dim, self.volume = "direct lighting", "directions x lights", 5, 4 * np.pi
@@ -96,6 +101,27 @@ class ShadingIntegrand(Integrand):
         self._valid = self._lambertian_value = None            # the control's integral: on first use
         self._cache: dict[int, _Rows] = {}
         self.used: set[str] = set()
+
+    @staticmethod
+    def _tangent_frame(ns, flip, dp_du, dp_dv) -> tuple[Frame, dict]:
+        """Mitsuba's shading frame: s = dp_du made orthogonal to n (Gram-Schmidt), t = n x s
+        (with the unflipped n for a twosided BSDF seen from the back: Mitsuba mirrors z only);
+        and the local ``dp_du``, ``dp_dv`` (and the world ``dp_du_world``, which Mitsuba's normal
+        map reads as if it were local) for the BSDF's ``at``."""
+        from ..distributions.frames import orthonormal_basis
+
+        n64 = np.asarray(ns, np.float64)
+        du = np.asarray(dp_du, np.float64)
+        s = du - n64 * np.sum(n64 * du, -1, keepdims=True)
+        length = np.linalg.norm(s, axis=-1, keepdims=True)
+        fallback = orthonormal_basis(n64)[0]
+        s = np.where(length > 1e-12, s / np.where(length > 1e-12, length, 1.0), fallback)
+        n_up = n64 if flip is None else n64 * flip[:, None]
+        t = np.cross(n_up, s)
+        frame = Frame._trusted(ns, s.astype(F32), t.astype(F32))
+        local = {"dp_du": frame.to_local(np.asarray(dp_du, F32)), "dp_dv": frame.to_local(np.asarray(dp_dv, F32)),
+                 "dp_du_world": np.asarray(dp_du, F32)}
+        return frame, local
 
     # Techniques, controls and targets are built on access.  Stored, they would close reference
     # cycles (integrand -> technique -> integrand) that keep every batch's rays alive until the

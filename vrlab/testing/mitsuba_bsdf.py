@@ -156,6 +156,7 @@ def _interaction(mi):
     si = mi.SurfaceInteraction3f()
     si.sh_frame = mi.Frame3f(mi.Vector3f(1, 0, 0), mi.Vector3f(0, 1, 0), mi.Vector3f(0, 0, 1))
     si.n = mi.Normal3f(0, 0, 1)
+    si.dp_du, si.dp_dv = mi.Vector3f(1, 0, 0), mi.Vector3f(0, 1, 0)     # the frame's tangents (normal maps)
     return si
 
 

@@ -1,5 +1,6 @@
-"""BSDF elements, one module per Mitsuba 3 plugin (``diffuse``, ``roughconductor``,
-``twosided``) and vrlab's ``phong``; the base class :class:`BSDFModel` and the shared
+"""BSDF elements, one module per Mitsuba 3 plugin (``diffuse``, ``conductor``,
+``roughconductor``, ``plastic``, ``dielectric``, ``thindielectric``, ``twosided``) and vrlab's
+``phong``; the base class :class:`BSDFModel` and the shared
 conventions (local frame, ``eval`` = f cos, ``pdf`` on the whole sphere) are in
 :mod:`.base`.  Names are imported from their modules on first use."""
 from ..registry import lazy_package

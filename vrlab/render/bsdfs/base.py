@@ -167,6 +167,10 @@ class BSDFModel(Element):
     #: those of them that are scalars (a texture's ``eval_1``, e.g. a roughness)
     SCALAR_TEXTURES: tuple = ()
 
+    #: True when the BSDF needs Mitsuba's tangent frame (s along dp/du) at its points: then the
+    #: renderer builds the local frame from it and passes the local ``dp_du``, ``dp_dv`` to :meth:`at`
+    needs_tangents: bool = False
+
     @property
     def textures(self) -> dict:
         """``{parameter: texture}`` of the parameters given as textures."""

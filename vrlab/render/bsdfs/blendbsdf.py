@@ -159,9 +159,15 @@ class BlendBSDF(BSDFModel):
         return ("weight",) + tuple(f"{i}.{k}" for i, b in ((0, self.bsdf0), (1, self.bsdf1))
                                    for k in b.SCALAR_TEXTURES)
 
+    @property
+    def needs_tangents(self) -> bool:
+        return self.bsdf0.needs_tangents or self.bsdf1.needs_tangents
+
     def at(self, values: dict) -> "BlendBSDF":
         own = {k: v for k, v in values.items() if "." not in k}
-        nested = [{k.split(".", 1)[1]: v for k, v in values.items() if k.startswith(f"{i}.")} for i in (0, 1)]
+        frame = {k: v for k, v in own.items() if k in ("dp_du", "dp_dv", "dp_du_world")}   # both nested BSDFs' frame
+        nested = [{**frame, **{k.split(".", 1)[1]: v for k, v in values.items() if k.startswith(f"{i}.")}}
+                  for i in (0, 1)]
         out = BlendBSDF(self.bsdf0.at(nested[0]) if nested[0] else self.bsdf0,
                         self.bsdf1.at(nested[1]) if nested[1] else self.bsdf1, self.weight)
         if "weight" in own:

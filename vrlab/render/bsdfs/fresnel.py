@@ -46,7 +46,7 @@ from ..spectra import IOR_TABLE, conductor_ior
 from ..spectra import ior as _named_ior
 
 __all__ = ["DielectricFresnel", "fresnel_dielectric", "fresnel_conductor", "fresnel_diffuse_reflectance",
-           "refract", "ior_value", "relative_ior", "conductor_ior", "IOR_TABLE"]
+           "refract", "ior_value", "ior_param", "ior_from_props", "relative_ior", "conductor_ior", "IOR_TABLE"]
 
 
 def _real(value: Any, name: str) -> np.ndarray:
@@ -272,6 +272,20 @@ def relative_ior(int_ior: Any, ext_ior: Any) -> float:
     indices; vrlab also refuses 0).  Mitsuba's defaults are plugin-specific (``dielectric``:
     "bk7" inside, "air" outside; ``plastic``: "polypropylene", "air")."""
     return ior_value(int_ior, "int_ior") / ior_value(ext_ior, "ext_ior")
+
+
+def ior_param(value: Any, name: str) -> Any:
+    """An ``int_ior``/``ext_ior`` as given (a positive finite number as a float, or a known
+    name as it is), checked by :func:`~vrlab.render.bsdfs.fresnel.ior_value`."""
+    ior_value(value, name)
+    return value if isinstance(value, str) else float(value)
+
+
+def ior_from_props(p, name: str, default: str) -> Any:
+    """An index of refraction from a scene file: ``<float>`` or ``<string>`` (a name)."""
+    if p.has(name) and p.element(name).tag == "string":
+        return p.string(name)
+    return p.float(name, default) if p.has(name) else default
 
 
 # -- a conductor's complex index, as the conductor plugins read it ------------------------------

@@ -56,6 +56,10 @@ class TwoSided(BSDFModel):
         return self.inner.sample(wo, u)
 
     @property
+    def needs_tangents(self) -> bool:
+        return self.inner.needs_tangents
+
+    @property
     def LOBES(self) -> tuple:  # noqa: N802 - the nested BSDF's class constant
         return self.inner.LOBES
 

@@ -185,6 +185,35 @@ class Shape(Element):
         ``prim``), with Mitsuba's parametrisation of the shape (for textures)."""
         raise ValueError(f"uv: a {self.plugin_name!r} shape has no surface parametrisation for textures")
 
+    def uv_derivatives(self, p: np.ndarray, prim: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(dp_du, dp_dv)`` ``(N, 3)``: the world tangents of the shape's ``uv`` at hits ``p``
+        (unit geometric normals ``n``), what Mitsuba's ``SurfaceInteraction`` holds and its
+        shading frame, normal maps and bump maps start from.
+
+        Generic: central differences of :meth:`uv` along the tangent plane (steps of 1e-6 of
+        ``bound_radius``, u and v differences taken modulo 1 across a seam), J = d(u, v) /
+        d(t1, t2), and [dp_du dp_dv] = [t1 t2] J^-1; where J is singular (a pole, a disk's
+        centre) the tangents of :func:`~vrlab.distributions.orthonormal_basis`.  Meshes
+        override it with the exact per-triangle values."""
+        from ...distributions.frames import orthonormal_basis
+
+        p, n = np.asarray(p, np.float64), np.asarray(n, np.float64)
+        t1, t2 = orthonormal_basis(n)
+        h = 1e-6 * max(float(self.bound_radius), 1e-12)
+
+        def diff(t):
+            d = (self.uv(p + h * t, prim) - self.uv(p - h * t, prim))
+            return (d - np.round(d)) / (2 * h)          # a seam of a periodic coordinate is a jump of 1
+
+        a, b = diff(t1), diff(t2)                         # columns of J: d(u, v)/dt1, d(u, v)/dt2
+        det = a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]
+        ok = np.abs(det) > 1e-12 * (np.abs(a).sum(-1) * np.abs(b).sum(-1) + 1e-300)
+        det = np.where(ok, det, 1.0)
+        # J^-1 = [[b_v, -b_u], [-a_v, a_u]] / det: dp_du = (b_v t1 - a_v t2) / det, dp_dv = (-b_u t1 + a_u t2) / det
+        dp_du = (b[:, 1:2] * t1 - a[:, 1:2] * t2) / det[:, None]
+        dp_dv = (-b[:, 0:1] * t1 + a[:, 0:1] * t2) / det[:, None]
+        return np.where(ok[:, None], dp_du, t1), np.where(ok[:, None], dp_dv, t2)
+
     def local_points(self, p: np.ndarray) -> np.ndarray:
         """``to_world^-1`` of world points ``(N, 3)``."""
         m = self.to_world
