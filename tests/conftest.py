@@ -115,3 +115,11 @@ class InFrame:
         from vrlab.distributions.frames import to_world
 
         return self.dist.pdf(to_world(w, self.axis))
+
+
+@pytest.fixture
+def mi_rgb():
+    """Mitsuba 3 in its ``scalar_rgb`` variant (the test is skipped where Mitsuba is not installed)."""
+    mi = pytest.importorskip("mitsuba")
+    mi.set_variant("scalar_rgb")
+    return mi

@@ -10,6 +10,8 @@ from vrlab.distributions import to_local, to_world
 from vrlab.estimators import MonteCarlo
 from vrlab.distributions import Beckmann
 from vrlab.render.bsdfs import Diffuse, Phong, RoughConductor, mirror, reflect
+from vrlab.render.bsdfs.blendbsdf import BlendBSDF
+from vrlab.render.bsdfs.normalmap import NormalMap
 from vrlab.testing import (
     HemisphereChart,
     SphereChart,
@@ -47,6 +49,12 @@ BSDFS = {
     "ggx": RoughConductor(0.3, "ggx"),
     "ggx-rough": RoughConductor(0.8, "ggx"),
     "beckmann": RoughConductor(0.3, "beckmann"),
+    "ggx-full-ndf": RoughConductor(0.3, "ggx", sample_visible=False),
+    "beckmann-full-ndf": RoughConductor(0.3, "beckmann", sample_visible=False),
+    "ggx-aniso": RoughConductor(distribution="ggx", alpha_u=0.1, alpha_v=0.45),
+    "beckmann-aniso": RoughConductor(distribution="beckmann", alpha_u=0.5, alpha_v=0.15, material="Au"),
+    "blend": BlendBSDF(Diffuse(0.4), RoughConductor(0.2, "ggx"), 0.6),
+    "normalmap": NormalMap(RoughConductor(0.3, "ggx"), [0.6, 0.45, 0.85]),
     "phong": Phong(0.3, 0.6, 12),
     "phong-spec": Phong(0.0, 0.9, 40),
 }
@@ -76,8 +84,8 @@ def test_pdf_integrates_to_one_on_the_sphere(name, theta):
 def test_microfacet_upper_hemisphere_mass_is_below_one_at_grazing():
     # what is true: the whole-sphere density integrates to 1; restricted to wi.z > 0 (Mitsuba's
     # pdf) it integrates to P(wo·m > 0 and reflect(wo, m).z > 0): 1 at normal incidence, < 1 grazing
-    b = RoughConductor(0.5, "ggx")
-    up = lambda wo: integrate(lambda w: b.pdf(wo, w) * (w[..., 2] > 0), HemisphereChart(2), 128)
+    b = RoughConductor(0.5, "ggx", sample_visible=False)
+    up = lambda wo, b=b: integrate(lambda w: b.pdf(wo, w) * (w[..., 2] > 0), HemisphereChart(2), 128)
     # at wo = n, m beyond 45 deg reflects below: P(tan^2 theta_m < 1) = 1 / (1 + alpha^2) for GGX
     assert up(direction(0.0)) == pytest.approx(1 / (1 + 0.25), abs=2e-3)
     wo = direction(1.45)
@@ -85,6 +93,8 @@ def test_microfacet_upper_hemisphere_mass_is_below_one_at_grazing():
     frac = np.mean(b.distribution(wo).sample(u)[..., 2] > 0)
     assert up(wo) < 0.9
     assert up(wo) == pytest.approx(frac, abs=4 * np.sqrt(frac * (1 - frac) / len(u)) + 2e-3)
+    # visible normals (Mitsuba's default) never face away from wo: fewer samples are wasted
+    assert up(wo, RoughConductor(0.5, "ggx")) > up(wo) + 0.03
 
 
 def albedo(bsdf, wo, channel=0):
@@ -140,6 +150,9 @@ def test_reciprocity_and_one_sidedness(name):
     wo /= np.linalg.norm(wo, axis=-1, keepdims=True)
     wi /= np.linalg.norm(wi, axis=-1, keepdims=True)
     b = BSDFS[name]
+    if name == "normalmap":
+        pytest.skip("a normal map is neither reciprocal nor one-sided in the true frame (as in Mitsuba: its "
+                    "frame and terminator term depend on wo and wi); tests/test_bsdf_families.py compares it")
     np.testing.assert_allclose(b.f(wo, wi), b.f(wi, wo), rtol=1e-10, atol=1e-12)
     below = (wo[:, 2] <= 0) | (wi[:, 2] <= 0)
     assert np.all(b.f(wo, wi)[below] == 0) and np.all(b.eval(wo, wi)[below] == 0)

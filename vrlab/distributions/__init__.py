@@ -11,7 +11,8 @@ from .interval import Exponential, LinearInterval, Product, TruncatedNormal, Uni
 from .mixture import Mixture
 from .point_masses import OffAtoms, PointMasses, atom_mass
 from .planar import Disk, Rectangle, Triangle, concentric_disk
-from .spherical import GGX, CosineHemisphere, PhongLobe, UniformCone, UniformHemisphere, UniformSphere
+from .microfacet import GGX
+from .spherical import CosineHemisphere, PhongLobe, UniformCone, UniformHemisphere, UniformSphere
 from .solid_angle import LightSample, SolidAngleFromArea, SphereCone
 from .quadrics import EllipsoidSurface, SphereSurface, unit_sphere_hit, unit_sphere_hits, unit_sphere_roots
 from .surfaces import BoxSurface, DiskSurface, RectangleSurface, Surface
@@ -27,16 +28,18 @@ __all__ = [
     "BoxSurface", "CylinderSurface", "DiskSurface", "EllipsoidSurface", "RectangleSurface", "SphereSurface", "Surface",
     "unit_sphere_hit", "unit_sphere_hits", "unit_sphere_roots",
     "MeshLightSample", "SphericalTriangle", "TriangleMeshSolidAngle", "TriangleMeshSurface", "triangle_solid_angle",
-    "EnvironmentMap", "latlong_direction", "latlong_uv", "BilinearPiecewise2D",
-    "Beckmann", "FILTERS", "BoxFilter", "FilterWindow", "GaussianFilter", "ReconstructionFilter", "TentFilter",
+    "EnvironmentMap", "latlong_direction", "latlong_uv", "BilinearPiecewise2D", "DeltaDirection", "LobeMixture",
+    "Beckmann", "MicrofacetNormals", "VisibleNormals",
+    "FILTERS", "BoxFilter", "FilterWindow", "GaussianFilter", "ReconstructionFilter", "TentFilter",
 ]
 
 # the warps of the renderer's scene elements are imported on first use (start-up time)
 __getattr__, __dir__ = lazy_attributes(__name__, {
     **{n: "filters" for n in ("FILTERS", "BoxFilter", "FilterWindow", "GaussianFilter", "ReconstructionFilter",
                               "TentFilter")},
-    "Beckmann": "microfacet", "CylinderSurface": "cylinder",
+    "Beckmann": "microfacet", "MicrofacetNormals": "microfacet", "VisibleNormals": "visible_normals",
+    "CylinderSurface": "cylinder",
     **{n: "triangles" for n in ("SphericalTriangle", "triangle_solid_angle")},
     **{n: "mesh_light" for n in ("MeshLightSample", "TriangleMeshSolidAngle", "TriangleMeshSurface")},
     **{n: "envmap" for n in ("EnvironmentMap", "latlong_direction", "latlong_uv")},
-    "BilinearPiecewise2D": "bilinear"}, __all__)
+    "BilinearPiecewise2D": "bilinear", "DeltaDirection": "lobes", "LobeMixture": "lobes"}, __all__)

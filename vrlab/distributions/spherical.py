@@ -10,10 +10,10 @@ axis.  With z = cos(theta) and phi = 2 pi u2 throughout:
 * ``CosineHemisphere``:  p = cos(theta) / pi, three constructions from the lectures
   (Russian lecture 4 "Cosine-weighted distribution"; Pharr et al., PBRT 3rd ed. 13.6.3)
 * ``PhongLobe(n)``:      z = u1^(1/(n+1)), p = (n + 1) / (2 pi) cos^n(theta)
-* ``GGX(alpha)``:        tan^2(theta) = alpha^2 u1 / (1 - u1), p = D(h) cos(theta_h),
-  D = alpha^2 / (pi cos^4 theta (alpha^2 + tan^2 theta)^2) (Walter et al. 2007)
 * ``UniformCone(cos_max)``: z = 1 - u1 (1 - cos_max), p = 1 / (2 pi (1 - cos_max))
   (the solid angle subtended by a sphere seen from outside; PBRT 3rd ed. 14.2.2)
+
+The microfacet normal distributions (``GGX``, ``Beckmann``) live in ``microfacet.py``.
 
 Constructors check their parameters (``TypeError`` for non-numbers, ``ValueError`` for
 NaN, inf or values out of range; ``method`` must be one of ``METHODS``); ``sample``,
@@ -165,68 +165,6 @@ class PhongLobe(_Direction):
 
     def _repr_fields(self):
         return {"exponent": self.exponent}
-
-
-class MicrofacetNormals(_Direction):
-    """What the microfacet normal distributions share: the roughness ``alpha``, a real in
-    [1e-50, 1e50] (beyond, alpha^4 under- or overflows in D)."""
-
-    ALPHA_RANGE = (1e-50, 1e50)
-
-    def __init__(self, alpha: float):
-        self.alpha = checks.real(alpha, "alpha", low=0.0, low_open=True)
-        lo, hi = self.ALPHA_RANGE
-        if not lo <= self.alpha <= hi:
-            raise ValueError(f"alpha must be in [{lo:g}, {hi:g}] (D would under- or overflow), got {self.alpha:g}")
-
-
-class GGX(MicrofacetNormals):
-    """GGX / Trowbridge–Reitz microfacet normals h, density D(h) cos(theta_h) (solid angle).
-
-    D(h) = alpha^2 / (pi cos^4(theta) (alpha^2 + tan^2(theta))^2)  (Walter et al. 2007,
-    "Microfacet Models for Refraction through Rough Surfaces", eq. 33).  Sampling by
-    inversion: tan^2(theta) = alpha^2 u1 / (1 - u1), phi = 2 pi u2 (eq. 35-36).
-    ``alpha``: a real in [1e-50, 1e50] (beyond, alpha^4 under- or overflows in D).
-    """
-
-    def D(self, h: np.ndarray) -> np.ndarray:
-        """The normal distribution function D(h) (per steradian of h, projected area normalised)."""
-        h = as_points(h, 3, "h")
-        z = h[..., 2]
-        a2 = self.alpha**2
-        # alpha^2 / (pi (z^2 (alpha^2 - 1) + 1)^2) is the same D without tan; for unit h,
-        # z^2 (alpha^2 - 1) + 1 = x^2 + y^2 + alpha^2 z^2, which does not cancel at z -> 1
-        # (it would lose 1e-7 / alpha^2 relative in float32)
-        denom = h[..., 0] * h[..., 0]
-        denom += h[..., 1] * h[..., 1]
-        denom += a2 * (z * z)
-        return np.where(z > 0.0, a2 / (np.pi * denom * denom), 0.0)
-
-    def sample(self, u):
-        u = as_uniforms(u, 2)
-        a2 = self.alpha**2
-        # cos^2 theta = 1 / (1 + tan^2 theta) = (1 - u1) / (1 - u1 + alpha^2 u1) and
-        # sin^2 theta = alpha^2 u1 / (same): sin from its own formula, not sqrt(1 - cos^2)
-        # (which cancels near the pole: a float32 sample would snap to rings there)
-        one_minus = 1.0 - u[..., 0]
-        inv = 1.0 / (one_minus + a2 * u[..., 0])
-        r = np.sqrt(a2 * u[..., 0] * inv)
-        phi = TWO_PI * u[..., 1]
-        return np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(one_minus * inv)], axis=-1)
-
-    def pdf(self, h):
-        h = as_points(h, 3, "h")
-        return self.D(h) * np.clip(h[..., 2], 0.0, None)
-
-    def invert(self, h):
-        h = as_points(h, 3, "h")
-        z2 = np.clip(h[..., 2], 0.0, 1.0) ** 2
-        tan2 = (1.0 - z2) / np.maximum(z2, 1e-300)
-        u1 = tan2 / (self.alpha**2 + tan2)
-        return np.stack([u1, _phi_u(h)], -1)
-
-    def _repr_fields(self):
-        return {"alpha": self.alpha}
 
 
 class UniformCone(_Direction):
