@@ -81,6 +81,9 @@ class DirectLighting:
         # the Lambertian albedo per group (None for a textured BSDF: per point, at shading time)
         self.kd = [None if b.textures else np.asarray(b.diffuse_albedo(), float) for b in self.bsdfs]
         self.twosided = np.array([b.twosided for b in self.bsdfs], dtype=bool)
+        #: uniforms of one BSDF sample in this scene: 2, or 3 where some BSDF picks its lobe after
+        #: its microfacet normal (roughdielectric); the others read the first two
+        self.bsdf_dim_u = max([2] + [int(b.dim_u) for b in self.bsdfs])
         self.is_emitter = emits
         #: emitting shapes whose radiance is a texture (shape index -> texture)
         self.emitter_textures = {k: s.emitter.texture for k, s in enumerate(shapes)

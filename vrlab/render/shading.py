@@ -348,11 +348,14 @@ class ShadingIntegrand(Integrand):
 class _Directional:
     """``"bsdf"`` (warp None), ``"cosine"`` or ``"uniform"``: w from a local warp, j traced."""
 
-    dim_u, dim_x, measure = 2, 5, "solid angle x lights"
+    dim_x, measure = 5, "solid angle x lights"
 
     def __init__(self, shading: ShadingIntegrand, warp: str | None):
         self.s, self.warp = shading, warp
         self.key = warp or "bsdf"
+        # the scene's BSDF sample size (2, or 3 if some BSDF needs a third uniform): the same for
+        # every group, so a pixel's uniforms have one layout
+        self.dim_u = 2 if warp is not None else int(shading.lighting.bsdf_dim_u)
 
     def __repr__(self) -> str:
         return f"ShadingTechnique({self.key!r})"
@@ -378,6 +381,7 @@ class _Directional:
         if self.warp is not None:
             return np.asarray(_WARPS[self.warp].sample(u2), F32), None
         bsdf = self.s.bsdf_for(len(u2) // max(len(self.s.p), 1) or 1)
+        u2 = u2[:, :bsdf.dim_u]
         if not bsdf.DELTA:
             return np.asarray(bsdf.distribution(wo_l).sample(u2)), None
         wl, k = bsdf.sample_lobe(wo_l, u2)
@@ -388,7 +392,7 @@ class _Directional:
         s, lit = self.s, self.s.lighting
         u = np.asarray(u)
         shape = u.shape[:-1]
-        u2 = uniforms32(u.reshape(-1, 2))
+        u2 = uniforms32(u.reshape(-1, self.dim_u))
         wo_l = s.rep(s.wo_l, u)
         wl, lobe = self._draw(wo_l, u2)
         w = s.rep_frame(shape[-1]).to_world(wl)
@@ -432,8 +436,8 @@ class _Lobe(_Directional):
 
     def _draw(self, wo_l, u2):
         bsdf = self.s.bsdf_for(len(u2) // max(len(self.s.p), 1) or 1)
-        wl = np.asarray(bsdf.lobe(self.name, wo_l).sample(u2))
-        wl = np.broadcast_to(wl, (len(u2), 3))
+        dist = bsdf.lobe(self.name, wo_l)
+        wl = np.broadcast_to(np.asarray(dist.sample(u2[:, :int(dist.dim_u)])), (len(u2), 3))
         return wl, (np.full(len(u2), self.index) if self.delta else None)
 
 

@@ -131,16 +131,16 @@ class BSDFDirections(Distribution):
     """The sampling distribution of ``bsdf`` for a fixed ``wo``: ``sample(u) -> wi``,
     ``pdf(wi)`` (solid angle, whole sphere).  Built by ``BSDFModel.distribution(wo)``."""
 
-    dim_u = 2
     dim_x = 3
     measure = "solid angle"
 
     def __init__(self, bsdf: BSDFModel, wo: np.ndarray):
         self.bsdf = bsdf
         self.wo = as_points(wo, 3, "wo")
+        self.dim_u = int(bsdf.dim_u)
 
     def sample(self, u: np.ndarray) -> np.ndarray:
-        return self.bsdf._sample_direction(self.wo, as_uniforms(u, 2))
+        return self.bsdf._sample_direction(self.wo, as_uniforms(u, self.dim_u))
 
     def pdf(self, w: np.ndarray) -> np.ndarray:
         return self.bsdf.pdf(self.wo, w)
@@ -167,6 +167,9 @@ class BSDFModel(Element):
     #: those of them that are scalars (a texture's ``eval_1``, e.g. a roughness)
     SCALAR_TEXTURES: tuple = ()
 
+    #: uniforms per sample: 2 (a direction; a lobe mixture reuses the rescaled first one), or 3
+    #: for a BSDF whose lobe choice depends on the sampled microfacet normal
+    dim_u: int = 2
     #: True when the BSDF needs Mitsuba's tangent frame (s along dp/du) at its points: then the
     #: renderer builds the local frame from it and passes the local ``dp_du``, ``dp_dv`` to :meth:`at`
     needs_tangents: bool = False
@@ -256,7 +259,7 @@ class BSDFModel(Element):
     def sample_lobe(self, wo: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(wi, k)``: a sampled direction and the index (into ``LOBES``) of its lobe."""
         dist = self.distribution(wo)
-        u = as_uniforms(u, 2)
+        u = as_uniforms(u, int(self.dim_u))
         if isinstance(dist, LobeMixture):
             return dist.sample_lobe(u)
         wi = np.asarray(dist.sample(u))
@@ -267,7 +270,7 @@ class BSDFModel(Element):
         lobe's direction has pdf = the lobe's probability P_k and weight = its
         ``delta_value`` / P_k (Mitsuba's convention)."""
         wo = as_points(wo, 3, "wo")
-        u = as_uniforms(u, 2)
+        u = as_uniforms(u, int(self.dim_u))
         if self.DELTA:
             dist = self.distribution(wo)
             wi, k = dist.sample_lobe(u)

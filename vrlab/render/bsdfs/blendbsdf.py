@@ -163,6 +163,10 @@ class BlendBSDF(BSDFModel):
     def needs_tangents(self) -> bool:
         return self.bsdf0.needs_tangents or self.bsdf1.needs_tangents
 
+    @property
+    def dim_u(self) -> int:
+        return max(int(self.bsdf0.dim_u), int(self.bsdf1.dim_u))
+
     def at(self, values: dict) -> "BlendBSDF":
         own = {k: v for k, v in values.items() if "." not in k}
         frame = {k: v for k, v in own.items() if k in ("dp_du", "dp_dv", "dp_du_world")}   # both nested BSDFs' frame

@@ -123,6 +123,10 @@ class NormalMap(BSDFModel):
     def _sample_direction(self, wo, u):
         return self.distribution(wo).sample(u)
 
+    @property
+    def dim_u(self) -> int:
+        return int(self.inner.dim_u)
+
     # -- lobes: the nested BSDF's, turned into the tilted frame ----------------------------
     @property
     def LOBES(self) -> tuple:  # noqa: N802

@@ -60,6 +60,10 @@ class TwoSided(BSDFModel):
         return self.inner.needs_tangents
 
     @property
+    def dim_u(self) -> int:
+        return int(self.inner.dim_u)
+
+    @property
     def LOBES(self) -> tuple:  # noqa: N802 - the nested BSDF's class constant
         return self.inner.LOBES
 
