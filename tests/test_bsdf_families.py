@@ -665,3 +665,39 @@ def test_anisotropic_rough_metal_agrees_with_mitsuba():
             'value="ggx"/><float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.4"/></bsdf></shape>')
     xml = scene(ball + EMITTERS["point"])
     assert_agrees_with_mitsuba(xml)
+
+
+# ------------------------------------------------------------------ mask
+@pytest.mark.parametrize("opacity", [0.0, 0.3, 1.0])
+def test_mask_values_and_null_samples_equal_mitsubas(opacity):
+    from vrlab.render.bsdfs.diffuse import Diffuse
+    from vrlab.render.bsdfs.mask import Mask
+
+    ours = Mask(Diffuse([0.1, 0.8, 0.1]), opacity)
+    theirs = mitsuba_bsdf({"type": "mask", "opacity": opacity,
+                           "nested": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.1, 0.8, 0.1]}}})
+    wo, wi = directions(N, 31), directions(N, 32)
+    ev, p = bsdf_eval_pdf(theirs, wo, wi)
+    assert_close(ours.eval(wo, wi), ev, what="eval")
+    assert_close(ours.pdf(wo, wi), p, what="pdf")
+    u = np.random.default_rng(33).random((N, 2))
+    r = bsdf_sample(theirs, wo, u[:, 0], u)
+    wi_s, weight, pdf = ours.sample(wo, u)
+    null = np.isclose(wi_s, -wo).all(-1)                  # straight through: probability 1 - opacity, weight 1
+    assert np.mean(null) == pytest.approx(1 - opacity, abs=0.06)
+    assert np.allclose(pdf[null], 1 - opacity) and np.allclose(weight[null], 1.0)
+    assert_close(weight[null], r.weight[null], 0, 1e-6, "null weight")
+    assert ours.LOBES == ("diffuse", "null") and ours.DELTA == ("null",)
+
+
+def test_a_mask_shows_the_light_behind_it_as_mitsuba_does():
+    """A checkerboard-masked panel between the camera and the sphere light: the light is seen
+    through the open squares (the null lobe, reached by BSDF sampling only)."""
+    panel = ('<shape type="rectangle"><transform name="to_world"><scale x="0.9" y="0.6"/><rotate y="1" angle="20"/>'
+             '<translate x="0.6" y="0.8" z="1.2"/></transform><bsdf type="mask"><texture type="checkerboard" '
+             'name="opacity"><rgb name="color0" value="0.15"/><rgb name="color1" value="0.9"/><transform '
+             'name="to_uv"><scale value="4"/></transform></texture><bsdf type="twosided"><bsdf type="diffuse">'
+             '<rgb name="reflectance" value="0.1, 0.8, 0.1"/></bsdf></bsdf></bsdf></shape>')
+    assert_agrees_with_mitsuba(scene(panel + EMITTERS["constant"]))
+    with pytest.raises(ValueError, match="null"):
+        render(load_scene(scene(panel)), 1, "light", width=4, height=3)

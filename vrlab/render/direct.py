@@ -191,7 +191,7 @@ class DirectLighting:
         textures = bsdf.textures
         if not textures:
             return None
-        scalar = getattr(bsdf, "SCALAR_TEXTURES", ()) if not bsdf.twosided else getattr(bsdf.inner, "SCALAR_TEXTURES", ())
+        scalar = bsdf.SCALAR_TEXTURES
         shape, p, prim = hits.shape[rows], hits.p[rows], hits.prim[rows]
         out = {a: np.empty((len(shape),) if a in scalar else (len(shape), 3)) for a in textures}
         for k in np.unique(shape):

@@ -64,6 +64,10 @@ class TwoSided(BSDFModel):
         return int(self.inner.dim_u)
 
     @property
+    def SCALAR_TEXTURES(self) -> tuple:  # noqa: N802
+        return self.inner.SCALAR_TEXTURES
+
+    @property
     def LOBES(self) -> tuple:  # noqa: N802 - the nested BSDF's class constant
         return self.inner.LOBES
 
