@@ -191,14 +191,14 @@ class DirectLighting:
         textures = bsdf.textures
         if not textures:
             return None
-        scalar = bsdf.SCALAR_TEXTURES
+        scalar, grad = bsdf.SCALAR_TEXTURES, bsdf.GRADIENT_TEXTURES
         shape, p, prim = hits.shape[rows], hits.p[rows], hits.prim[rows]
-        out = {a: np.empty((len(shape),) if a in scalar else (len(shape), 3)) for a in textures}
+        out = {a: np.empty((len(shape),) if a in scalar else (len(shape), 2 if a in grad else 3)) for a in textures}
         for k in np.unique(shape):
             sel = np.flatnonzero(shape == k)
             si = self.surface_points(k, p[sel], prim[sel])
             for a, tex in textures.items():
-                out[a][sel] = tex.eval_1(si) if a in scalar else tex.eval(si)
+                out[a][sel] = tex.eval_1(si) if a in scalar else tex.eval_1_grad(si) if a in grad else tex.eval(si)
         return out
 
     def surface_points(self, k: int, p: np.ndarray, prim: np.ndarray | None):

@@ -40,7 +40,7 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
   ``int_ior``, ``ext_ior`` as numbers or names, ``specular_reflectance``,
   ``specular_transmittance``), ``blendbsdf`` (``weight``, two nested BSDFs), ``normalmap``
   (``normalmap`` texture, one nested BSDF), ``mask`` (``opacity``, one nested BSDF; light passes
-  straight through the rest), ``twosided`` (one nested BSDF) and the *vrlab*
+  straight through the rest), ``bumpmap`` (a height texture, ``scale``, one nested BSDF), ``twosided`` (one nested BSDF) and the *vrlab*
   ``phong``; ``reflectance``, ``diffuse_reflectance``, ``specular_reflectance``,
   ``specular_transmittance``, ``eta``, ``k``, ``alpha`` and ``weight`` may be textures;
   a BSDF's lobes are techniques ``"bsdf:<lobe>"`` (:mod:`vrlab.render.bsdfs.base`);

@@ -88,6 +88,7 @@ class ShadingIntegrand(Integrand):
             self.frame = Frame._trusted(ns)     # hit normals are unit vectors (geometry normalises them)
         else:
             self.frame, local = self._tangent_frame(ns, flip, *tangents)
+            local["n_geo"] = self.frame.to_local(n)                 # bump maps turn their normal to its side
             values = {**(values or {}), **local}
         self._values = values
         self._bsdf = lighting.bsdfs[group]

@@ -166,6 +166,8 @@ class BSDFModel(Element):
     TEXTURED: tuple = ()
     #: those of them that are scalars (a texture's ``eval_1``, e.g. a roughness)
     SCALAR_TEXTURES: tuple = ()
+    #: textured parameters read as their uv gradient (``eval_1_grad``: a bump map's height)
+    GRADIENT_TEXTURES: tuple = ()
 
     #: uniforms per sample: 2 (a direction; a lobe mixture reuses the rescaled first one), or 3
     #: for a BSDF whose lobe choice depends on the sampled microfacet normal

@@ -167,9 +167,13 @@ class BlendBSDF(BSDFModel):
     def dim_u(self) -> int:
         return max(int(self.bsdf0.dim_u), int(self.bsdf1.dim_u))
 
+    @property
+    def GRADIENT_TEXTURES(self) -> tuple:  # noqa: N802
+        return tuple(f"{i}.{k}" for i, b in ((0, self.bsdf0), (1, self.bsdf1)) for k in b.GRADIENT_TEXTURES)
+
     def at(self, values: dict) -> "BlendBSDF":
         own = {k: v for k, v in values.items() if "." not in k}
-        frame = {k: v for k, v in own.items() if k in ("dp_du", "dp_dv", "dp_du_world")}   # both nested BSDFs' frame
+        frame = {k: v for k, v in own.items() if k in ("dp_du", "dp_dv", "dp_du_world", "n_geo")}   # both nested
         nested = [{**frame, **{k.split(".", 1)[1]: v for k, v in values.items() if k.startswith(f"{i}.")}}
                   for i in (0, 1)]
         out = BlendBSDF(self.bsdf0.at(nested[0]) if nested[0] else self.bsdf0,

@@ -142,12 +142,18 @@ class Mask(BSDFModel):
         return {**own, **{f"inner.{k}": v for k, v in self.inner.textures.items()}}
 
     @property
+    def GRADIENT_TEXTURES(self) -> tuple:  # noqa: N802
+        return tuple(f"inner.{k}" for k in self.inner.GRADIENT_TEXTURES) + self._own_gradients
+
+    _own_gradients: tuple = ()
+
+    @property
     def SCALAR_TEXTURES(self) -> tuple:  # noqa: N802
         return ("opacity",) + tuple(f"inner.{k}" for k in self.inner.SCALAR_TEXTURES)
 
     def at(self, values: dict) -> "Mask":
         inner = {k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("inner.")}
-        inner.update({k: v for k, v in values.items() if k in ("dp_du", "dp_dv", "dp_du_world")})
+        inner.update({k: v for k, v in values.items() if k in ("dp_du", "dp_dv", "dp_du_world", "n_geo")})
         out = Mask.__new__(Mask)
         out.inner = self.inner.at(inner) if inner else self.inner
         out.opacity = np.clip(np.asarray(values["opacity"], float), 0.0, 1.0) if "opacity" in values \

@@ -76,9 +76,7 @@ class NormalMap(BSDFModel):
         the tilted normal is mirrored about the true one, n' -> (-n'x, -n'y, n'z), as Mitsuba
         3.9.1 does (measured through its Python API)."""
         shape = wo.shape[:-1] if shape is None else shape
-        n = 2.0 * np.asarray(self.normalmap, np.float64) - 1.0
-        n = n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
-        n = np.broadcast_to(n, shape + (3,))
+        n = np.broadcast_to(self.tilted_normal(), shape + (3,))
         below = np.sum(np.asarray(wo, np.float64) * n, -1) <= 0
         if np.any(below):
             n = np.where(below[..., None], n * np.array([-1.0, -1.0, 1.0]), n)
@@ -88,9 +86,14 @@ class NormalMap(BSDFModel):
         t = np.cross(n, s)
         return Frame._trusted(*(np.broadcast_to(a, shape + (3,)) for a in (n, s, t)))
 
+    def tilted_normal(self) -> np.ndarray:
+        """The unit tilted normal n' (local coordinates; per point or one for all)."""
+        n = 2.0 * np.asarray(self.normalmap, np.float64) - 1.0
+        return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
+
     def shadowing(self, wi: np.ndarray) -> np.ndarray:
         """The terminator term G of light directions ``wi`` (see the module docstring)."""
-        n = 2.0 * np.asarray(self.normalmap, np.float64) - 1.0
+        n = self.tilted_normal()
         cos_d2 = n[..., 2] ** 2 / np.maximum(np.sum(n * n, -1), 1e-300)
         alpha2 = np.minimum(1.0, 0.125 * (1.0 - cos_d2) / np.maximum(cos_d2, 1e-300))
         z2 = np.asarray(wi, np.float64)[..., 2] ** 2
@@ -175,12 +178,18 @@ class NormalMap(BSDFModel):
         return {**own, **{f"inner.{k}": v for k, v in self.inner.textures.items()}}
 
     @property
+    def GRADIENT_TEXTURES(self) -> tuple:  # noqa: N802
+        return tuple(f"inner.{k}" for k in self.inner.GRADIENT_TEXTURES) + self._own_gradients
+
+    _own_gradients: tuple = ()
+
+    @property
     def SCALAR_TEXTURES(self) -> tuple:  # noqa: N802
         return tuple(f"inner.{k}" for k in self.inner.SCALAR_TEXTURES)
 
     def at(self, values: dict) -> "NormalMap":
         inner = {k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("inner.")}
-        inner.update({k: v for k, v in values.items() if k in ("dp_du", "dp_dv", "dp_du_world")})
+        inner.update({k: v for k, v in values.items() if k in ("dp_du", "dp_dv", "dp_du_world", "n_geo")})
         out = NormalMap.__new__(NormalMap)
         out.inner = self.inner.at(inner) if inner else self.inner
         out.normalmap = values.get("normalmap", self.normalmap)

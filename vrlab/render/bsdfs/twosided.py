@@ -68,6 +68,10 @@ class TwoSided(BSDFModel):
         return self.inner.SCALAR_TEXTURES
 
     @property
+    def GRADIENT_TEXTURES(self) -> tuple:  # noqa: N802
+        return self.inner.GRADIENT_TEXTURES
+
+    @property
     def LOBES(self) -> tuple:  # noqa: N802 - the nested BSDF's class constant
         return self.inner.LOBES
 

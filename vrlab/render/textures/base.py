@@ -127,6 +127,12 @@ class Texture(Element):
         """The mean RGB value ``(3,)`` over the uv square."""
         raise NotImplementedError
 
+    def eval_1_grad(self, si: Any) -> np.ndarray:
+        """``(N, 2)``: the gradient of ``eval_1`` with respect to the surface's uv (Mitsuba's
+        ``eval_1_grad``, which ``bumpmap`` reads).  Default: not available."""
+        raise ValueError(f"texture: a {self.plugin_name!r} texture has no uv gradient (bumpmap needs one; "
+                         "use a bitmap)")
+
     def mean_1(self) -> float:   # pragma: no cover - every texture overrides it
         """Mitsuba 3's scalar ``Texture::mean()``."""
         raise NotImplementedError
@@ -154,6 +160,9 @@ class ConstantTexture(Texture):
 
     def eval_1(self, si: Any) -> np.ndarray:
         return np.full(len(surface_points(si).uv), self.mean_1())
+
+    def eval_1_grad(self, si: Any) -> np.ndarray:
+        return np.zeros((len(surface_points(si).uv), 2))
 
     def mean(self) -> np.ndarray:
         return self.color.copy()
