@@ -84,6 +84,9 @@ class DirectLighting:
         #: uniforms of one BSDF sample in this scene: 2, or 3 where some BSDF picks its lobe after
         #: its microfacet normal (roughdielectric); the others read the first two
         self.bsdf_dim_u = max([2] + [int(b.dim_u) for b in self.bsdfs])
+        #: every lobe name of the scene's BSDFs (techniques "bsdf:<name>"; of density 0 where a
+        #: BSDF has no such lobe)
+        self.lobe_names = tuple(dict.fromkeys(n for b in self.bsdfs for n in b.LOBES))
         self.is_emitter = emits
         #: emitting shapes whose radiance is a texture (shape index -> texture)
         self.emitter_textures = {k: s.emitter.texture for k, s in enumerate(shapes)

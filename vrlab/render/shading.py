@@ -50,6 +50,7 @@ from ..integrands.base import Integrand
 from .lights import luminance
 
 F32 = np.float32
+NO_SAMPLE = -2          #: the lobe code of a sample from a lobe the point's BSDF does not have
 _WARPS = {"cosine": CosineHemisphere(), "uniform": UniformHemisphere()}
 
 
@@ -131,8 +132,7 @@ class ShadingIntegrand(Integrand):
     def techniques(self) -> dict:
         out = {"bsdf": _Directional(self, None), "cosine": _Directional(self, "cosine"),
                "uniform": _Directional(self, "uniform"), "light": _LightTechnique(self)}
-        if len(self.bsdf.LOBES) > 1 or self.bsdf.DELTA:
-            out.update({f"bsdf:{name}": _Lobe(self, name) for name in self.bsdf.LOBES})
+        out.update({f"bsdf:{name}": _Lobe(self, name) for name in self.lighting.lobe_names})
         return out
 
     @property
@@ -163,6 +163,7 @@ class ShadingIntegrand(Integrand):
             for k in np.unique(r.lobe[r.lobe >= 0]):
                 d = np.broadcast_to(bsdf.delta_value(bsdf.LOBES[k], wo)[1], v.shape)
                 v = np.where((r.lobe == k)[:, None], d, v).astype(v.dtype, copy=False)
+            v = np.where((r.lobe == NO_SAMPLE)[:, None], v.dtype.type(0), v)
         return v
 
     def uniform(self):
@@ -208,7 +209,7 @@ class ShadingIntegrand(Integrand):
         x[:, 3] = j
         x[:, 4] = 0 if lobe is None else lobe + 1          # stored as k + 1: zeros are continuous points
         x = x.reshape(shape + (5,))
-        r = _Rows(x, w, None, j, None if lobe is None or not np.any(lobe >= 0) else lobe)
+        r = _Rows(x, w, None, j, None if lobe is None or not np.any(lobe != -1) else lobe)
         self._cache[id(x)] = r
         return x, r
 
@@ -223,7 +224,7 @@ class ShadingIntegrand(Integrand):
             w = np.asarray(x[..., :3], F32).reshape(-1, 3)
             j = np.rint(np.asarray(x[..., 3], float)).astype(np.int64).reshape(-1)
             lobe = np.rint(np.asarray(x[..., 4], float)).astype(np.int64).reshape(-1) - 1
-            r = _Rows(x, w, None, j, lobe if np.any(lobe >= 0) else None)
+            r = _Rows(x, w, None, j, lobe if np.any(lobe != -1) else None)
             self._cache[id(x)] = r
         if r.wl is None:
             r.wl = self.rep_frame(x.shape[-2]).to_local(r.w)
@@ -312,7 +313,7 @@ class ShadingIntegrand(Integrand):
             else:
                 r.pdfs["light"] = lit.lights.pdf(self.rep(self.p, r.x), r.w, r.j, r.hit_p).astype(F32)
                 if r.lobe is not None:                       # no light sample is a delta lobe's atom
-                    r.pdfs["light"][r.lobe >= 0] = 0
+                    r.pdfs["light"][r.lobe != -1] = 0
         return r.pdfs["light"]
 
     # ---------------------------------------------------------------- named extras
@@ -326,7 +327,7 @@ class ShadingIntegrand(Integrand):
         jj = np.maximum(r.j, 0)
         valid = self.rep(self._valid, x)[np.arange(len(jj)), jj] & (r.j >= 0) & (self.light_pdf(r) > 0)
         if r.lobe is not None:                               # h lives on the continuous part
-            valid &= r.lobe < 0
+            valid &= r.lobe == -1
         kd = self.kd if self.kd.ndim == 1 else self.rep(self.kd, x)          # per point when textured
         g = (kd / np.pi) * lit.light_radiance(r.j) * np.clip(r.wl[:, 2:3], 0.0, None)
         return self._rgb(scale(g, valid), x)
@@ -366,7 +367,7 @@ class _Directional:
         BSDF's probability of that lobe (the other warps: 0)."""
         if self.warp is not None:
             p = np.asarray(_WARPS[self.warp].pdf(wl), F32)
-            return p if lobe is None else np.where(lobe >= 0, F32(0), p)
+            return p if lobe is None else np.where(lobe != -1, F32(0), p)
         bsdf = self.s.bsdf_for(len(wl) // max(len(self.s.p), 1) or 1)
         if lobe is None:
             return bsdf.pdf(wo_l, wl)
@@ -375,7 +376,7 @@ class _Directional:
         k = np.maximum(lobe, 0)
         mass = np.take_along_axis(np.broadcast_to(dist.probabilities, lobe.shape + dist.probabilities.shape[-1:]),
                                   k[:, None], -1)[:, 0]
-        return np.where(lobe >= 0, mass, p).astype(F32)
+        return np.where(lobe >= 0, mass, np.where(lobe == NO_SAMPLE, 0, p)).astype(F32)
 
     def _draw(self, wo_l: np.ndarray, u2: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """Local directions and their delta lobes (None: all continuous)."""
@@ -420,22 +421,32 @@ class _Directional:
 
 class _Lobe(_Directional):
     """``"bsdf:<name>"``: the BSDF's lobe ``name`` alone (a delta lobe: its one direction,
-    density 1 at its atom and 0 elsewhere; a continuous lobe: 0 at every atom)."""
+    density 1 at its atom and 0 elsewhere; a continuous lobe: 0 at every atom).  At points
+    whose BSDF has no such lobe (another BSDF of the scene has) the technique has density 0:
+    its samples are marked as no sample (lobe code ``NO_SAMPLE``: f = 0 and every density 0
+    there), and the other techniques must cover those points (MIS weights give them
+    everything there)."""
 
     def __init__(self, shading: ShadingIntegrand, name: str):
         super().__init__(shading, None)
         self.name, self.key = name, f"bsdf:{name}"
         bsdf = shading.bsdf
-        self.index, self.delta = bsdf.LOBES.index(name), name in bsdf.DELTA
+        self.absent = name not in bsdf.LOBES
+        self.index = None if self.absent else bsdf.LOBES.index(name)
+        self.delta = name in bsdf.DELTA
 
     def _local_pdf(self, wo_l, wl, lobe):
+        if self.absent:
+            return np.zeros(len(wl), F32)
         if self.delta:
             return np.zeros(len(wl), F32) if lobe is None else (lobe == self.index).astype(F32)
         bsdf = self.s.bsdf_for(len(wl) // max(len(self.s.p), 1) or 1)
         p = np.asarray(bsdf.lobe(self.name, wo_l).pdf(wl), F32)
-        return p if lobe is None else np.where(lobe >= 0, F32(0), p)
+        return p if lobe is None else np.where(lobe != -1, F32(0), p)
 
     def _draw(self, wo_l, u2):
+        if self.absent:                  # no sample: a point of no technique's, where f = 0
+            return np.broadcast_to(np.array([0.0, 0.0, 1.0], F32), (len(u2), 3)), np.full(len(u2), NO_SAMPLE)
         bsdf = self.s.bsdf_for(len(u2) // max(len(self.s.p), 1) or 1)
         dist = bsdf.lobe(self.name, wo_l)
         wl = np.broadcast_to(np.asarray(dist.sample(u2[:, :int(dist.dim_u)])), (len(u2), 3))
