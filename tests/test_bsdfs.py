@@ -12,6 +12,9 @@ from vrlab.distributions import Beckmann
 from vrlab.render.bsdfs import Diffuse, Phong, RoughConductor, mirror, reflect
 from vrlab.render.bsdfs.blendbsdf import BlendBSDF
 from vrlab.render.bsdfs.normalmap import NormalMap
+from vrlab.render.bsdfs.roughdielectric import RoughDielectric
+from vrlab.render.bsdfs.roughplastic import RoughPlastic
+from vrlab.render.bsdfs.fresnel import fresnel_dielectric, refract
 from vrlab.testing import (
     HemisphereChart,
     SphereChart,
@@ -57,28 +60,115 @@ BSDFS = {
     "normalmap": NormalMap(RoughConductor(0.3, "ggx"), [0.6, 0.45, 0.85]),
     "phong": Phong(0.3, 0.6, 12),
     "phong-spec": Phong(0.0, 0.9, 40),
+    "roughplastic": RoughPlastic(0.2, "ggx", diffuse_reflectance=[0.2, 0.5, 0.8]),
+    "roughplastic-beckmann-full-ndf": RoughPlastic(0.4, "beckmann", int_ior=1.9, sample_visible=False),
+}
+#: BSDFs whose samples cover the whole sphere on both sides (wo.z < 0 too: the inside of glass)
+TRANSMITTING = {
+    "roughdielectric": RoughDielectric(0.3, "ggx"),
+    "roughdielectric-beckmann": RoughDielectric(0.3, "beckmann"),
+    "roughdielectric-ggx-full-ndf": RoughDielectric(0.3, "ggx", sample_visible=False),
+    "roughdielectric-aniso-water": RoughDielectric(distribution="beckmann", alpha_u=0.2, alpha_v=0.5, int_ior="water"),
+    "roughdielectric-aniso-full-ndf": RoughDielectric(distribution="beckmann", alpha_u=0.5, alpha_v=0.2,
+                                                      sample_visible=False),
+    "roughdielectric-smooth-eta<1": RoughDielectric(0.1, "ggx", int_ior=1.0, ext_ior=1.4),
 }
 THETAS = [0.0, 0.8, 1.45]  # normal, oblique, grazing
-GOF_CASES = [(k, t) for k in BSDFS for t in THETAS]
+INSIDE = [np.pi - 0.5, np.pi - 1.2]  # from inside: below and beyond the critical angle of glass
+GOF_CASES = [(k, t) for k in BSDFS for t in THETAS] + [(k, t) for k in TRANSMITTING for t in THETAS + INSIDE]
+ALL = {**BSDFS, **TRANSMITTING}
 
 
 def sphere_chart(wo):
     return RotatedChart(SphereChart(power=2.0), -wo)
 
 
+def chart_for(name, wo):
+    """The chart of a BSDF's density: a cap at -wo (it resolves the integrable 1 / |wi + wo| peak
+    of microfacet reflection sampled by the full NDF), or for a rough dielectric sampled by visible
+    normals (whose reflection density has no such peak) a cap at the refraction direction, where
+    its transmission peaks (at -wo beyond the critical angle)."""
+    b = ALL[name]
+    if name not in TRANSMITTING or not b.sample_visible:
+        return sphere_chart(wo)
+    _, cos_t, _, eta_ti = fresnel_dielectric(wo[2], b.eta)
+    return RotatedChart(SphereChart(power=2.0), refract(wo, cos_t, eta_ti) if cos_t != 0 else -wo)
+
+
 @pytest.mark.parametrize("name, theta", GOF_CASES)
 def test_sampler_matches_pdf_on_the_sphere(name, theta):
     wo = direction(theta)
-    res = chi2_gof(BSDFS[name].distribution(wo), sphere_chart(wo), (48, 48), n=100_000,
-                   rng=[11, len(name), int(100 * theta)], name=f"{name} theta={theta}")
+    # a rough dielectric's transmission density rises steeply from 0 at the edge of what the
+    # facets can refract to (1 - F and |wi.m| -> 0 there): 3 x 3 finer quadrature per cell
+    res = chi2_gof(ALL[name].distribution(wo), chart_for(name, wo), (48, 48), n=100_000,
+                   rng=[11, len(name), int(100 * theta)], name=f"{name} theta={theta}",
+                   sub=3 if name in TRANSMITTING else 1)
     assert_gof(res, m=len(GOF_CASES))
 
 
 @pytest.mark.parametrize("name, theta", GOF_CASES)
 def test_pdf_integrates_to_one_on_the_sphere(name, theta):
     wo = direction(theta)
-    bsdf = BSDFS[name]
-    assert integrate(lambda w: bsdf.pdf(wo, w), sphere_chart(wo), 128) == pytest.approx(1.0, abs=2e-3)
+    bsdf = ALL[name]
+    assert integrate(lambda w: bsdf.pdf(wo, w), chart_for(name, wo), 128) == pytest.approx(1.0, abs=2e-3)
+
+
+LOBE_CASES = [(k, lobe, t) for k in ("roughdielectric", "roughdielectric-ggx-full-ndf")
+              for lobe in ("reflection", "transmission") for t in (0.8, np.pi - 1.2)]
+
+
+@pytest.mark.parametrize("name, lobe, theta", LOBE_CASES)
+def test_roughdielectric_lobes_match_their_pdfs(name, lobe, theta):
+    """Each lobe alone (for MIS over lobes): reflection, and transmission, which reflects where
+    the microfacet totally reflects (theta = pi - 1.2 is beyond glass's critical angle)."""
+    wo = direction(theta)
+    dist = TRANSMITTING[name].lobe(lobe, wo)
+    res = chi2_gof(dist, chart_for(name, wo), (48, 48), n=100_000, rng=[12, len(name), len(lobe), int(100 * theta)],
+                   sub=3)
+    assert_gof(res, m=len(LOBE_CASES))
+    assert integrate(dist.pdf, chart_for(name, wo), 128) == pytest.approx(1.0, abs=2e-3)
+
+
+class _DroppedJacobian(RoughDielectric):
+    """A rough dielectric whose transmission density forgets the factor e^2 of the refraction
+    Jacobian (a mutation that must fail)."""
+
+    def branch_terms(self, wo, wi, mode="mixture"):
+        p_r, p_same, p_other = super().branch_terms(wo, wi, mode)
+        e2 = np.where(np.asarray(wo)[..., 2] > 0, self.eta, 1 / self.eta) ** 2
+        return p_r, p_same / e2, p_other * e2
+
+
+@pytest.mark.parametrize("theta", [0.8, np.pi - 0.5])
+def test_a_dropped_refraction_jacobian_fails_the_chi_square_test(theta):
+    wo = direction(theta)
+    b = _DroppedJacobian(0.3, "ggx")
+    bad = chi2_gof(b.distribution(wo), sphere_chart(wo), (48, 48), n=100_000, rng=[13, int(100 * theta)], sub=3)
+    with pytest.raises(AssertionError):
+        assert_gof(bad, m=len(GOF_CASES))
+    assert abs(integrate(lambda w: b.pdf(wo, w), sphere_chart(wo), 128) - 1.0) > 0.05
+
+
+@pytest.mark.parametrize("name", list(TRANSMITTING))
+def test_transmitting_sample_weights_and_batches(name):
+    """Three uniforms per sample; weight = eval / pdf on both sides; batched equals one at a time."""
+    b = TRANSMITTING[name]
+    rng = np.random.default_rng(3)
+    wo = rng.normal(size=(4, 5, 3))
+    wo /= np.linalg.norm(wo, axis=-1, keepdims=True)
+    u = rng.random((4, 5, 7, 3))
+    wi, weight, pdf = b.sample(wo[..., None, :], u)
+    assert wi.shape == (4, 5, 7, 3) and weight.shape == (4, 5, 7, 3) and pdf.shape == (4, 5, 7)
+    np.testing.assert_allclose(np.linalg.norm(wi, axis=-1), 1.0)
+    assert np.all(pdf > 0)
+    np.testing.assert_allclose(weight, b.eval(wo[..., None, :], wi) / pdf[..., None], rtol=1e-10)
+    np.testing.assert_allclose(pdf, b.pdf(wo[..., None, :], wi), rtol=1e-12)
+    one = b.sample(wo[1, 2], u[1, 2])
+    for got, want in zip((wi[1, 2], weight[1, 2], pdf[1, 2]), one):
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-15)
+    assert np.any(wi[..., 2] * wo[..., None, 2] < 0) and np.any(wi[..., 2] * wo[..., None, 2] > 0)
+    with pytest.raises(ValueError, match="u"):
+        b.sample(wo, rng.random((4, 5, 2)))
 
 
 def test_microfacet_upper_hemisphere_mass_is_below_one_at_grazing():

@@ -159,7 +159,7 @@ def test_shading_integrand_techniques_are_distributions_with_exact_densities():
     n = np.tile(np.float32([0, 1, 0]), (2, 1))
     wo = np.tile(np.float32([0, 1, 0]), (2, 1))
     sh = integ.shading(0, x0, n, wo)
-    assert isinstance(sh, ShadingIntegrand) and set(sh.techniques) == {"bsdf", "light", "cosine", "uniform"}
+    assert isinstance(sh, ShadingIntegrand) and set(sh.techniques) == {"bsdf", "light", "cosine", "uniform", "bsdf:diffuse"}
     corner, e1, e2, _ = SC.shapes[1].rectangle()
     verts = np.array([corner, corner + e1, corner + e1 + e2, corner + e2])
     exact = RHO[1] / np.pi * polygon_irradiance(x0.astype(float), np.array([0.0, 1.0, 0.0]), verts, L_E)

@@ -36,11 +36,20 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
   beckmann/ggx, ``alpha``, ``material`` none, ``specular_reflectance``,
   ``sample_visible``), ``plastic`` (a delta coating over a diffuse base: ``int_ior``,
   ``ext_ior``, ``diffuse_reflectance``, ``specular_reflectance``, ``nonlinear``),
+  ``roughplastic`` (a microfacet coating over a diffuse base: ``distribution``, ``alpha``,
+  ``sample_visible`` and the parameters of ``plastic``), ``roughdielectric`` (microfacet
+  reflection and transmission, both sides: ``distribution``, ``alpha`` or ``alpha_u``/``alpha_v``,
+  ``sample_visible``, ``int_ior``, ``ext_ior``, ``specular_reflectance``,
+  ``specular_transmittance``),
   ``dielectric`` and ``thindielectric`` (delta reflection and transmission, both sides:
   ``int_ior``, ``ext_ior`` as numbers or names, ``specular_reflectance``,
   ``specular_transmittance``), ``blendbsdf`` (``weight``, two nested BSDFs), ``normalmap``
   (``normalmap`` texture, one nested BSDF), ``mask`` (``opacity``, one nested BSDF; light passes
-  straight through the rest), ``bumpmap`` (a height texture, ``scale``, one nested BSDF), ``twosided`` (one nested BSDF) and the *vrlab*
+  straight through the rest), ``bumpmap`` (a height texture, ``scale``, one nested BSDF),
+  ``twosided`` (one nested BSDF), ``principled`` and ``principledthin`` (Burley's Disney BSDF
+  and its thin sheet: ``base_color``, ``roughness``, ``metallic``, ``spec_trans``,
+  ``clearcoat``, ``sheen``... all textures allowed; :mod:`vrlab.render.bsdfs.principled`) and
+  the *vrlab*
   ``phong``; ``reflectance``, ``diffuse_reflectance``, ``specular_reflectance``,
   ``specular_transmittance``, ``eta``, ``k``, ``alpha`` and ``weight`` may be textures;
   a BSDF's lobes are techniques ``"bsdf:<lobe>"`` (:mod:`vrlab.render.bsdfs.base`);

@@ -1,5 +1,7 @@
 """BSDF elements, one module per Mitsuba 3 plugin (``diffuse``, ``conductor``,
-``roughconductor``, ``plastic``, ``dielectric``, ``thindielectric``, ``twosided``) and vrlab's
+``roughconductor``, ``plastic``, ``roughplastic``, ``dielectric``, ``roughdielectric``,
+``thindielectric``, ``principled``, ``principledthin``, ``blendbsdf``, ``mask``, ``normalmap``,
+``bumpmap``, ``twosided``) and vrlab's
 ``phong``; the base class :class:`BSDFModel` and the shared
 conventions (local frame, ``eval`` = f cos, ``pdf`` on the whole sphere) are in
 :mod:`.base`.  Names are imported from their modules on first use."""

@@ -63,7 +63,7 @@ from ..scene_checks import MAX_ALPHA, MAX_VALUE
 INV_PI = 1.0 / np.pi
 TWO_PI = 2.0 * np.pi
 
-__all__ = ["BSDFDirections", "BSDFModel", "alpha_param", "color_param", "dirs", "mirror", "plain", "reflect",
+__all__ = ["BSDFDirections", "BSDFModel", "alpha_param", "check_lobe_mixture", "color_param", "dirs", "mirror", "plain", "reflect",
            "rgb_param", "shape_of", "times_rgb"]
 
 
@@ -304,3 +304,13 @@ def shape_of(wo: np.ndarray, u: np.ndarray) -> tuple:
     return np.broadcast_shapes(wo.shape[:-1], u.shape[:-1]) + (3,)
 
 
+
+
+def check_lobe_mixture(bsdf: BSDFModel, name: str) -> None:
+    """Refuse ``bsdf`` as a component of a lobe mixture (``blendbsdf``, ``mask``) when its lobe
+    probabilities depend on more than wo (``principled``: on the microfacet normal it draws
+    first), naming the argument."""
+    try:
+        bsdf.lobe_probabilities(np.array([0.0, 0.0, 1.0]))
+    except ValueError as exc:
+        raise ValueError(f"{name}: a {bsdf.type!r} BSDF cannot be mixed with other lobes here ({exc})") from None

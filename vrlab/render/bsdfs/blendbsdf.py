@@ -26,7 +26,7 @@ import numpy as np
 from ... import checks
 from ...distributions.base import as_points
 from ..registry import register
-from .base import BSDFModel, dirs
+from .base import BSDFModel, check_lobe_mixture, dirs
 
 __all__ = ["BlendBSDF"]
 
@@ -52,6 +52,7 @@ class BlendBSDF(BSDFModel):
                 raise TypeError(f"{name} must be a vrlab.render BSDF element, got {checks.describe(b)}")
             if b.twosided:
                 raise ValueError(f"{name}: a twosided BSDF inside blendbsdf is not supported; make the blend twosided")
+            check_lobe_mixture(b, name)
         self.bsdf0, self.bsdf1 = bsdf0, bsdf1
         self.weight = _weight(weight)
 

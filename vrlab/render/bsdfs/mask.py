@@ -21,7 +21,7 @@ from ... import checks
 from ...distributions.base import as_points
 from ...distributions.lobes import DeltaDirection, LobeMixture
 from ..registry import register
-from .base import BSDFModel, dirs, scale
+from .base import BSDFModel, check_lobe_mixture, dirs, scale
 
 __all__ = ["Mask"]
 
@@ -46,6 +46,7 @@ class Mask(BSDFModel):
     def __init__(self, bsdf: BSDFModel, opacity: Any = 0.5):
         if not isinstance(bsdf, BSDFModel):
             raise TypeError(f"bsdf must be a vrlab.render BSDF element, got {checks.describe(bsdf)}")
+        check_lobe_mixture(bsdf, "bsdf")
         self.inner = bsdf
         self.opacity = _opacity(opacity)
 

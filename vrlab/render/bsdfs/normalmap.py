@@ -153,7 +153,8 @@ class NormalMap(BSDFModel):
 
     def distribution(self, wo):
         wo = as_points(wo, 3, "wo")
-        if len(self.LOBES) == 1 and not self.DELTA:
+        if (len(self.LOBES) == 1 or self.inner.dim_u == 3) and not self.DELTA:
+            # one lobe, or a BSDF that picks its lobe after its microfacet normal: its own sampler, turned
             fr, wo_t, _ = self._tilted(wo)
             return Oriented(self.inner.distribution(wo_t), fr)
         return LobeMixture([self.lobe(name, wo) for name in self.LOBES], self.lobe_probabilities(wo))

@@ -31,9 +31,10 @@ from ..._vec import dot as vdot
 from ..._vec import norm as vnorm
 from ..._vec import scale, side
 from ...distributions import GGX, Beckmann, VisibleNormals
+from ...distributions.base import Distribution, as_points, as_uniforms
 from .base import alpha_param, reflect, shape_of
 
-__all__ = ["RoughSurface", "half_vector"]
+__all__ = ["MicrofacetReflection", "RoughSurface", "half_vector"]
 
 MIN_ALPHA = 1e-4          # Mitsuba clamps a textured roughness from below
 
@@ -47,6 +48,26 @@ def half_vector(wo: np.ndarray, wi: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     if not ok.all():
         h = np.where(ok[..., None], h, np.array([0.0, 0.0, 1.0], h.dtype))
     return h, ok
+
+
+class MicrofacetReflection(Distribution):
+    """The reflection lobe of a rough BSDF for a fixed ``wo`` as a distribution (``dim_u = 2``):
+    ``sample`` = :meth:`RoughSurface.sample_reflection`, ``pdf`` =
+    :meth:`RoughSurface.reflection_pdf` (whole sphere)."""
+
+    dim_u, dim_x, measure = 2, 3, "solid angle"
+
+    def __init__(self, surface: "RoughSurface", wo: np.ndarray):
+        self.surface, self.wo = surface, as_points(wo, 3, "wo")
+
+    def sample(self, u):
+        return self.surface.sample_reflection(self.wo, as_uniforms(u, 2))
+
+    def pdf(self, w):
+        return self.surface.reflection_pdf(self.wo, as_points(w, 3, "w"))
+
+    def _repr_fields(self):
+        return {"surface": self.surface, "wo_shape": self.wo.shape}
 
 
 class RoughSurface:
