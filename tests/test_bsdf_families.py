@@ -1454,3 +1454,71 @@ def test_adapters_around_bsdfs_that_pick_lobes_after_the_normal():
         BlendBSDF(Diffuse(), Principled(), 0.5)
     with pytest.raises(ValueError, match="bsdf"):
         Mask(Principled())
+
+
+# ------------------------------------------------------------------ Mitsuba's BSDF spheres, lit directly
+def bsdf_spheres(tmp_path, lights: str, width: int = 48, height: int = 48) -> str:
+    """The layout of Mitsuba's ``tests/scenes/bsdf_spheres`` regression scene (its BSDF grid:
+    diffuse, textured diffuse, diamond, shiny plastic, rough glass (Beckmann and GGX), rough
+    plastics, a conductor and a rough conductor given by eta and k, a masked twosided leaf and
+    a masked one-sided leaf) with analytic spheres, generated textures and a ``direct``
+    integrator."""
+    from PIL import Image
+
+    g = np.random.default_rng(7)
+    Image.fromarray((g.random((16, 16, 3)) * 255).astype(np.uint8)).save(tmp_path / "wood.png")
+    yy, xx = np.mgrid[0:32, 0:32]
+    leaf = (((xx - 15.5) / 14) ** 2 + ((yy - 15.5) / 9) ** 2 < 1).astype(np.uint8) * 255
+    Image.fromarray(leaf).save(tmp_path / "leaf.png")
+    spheres = {
+        (-6, 0): '<bsdf type="diffuse"><rgb name="reflectance" value="0.2 0.5 0.3"/></bsdf>',
+        (-3, 0): f'<bsdf type="diffuse"><texture name="reflectance" type="bitmap"><string name="filename" '
+                 f'value="{tmp_path / "wood.png"}"/></texture></bsdf>',
+        (0, 0): '<bsdf type="dielectric"><string name="int_ior" value="diamond"/><string name="ext_ior" value="air"/>'
+                '</bsdf>',
+        (3, 0): '<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.1, 0.27, 0.36"/>'
+                '<float name="int_ior" value="1.9"/></bsdf>',
+        (6, 0): '<bsdf type="roughdielectric"><string name="distribution" value="beckmann"/><float name="alpha" '
+                'value="0.02"/><string name="int_ior" value="bk7"/><string name="ext_ior" value="air"/></bsdf>',
+        (6, 3): '<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" '
+                'value="0.1"/><string name="int_ior" value="bk7"/><string name="ext_ior" value="air"/></bsdf>',
+        (3, 3): '<bsdf type="roughplastic"><string name="distribution" value="beckmann"/><float name="alpha" '
+                'value="0.1"/><spectrum name="diffuse_reflectance" value="0"/></bsdf>',
+        (0, 3): '<bsdf type="roughplastic"><string name="distribution" value="beckmann"/><float name="alpha" '
+                'value="0.05"/><spectrum name="diffuse_reflectance" value="0.5"/></bsdf>',
+        (-3, 3): '<bsdf type="conductor"><spectrum name="eta" value="0.789000"/><spectrum name="k" value="6.150000"/>'
+                 '</bsdf>',
+        (-6, 3): '<bsdf type="roughconductor"><string name="distribution" value="beckmann"/><float name="alpha" '
+                 'value="0.05"/><spectrum name="eta" value="0.789000"/><spectrum name="k" value="6.150000"/></bsdf>',
+    }
+    body = "".join(f'<shape type="sphere"><point name="center" value="0, {y}, {z}"/><float name="radius" value="1"/>'
+                   f'{b}</shape>' for (y, z), b in spheres.items())
+    mask = (f'<bsdf type="mask"><texture name="opacity" type="bitmap"><string name="filename" '
+            f'value="{tmp_path / "leaf.png"}"/></texture>{{}}</bsdf>')
+    leaf_bsdf = '<bsdf type="diffuse"><rgb name="reflectance" value="0.1 0.8 0.1"/></bsdf>'
+    twosided = '<bsdf type="twosided">' + leaf_bsdf + '</bsdf>'
+    body += (f'<shape type="rectangle">{mask.format(twosided)}'
+             '<transform name="to_world"><rotate z="1" angle="-90"/><rotate y="1" angle="90"/>'
+             '<translate x="0.0" y="-6.0" z="-3.0"/></transform></shape>'
+             f'<shape type="rectangle">{mask.format(leaf_bsdf)}<transform name="to_world"><rotate z="1" angle="-90"/>'
+             '<rotate y="1" angle="-90"/><rotate x="1" angle="180"/><translate x="0.0" y="-3.0" z="-3.0"/>'
+             '</transform></shape>')
+    return ('<scene version="3.0.0"><integrator type="direct"/><sensor type="perspective"><float name="near_clip" '
+            'value="1"/><transform name="to_world"><lookat target="0, 0, 0" origin="-24, 0, 0" up="0, 0, 1"/>'
+            f'</transform><film type="hdrfilm"><rfilter type="box"/><integer name="width" value="{width}"/>'
+            f'<integer name="height" value="{height}"/></film></sensor>{lights}{body}</scene>')
+
+
+BSDF_SPHERES_LIGHTS = {
+    "constant": '<emitter type="constant"><rgb name="radiance" value="1"/></emitter>',
+    "point": '<emitter type="point"><point name="position" value="-20, -8, 10"/><rgb name="intensity" value="900"/>'
+             '</emitter>',
+    "area": '<shape type="rectangle"><transform name="to_world"><scale value="6"/><rotate y="1" angle="90"/>'
+            '<translate x="-30" z="6"/></transform><emitter type="area"><rgb name="radiance" value="3"/></emitter>'
+            '</shape>',
+}
+
+
+@pytest.mark.parametrize("lights", sorted(BSDF_SPHERES_LIGHTS))
+def test_mitsubas_bsdf_spheres_lit_directly_agree(tmp_path, lights):
+    assert_agrees_with_mitsuba(bsdf_spheres(tmp_path, BSDF_SPHERES_LIGHTS[lights]))
