@@ -63,7 +63,7 @@ from ..scene_checks import MAX_ALPHA, MAX_VALUE
 INV_PI = 1.0 / np.pi
 TWO_PI = 2.0 * np.pi
 
-__all__ = ["BSDFDirections", "BSDFModel", "alpha_param", "check_lobe_mixture", "color_param", "dirs", "mirror", "plain", "reflect",
+__all__ = ["BSDFDirections", "BSDFModel", "FRAME_VALUES", "NestedTextures", "alpha_param", "check_lobe_mixture", "color_param", "dirs", "mirror", "plain", "reflect",
            "rgb_param", "shape_of", "times_rgb"]
 
 
@@ -314,3 +314,39 @@ def check_lobe_mixture(bsdf: BSDFModel, name: str) -> None:
         bsdf.lobe_probabilities(np.array([0.0, 0.0, 1.0]))
     except ValueError as exc:
         raise ValueError(f"{name}: a {bsdf.type!r} BSDF cannot be mixed with other lobes here ({exc})") from None
+
+
+#: per-point values the renderer passes to every BSDF of a point (the tangent frame), not textures
+FRAME_VALUES = ("dp_du", "dp_dv", "dp_du_world", "n_geo")
+
+
+class NestedTextures:
+    """Mixin of the adapters around one nested BSDF ``inner`` (``normalmap``, ``bumpmap``,
+    ``mask``): their own textured parameters ``OWN_TEXTURES`` (scalar ones in
+    ``OWN_SCALARS``, gradients in ``OWN_GRADIENTS``) and the nested BSDF's as
+    ``"inner.<name>"``; :meth:`split_values` hands the nested BSDF its values."""
+
+    OWN_TEXTURES: tuple = ()
+    OWN_SCALARS: tuple = ()
+    OWN_GRADIENTS: tuple = ()
+
+    @property
+    def textures(self) -> dict:
+        from ..textures import Texture
+
+        own = {a: getattr(self, a) for a in self.OWN_TEXTURES if isinstance(getattr(self, a), Texture)}
+        return {**own, **{f"inner.{k}": v for k, v in self.inner.textures.items()}}
+
+    @property
+    def SCALAR_TEXTURES(self) -> tuple:  # noqa: N802
+        return self.OWN_SCALARS + tuple(f"inner.{k}" for k in self.inner.SCALAR_TEXTURES)
+
+    @property
+    def GRADIENT_TEXTURES(self) -> tuple:  # noqa: N802
+        return self.OWN_GRADIENTS + tuple(f"inner.{k}" for k in self.inner.GRADIENT_TEXTURES)
+
+    def nested_at(self, values: dict):
+        """The nested BSDF at these points: its own textured values and the frame."""
+        inner = {k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("inner.")}
+        inner.update({k: v for k, v in values.items() if k in FRAME_VALUES})
+        return self.inner.at(inner) if inner else self.inner

@@ -26,7 +26,7 @@ import numpy as np
 from ... import checks
 from ...distributions.base import as_points
 from ..registry import register
-from .base import BSDFModel, check_lobe_mixture, dirs
+from .base import FRAME_VALUES, BSDFModel, check_lobe_mixture, dirs
 
 __all__ = ["BlendBSDF"]
 
@@ -174,7 +174,7 @@ class BlendBSDF(BSDFModel):
 
     def at(self, values: dict) -> "BlendBSDF":
         own = {k: v for k, v in values.items() if "." not in k}
-        frame = {k: v for k, v in own.items() if k in ("dp_du", "dp_dv", "dp_du_world", "n_geo")}   # both nested
+        frame = {k: v for k, v in own.items() if k in FRAME_VALUES}   # both nested BSDFs' frame
         nested = [{**frame, **{k.split(".", 1)[1]: v for k, v in values.items() if k.startswith(f"{i}.")}}
                   for i in (0, 1)]
         out = BlendBSDF(self.bsdf0.at(nested[0]) if nested[0] else self.bsdf0,

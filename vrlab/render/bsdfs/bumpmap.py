@@ -35,8 +35,7 @@ class BumpMap(NormalMap):
     """``BumpMap(bsdf, texture, scale=1)``: ``texture`` a texture with a uv gradient (a
     ``bitmap``; the height), ``scale`` a real (see the module docstring)."""
 
-    TEXTURED = ()
-    _own_gradients = ("texture",)
+    TEXTURED = OWN_TEXTURES = OWN_GRADIENTS = ("texture",)
 
     def __init__(self, bsdf: BSDFModel, texture: Any, scale: float = 1.0):
         from ..textures import Texture
@@ -70,15 +69,9 @@ class BumpMap(NormalMap):
         flip = np.sum(n * np.asarray(self.n_geo, np.float64), -1, keepdims=True) < 0
         return np.where(flip, -n, n)
 
-    @property
-    def textures(self) -> dict:
-        return {"texture": self.texture, **{f"inner.{k}": v for k, v in self.inner.textures.items()}}
-
     def at(self, values: dict) -> "BumpMap":
-        inner = {k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("inner.")}
-        frame = {k: v for k, v in values.items() if k in ("dp_du", "dp_dv", "dp_du_world", "n_geo")}
         out = BumpMap.__new__(BumpMap)
-        out.inner = self.inner.at({**inner, **frame}) if inner or frame else self.inner
+        out.inner = self.nested_at(values)
         out.texture, out.scale = self.texture, self.scale
         out.grad = values.get("texture", self.grad)
         out.dp_du, out.dp_dv = values.get("dp_du", self.dp_du), values.get("dp_dv", self.dp_dv)

@@ -21,7 +21,7 @@ from ... import checks
 from ...distributions.base import as_points
 from ...distributions.lobes import DeltaDirection, LobeMixture
 from ..registry import register
-from .base import BSDFModel, check_lobe_mixture, dirs, scale
+from .base import BSDFModel, NestedTextures, check_lobe_mixture, dirs, scale
 
 __all__ = ["Mask"]
 
@@ -38,10 +38,10 @@ def _opacity(value: Any):
 
 
 @register("bsdf", "mask")
-class Mask(BSDFModel):
+class Mask(NestedTextures, BSDFModel):
     """``Mask(bsdf, opacity=0.5)`` (see the module docstring)."""
 
-    TEXTURED = ("opacity",)
+    TEXTURED = OWN_TEXTURES = OWN_SCALARS = ("opacity",)
 
     def __init__(self, bsdf: BSDFModel, opacity: Any = 0.5):
         if not isinstance(bsdf, BSDFModel):
@@ -134,29 +134,10 @@ class Mask(BSDFModel):
     def is_black(self) -> bool:
         return False                      # light passes through even where the nested BSDF is black
 
-    # -- textures: the opacity's and the nested BSDF's (as "inner.<name>") --------------------
-    @property
-    def textures(self) -> dict:
-        from ..textures import Texture
-
-        own = {"opacity": self.opacity} if isinstance(self.opacity, Texture) else {}
-        return {**own, **{f"inner.{k}": v for k, v in self.inner.textures.items()}}
-
-    @property
-    def GRADIENT_TEXTURES(self) -> tuple:  # noqa: N802
-        return tuple(f"inner.{k}" for k in self.inner.GRADIENT_TEXTURES) + self._own_gradients
-
-    _own_gradients: tuple = ()
-
-    @property
-    def SCALAR_TEXTURES(self) -> tuple:  # noqa: N802
-        return ("opacity",) + tuple(f"inner.{k}" for k in self.inner.SCALAR_TEXTURES)
-
+    # -- textures: the opacity's and the nested BSDF's (as "inner.<name>", NestedTextures) ------
     def at(self, values: dict) -> "Mask":
-        inner = {k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("inner.")}
-        inner.update({k: v for k, v in values.items() if k in ("dp_du", "dp_dv", "dp_du_world", "n_geo")})
         out = Mask.__new__(Mask)
-        out.inner = self.inner.at(inner) if inner else self.inner
+        out.inner = self.nested_at(values)
         out.opacity = np.clip(np.asarray(values["opacity"], float), 0.0, 1.0) if "opacity" in values \
             else self.opacity
         return out

@@ -38,7 +38,7 @@ from ...distributions.base import as_points
 from ...distributions.frames import Frame, Oriented
 from ...distributions.lobes import DeltaDirection, LobeMixture
 from ..registry import register
-from .base import BSDFModel, color_param, dirs, scale
+from .base import BSDFModel, NestedTextures, color_param, dirs, scale
 
 __all__ = ["NormalMap"]
 
@@ -46,12 +46,12 @@ _X = np.array([1.0, 0.0, 0.0])
 
 
 @register("bsdf", "normalmap")
-class NormalMap(BSDFModel):
+class NormalMap(NestedTextures, BSDFModel):
     """``NormalMap(bsdf, normalmap)``: ``normalmap`` a texture (or a constant RGB) of encoded
     normals (see the module docstring)."""
 
     needs_tangents = True
-    TEXTURED = ("normalmap",)
+    TEXTURED = OWN_TEXTURES = ("normalmap",)
 
     def __init__(self, bsdf: BSDFModel, normalmap: Any):
         if not isinstance(bsdf, BSDFModel):
@@ -171,28 +171,9 @@ class NormalMap(BSDFModel):
     def is_black(self) -> bool:
         return self.inner.is_black()
 
-    @property
-    def textures(self) -> dict:
-        from ..textures import Texture
-
-        own = {"normalmap": self.normalmap} if isinstance(self.normalmap, Texture) else {}
-        return {**own, **{f"inner.{k}": v for k, v in self.inner.textures.items()}}
-
-    @property
-    def GRADIENT_TEXTURES(self) -> tuple:  # noqa: N802
-        return tuple(f"inner.{k}" for k in self.inner.GRADIENT_TEXTURES) + self._own_gradients
-
-    _own_gradients: tuple = ()
-
-    @property
-    def SCALAR_TEXTURES(self) -> tuple:  # noqa: N802
-        return tuple(f"inner.{k}" for k in self.inner.SCALAR_TEXTURES)
-
     def at(self, values: dict) -> "NormalMap":
-        inner = {k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("inner.")}
-        inner.update({k: v for k, v in values.items() if k in ("dp_du", "dp_dv", "dp_du_world", "n_geo")})
         out = NormalMap.__new__(NormalMap)
-        out.inner = self.inner.at(inner) if inner else self.inner
+        out.inner = self.nested_at(values)
         out.normalmap = values.get("normalmap", self.normalmap)
         out.dp_du_world = values.get("dp_du_world", self.dp_du_world)
         return out

@@ -142,15 +142,21 @@ class BitmapTexture(Texture):
         if self.filter_type == "nearest":
             k = np.floor(np.clip(uv * res, -_BIG, _BIG)).astype(np.int64)
             return self.texels[wrap_index(k[:, 1], h, self.wrap_mode), wrap_index(k[:, 0], w, self.wrap_mode)]
-        pos = np.clip(uv * res - 0.5, -_BIG, _BIG)
+        x0, x1, y0, y1, fx, fy = self._corners(uv)
+        t = self.texels
+        return (1 - fy) * ((1 - fx) * t[y0, x0] + fx * t[y0, x1]) + fy * ((1 - fx) * t[y1, x0] + fx * t[y1, x1])
+
+    def _corners(self, uv: np.ndarray) -> tuple:
+        """Bilinear lookup at uv (after ``to_uv``): the wrapped texel columns x0, x1, rows y0, y1
+        and the fractions fx, fy ``(N, 1)``."""
+        h, w, _ = self.texels.shape
+        pos = np.clip(uv * np.array([w, h], float) - 0.5, -_BIG, _BIG)
         k0 = np.floor(pos)
         f = pos - k0
         k0 = k0.astype(np.int64)
         x0, x1 = (wrap_index(k0[:, 0] + d, w, self.wrap_mode) for d in (0, 1))
         y0, y1 = (wrap_index(k0[:, 1] + d, h, self.wrap_mode) for d in (0, 1))
-        fx, fy = f[:, :1], f[:, 1:]
-        t = self.texels
-        return (1 - fy) * ((1 - fx) * t[y0, x0] + fx * t[y0, x1]) + fy * ((1 - fx) * t[y1, x0] + fx * t[y1, x1])
+        return x0, x1, y0, y1, f[:, :1], f[:, 1:]
 
     def lookup_grad(self, uv: np.ndarray) -> np.ndarray:
         """d(texels)/d(uv) ``(N, C, 2)`` at ``uv`` before ``to_uv``: 0 for ``nearest``; for
@@ -164,13 +170,7 @@ class BitmapTexture(Texture):
         h, w, c = self.texels.shape
         if self.filter_type == "nearest":
             return np.zeros((len(uv), c, 2))
-        pos = np.clip(uv2 * np.array([w, h], float) - 0.5, -_BIG, _BIG)
-        k0 = np.floor(pos)
-        f = pos - k0
-        k0 = k0.astype(np.int64)
-        x0, x1 = (wrap_index(k0[:, 0] + d, w, self.wrap_mode) for d in (0, 1))
-        y0, y1 = (wrap_index(k0[:, 1] + d, h, self.wrap_mode) for d in (0, 1))
-        fx, fy = f[:, :1], f[:, 1:]
+        x0, x1, y0, y1, fx, fy = self._corners(uv2)
         t = self.texels
         d_dx = (1 - fy) * (t[y0, x1] - t[y0, x0]) + fy * (t[y1, x1] - t[y1, x0])
         d_dy = (1 - fx) * (t[y1, x0] - t[y0, x0]) + fx * (t[y1, x1] - t[y0, x1])
