@@ -145,8 +145,14 @@ class ShadingIntegrand(Integrand):
 
     def technique(self, name: str, arg: str = "distribution"):
         """The technique ``name`` (see :attr:`techniques`), remembering that it was asked for
-        (``used``: the renderer refuses an estimator whose techniques miss some emitter)."""
-        tech = super().technique(name, arg)
+        (``used``: the renderer refuses an estimator whose techniques miss some emitter).
+        Built alone (the hot path: estimators resolve their techniques at every batch)."""
+        if name in ("bsdf", "cosine", "uniform"):
+            tech = _Directional(self, None if name == "bsdf" else name)
+        elif name == "light":
+            tech = _LightTechnique(self)
+        else:
+            tech = super().technique(name, arg)
         self.used.add(name)
         return tech
 
