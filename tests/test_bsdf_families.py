@@ -1522,3 +1522,30 @@ BSDF_SPHERES_LIGHTS = {
 @pytest.mark.parametrize("lights", sorted(BSDF_SPHERES_LIGHTS))
 def test_mitsubas_bsdf_spheres_lit_directly_agree(tmp_path, lights):
     assert_agrees_with_mitsuba(bsdf_spheres(tmp_path, BSDF_SPHERES_LIGHTS[lights]))
+
+
+def test_mitsubas_textured_principled_sphere_agrees(tmp_path):
+    """Mitsuba's ``test_texturedprincipled1`` regression scene (checkerboard-textured anisotropy,
+    metallic, clearcoat and sheen) in its ``single_sphere`` setting (``path`` of depth 2, an
+    emissive rectangle with a BSDF, an environment map and a point light), with an analytic
+    sphere and this suite's small environment map."""
+    env = _envmap_file(tmp_path)
+    checker = ('<texture name="{}" type="checkerboard"><transform name="to_uv"><scale x="{s}" y="{s}"/></transform>'
+               '<float name="color0" value="{a}"/><float name="color1" value="{b}"/></texture>')
+    bsdf = ('<bsdf type="principled"><rgb name="base_color" value="0.2,0.8,0.1"/><float name="roughness" value="0.15"/>'
+            + checker.format("anisotropic", s=25, a=0.05, b=0.8) + checker.format("metallic", s=25, a=0.7, b=0.1)
+            + checker.format("clearcoat", s=12.5, a=0.9, b=0.1) + checker.format("sheen", s=12.5, a=0.2, b=0.9)
+            + '<float name="specular" value="0.7"/></bsdf>')
+    xml = ('<scene version="2.0.0"><integrator type="moment"><integrator type="path"><integer name="max_depth" '
+           'value="2"/></integrator></integrator><sensor type="perspective"><float name="near_clip" value="1"/>'
+           '<transform name="to_world"><lookat target="0, 0, 0" origin="-4, 0, 0" up="0, 0, 1"/></transform>'
+           '<film type="hdrfilm"><rfilter type="box"/><integer name="width" value="32"/><integer name="height" '
+           f'value="32"/></film></sensor><shape type="sphere">{bsdf}</shape>'
+           '<shape type="rectangle"><transform name="to_world"><rotate y="1" angle="120"/><scale value="2"/>'
+           '<translate x="-4" z="6"/></transform><bsdf type="diffuse"><spectrum name="reflectance" '
+           'value="400:0.78, 500:0.78, 600:0.78, 700:0.78"/></bsdf><emitter type="area"><spectrum name="radiance" '
+           'value="400:0, 500:8, 600:15.6, 700:18.4"/></emitter></shape>'
+           f'<emitter type="envmap"><string name="filename" value="{env}"/></emitter>'
+           '<emitter type="point"><point name="position" x="-4" y="0" z="-6"/><spectrum name="intensity" '
+           'value="300"/></emitter></scene>')
+    assert_agrees_with_mitsuba(xml)
