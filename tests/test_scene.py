@@ -334,8 +334,8 @@ ROUGH = ('<shape type="rectangle"><bsdf type="roughconductor">{}</bsdf></shape>'
 GOOD_ROUGH = '<boolean name="sample_visible" value="false"/>'
 BAD = {
     "unknown shape": (scene_xml('<shape type="torus"/>'), ["torus", "rectangle", "ellipsoid"]),
-    "unknown bsdf": (scene_xml('<shape type="cube"><bsdf type="dielectric"/></shape>'),
-                     ["dielectric", "diffuse", "roughconductor", "phong"]),
+    "unknown bsdf": (scene_xml('<shape type="cube"><bsdf type="hair"/></shape>'),
+                     ["hair", "diffuse", "roughconductor", "phong"]),
     "unknown param": (scene_xml('<shape type="cube"><bsdf type="diffuse">'
                                 '<float name="roughness" value="1"/></bsdf></shape>'),
                       ["roughness", "reflectance"]),
@@ -360,8 +360,8 @@ BAD = {
     "fov_axis": (scene_xml(SHAPE, sensor=SENSOR.replace(
         '<float name="fov" value="45"/>', '<float name="fov" value="45"/>'
         '<string name="fov_axis" value="z"/>')), ["fov_axis", "diagonal"]),
-    "material": (scene_xml(ROUGH.format(GOOD_ROUGH + '<string name="material" value="Au"/>')),
-                 ["Au", "none"]),
+    "material": (scene_xml(ROUGH.format(GOOD_ROUGH + '<string name="material" value="Unobtainium"/>')),
+                 ["Unobtainium", "material", "Au"]),
     "distribution": (scene_xml(ROUGH.format(GOOD_ROUGH + '<string name="distribution" '
                                             'value="phong"/>')), ["distribution", "ggx"]),
     "missing type": (scene_xml('<shape/>'), ["shape", "type", "rectangle"]),
