@@ -120,7 +120,8 @@ def mitsuba_methods(xml: str, variants: list) -> dict:
                      f'<integer name="bsdf_samples" value="{nb}"/></integrator>')
             import re
 
-            scene = mi.load_string(re.sub(r"<integrator.*?(/>|</integrator>)", integ, xml, count=1, flags=re.S))
+            scene = mi.load_string(re.sub(r"<integrator[^>]*/>|<integrator[^>]*[^/]>.*?</integrator>", integ, xml,
+                                          count=1, flags=re.S))
             dr.set_thread_count(1)
             name = f"Mitsuba {variant} {label}"
             if variant == "scalar_rgb":

@@ -163,3 +163,14 @@ def test_samples_along_another_axis():
     np.testing.assert_allclose(a.mean, b.mean, rtol=1e-13)
     np.testing.assert_allclose(a.m2, b.m2, rtol=1e-12)
     np.testing.assert_allclose(a.variance, np.var(v, axis=1, ddof=1), rtol=1e-12)
+
+
+def test_image_mean_and_its_standard_error():
+    from vrlab.metrics import image_mean
+
+    v = np.arange(24, dtype=float).reshape(2, 4, 3)
+    e = np.full((2, 4, 3), 2.0)
+    m, s = image_mean(v, e)
+    assert np.allclose(m, v.reshape(-1, 3).mean(0)) and np.allclose(s, np.sqrt(8 * 4.0) / 8)
+    with pytest.raises(ValueError, match="value, stderr"):
+        image_mean(v, e[0])

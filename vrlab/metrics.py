@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["REL_MSE_EPS", "rel_mse", "relative_squared_error"]
+__all__ = ["REL_MSE_EPS", "image_mean", "rel_mse", "relative_squared_error"]
 
 #: eps of the relative MSE's denominator ref^2 + eps
 REL_MSE_EPS = 0.01
@@ -38,3 +38,15 @@ def rel_mse(img: Any, ref: Any, *, ref_err: Any = None, mask: Any = None, axis: 
         r = r[np.asarray(mask)]
     out = np.mean(r, axis=axis)
     return float(out) if np.ndim(out) == 0 else out
+
+
+def image_mean(value: Any, stderr: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Per-channel mean of an image ``(..., C)`` and its standard error sqrt(sum stderr^2) / P
+    over the P pixels (independent pixel estimates, e.g. an ``Estimate``'s ``value`` and
+    ``stderr``)."""
+    v = np.asarray(value, float)
+    e = np.asarray(stderr, float)
+    if v.shape != e.shape or v.ndim < 1:
+        raise ValueError(f"value, stderr: expected images of one shape (..., C), got {v.shape} and {e.shape}")
+    v, e = v.reshape(-1, v.shape[-1]), e.reshape(-1, e.shape[-1])
+    return v.mean(0), np.sqrt((e ** 2).sum(0)) / len(v)

@@ -50,6 +50,7 @@ from vrlab.distributions import EnvironmentMap
 from vrlab.distributions.envmap import latlong_direction
 from vrlab.estimators import MIS
 from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
+from vrlab.metrics import image_mean as metrics_image_mean
 from vrlab.metrics import rel_mse, relative_squared_error
 from vrlab.render import load_scene, render
 from vrlab.render.direct import DirectLighting
@@ -178,9 +179,8 @@ def regions(scene, sub: int = 4) -> np.ndarray:
 
 
 def image_mean(est) -> tuple[np.ndarray, np.ndarray]:
-    """Per-channel mean over the pixels and its standard error sqrt(sum stderr^2) / P (pixels independent)."""
-    v, e = est.value.astype(float).reshape(-1, 3), est.stderr.astype(float).reshape(-1, 3)
-    return v.mean(0), np.sqrt((e**2).sum(0)) / len(v)
+    """Per-channel mean over the pixels and its standard error (:func:`vrlab.metrics.image_mean`)."""
+    return metrics_image_mean(est.value, est.stderr)
 
 
 def compare(paths: dict, spp: int, ref_spp: int, seed: int = 11) -> tuple[pd.DataFrame, dict, np.ndarray]:
