@@ -471,3 +471,27 @@ def test_batched_frames(heuristic):
     one = OneSampleMIS(oriented, [0.7, 0.3], "balance", probe=False).estimate(f, 2000, rng=4)
     ref1 = OneSampleMIS(dists, [0.7, 0.3]).estimate(integrand, 2000, rng=4)
     np.testing.assert_allclose(one.value, ref1.value, rtol=1e-9)
+
+
+def test_optimal_per_unit_keeps_the_emitted_term_out_of_its_fit():
+    """The renderer's emitted light (``add_emitted``) is a last column: the coefficient comes
+    from (Y, H) alone, the estimate is mean(Y + E) - a (mean(H) - 1) and its residual variance
+    that of Y + E - a H (on Veach's plates with rough plastic, pixels on the edge of a bright
+    emitter came out 1.38x too bright at 64 spp when E was fitted with Y; 1.00 apart)."""
+    from vrlab.estimators.regression import CoMoments, regression_estimate
+
+    g = np.random.default_rng(3)
+    m = 64
+    h = g.normal(size=(200, m))
+    y = 2.0 + 0.5 * h + 0.1 * g.normal(size=(200, m))
+    e = np.where(h > 1.5, 40.0, 0.0)                       # emitted light seen with the control's tail
+    est = MIS(["a", "b"], heuristic="optimal")
+    out = est.add_emitted(np.stack([y, h], -1), e)
+    assert out.shape == (200, m, 3)
+    value, stderr = est.fold(out)
+    a = regression_estimate(CoMoments().add(np.stack([y, h], -1)), 0.0, "optimal")["alpha"][..., 0]
+    assert np.allclose(value, (y + e).mean(-1) - a * h.mean(-1), rtol=1e-12)
+    resid = y + e - a[:, None] * h
+    assert np.allclose(stderr ** 2, resid.var(-1, ddof=2) * (1 / m + h.mean(-1) ** 2 / (h.var(-1) * m)), rtol=1e-6)
+    truth = 2.0 + 40.0 * stats.norm.sf(1.5)                # E[Y + E], the controls of mean 0
+    assert abs(np.mean(value) - truth) < 4 * np.std(value) / np.sqrt(200)

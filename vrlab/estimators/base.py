@@ -201,6 +201,14 @@ class Estimator:
         there).  Default: the unit values as one column."""
         return self.unit_values(integrand, u)[..., None]
 
+    def add_emitted(self, outputs: np.ndarray, emitted: np.ndarray) -> np.ndarray:
+        """The renderer's unit outputs ``(..., m, c)`` with the light the pixel sample sees
+        directly, ``emitted (..., m)`` (a term common to every technique), added: by default to
+        column 0.  An estimator that fits coefficients may keep it apart (a last column) so
+        that the fit is not driven by it."""
+        outputs[..., 0] += emitted
+        return outputs
+
     def accumulate(self, outputs: np.ndarray):
         """Mergeable statistics of the unit outputs ``(*batch, m, c)`` of m units (``merge``
         combines those of disjoint sets of units, Chan et al.'s update): for averaging

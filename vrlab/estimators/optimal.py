@@ -15,9 +15,9 @@ import numpy as np
 
 from .base import ratio
 from .heuristics import _stack_pdfs
-from .regression import CoMoments
+from .regression import CoMoments, regression_estimate
 
-__all__ = ["fit_optimal"]
+__all__ = ["fit_optimal", "regression_with_emitted"]
 
 
 def _solve_psd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -80,3 +80,19 @@ def fit_optimal(integrand, all_dists, blocks, n_pilot_segments: int, pilot_count
     alpha_full = np.zeros(shape + (len(counts),))
     alpha_full[..., active] = np.broadcast_to(a, shape + (Ka,))
     return value, full, {"alpha": alpha_full}
+
+
+def regression_with_emitted(stats: CoMoments, k: int) -> dict:
+    """``MIS._regression`` (the renderer's optimal MIS) with columns (Y, H_1..H_k, E): a from the (Y, H) block."""
+    fit = CoMoments()
+    fit.count, fit.mean, fit.comoment = stats.count, stats.mean[..., :-1], stats.comoment[..., :-1, :-1]
+    r = regression_estimate(fit, 0.0, "optimal")
+    a, n = r["alpha"], stats.count
+    C = stats.comoment
+    b = np.concatenate([np.ones(a.shape[:-1] + (1,)), -a, np.ones(a.shape[:-1] + (1,))], -1)   # Y - a.H + E
+    resid = np.maximum(np.einsum("...i,...ij,...j->...", b, C, b), 0.0)
+    s2 = resid / max(n - 1 - k, 1)
+    value = stats.mean[..., 0] + stats.mean[..., -1] - np.sum(a * stats.mean[..., 1:-1], -1)
+    extra = (r["stderr"] ** 2 / np.where(r["variance"] > 0, r["variance"], 1.0) - 1.0 / n) if k else 0.0
+    return {"value": value, "stderr": np.sqrt(s2 * (1.0 / n + np.maximum(extra, 0.0))), "variance": s2,
+            "alpha": a, "variance_factor": r["variance_factor"], "plain_variance": r["plain_variance"]}

@@ -179,7 +179,7 @@ class PixelIntegrand:
             out[:, rows] = vals
         if out is None:
             out = np.zeros((3, len(o), 1), np.float32)
-        out[..., 0] += le.T
+        out = self.estimator.add_emitted(out, le.T)
         return out.reshape(3, P, S, -1)
 
     def values(self, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
