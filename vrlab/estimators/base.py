@@ -113,6 +113,7 @@ class Estimator:
                                ``(*batch, m)`` (abstract for averaging estimators)
     ``unit_outputs(f, u)``     columns per unit ``(*batch, m, c)``, column 0 the value
                                (default: the unit values as one column)
+    ``add_emitted(out, e)``    the renderer's directly seen light added (default: to column 0)
     ``accumulate(outputs)``    mergeable statistics of m units (default :class:`Moments` of
                                column 0); statistics have ``count``, ``merge``, ``state()``,
                                ``from_state``, ``concat``
