@@ -84,6 +84,8 @@ class PixelIntegrand:
         probe = self.shading(0, *(np.zeros((0, 3), np.float32) for _ in range(3)))
         self.estimator.check(probe)
         self.unit_dim = int(self.estimator.unit_dim(probe))
+        #: columns of the estimator's unit outputs (what a block with nothing to shade is made of)
+        self.columns = int(np.shape(self.estimator.unit_outputs(probe, np.zeros((0, 1, self.unit_dim))))[-1])
         self._check_reach(probe.used)
         self.dim = 2 + self.units * self.unit_dim
         evals = int(self.estimator.evals_per_unit)
@@ -178,7 +180,7 @@ class PixelIntegrand:
                 out = np.zeros((3, len(o), vals.shape[-1]), np.result_type(vals, np.float32))
             out[:, rows] = vals
         if out is None:
-            out = np.zeros((3, len(o), 1), np.float32)
+            out = np.zeros((3, len(o), self.columns), np.float32)
         out = self.estimator.add_emitted(out, le.T)
         return out.reshape(3, P, S, -1)
 
