@@ -326,7 +326,7 @@ class ShadingIntegrand(Integrand):
     def _lambertian(self, x: np.ndarray) -> np.ndarray:
         r = self.rows(x)
         lit = self.lighting
-        if lit.lights is None or not np.any(self.kd > 0):
+        if lit.lights is None or not np.any(self.kd > 0) or len(self.p) == 0:
             return np.zeros((3,) + x.shape[:-1])
         if self._valid is None:
             self.control("lambertian")
