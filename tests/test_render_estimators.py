@@ -219,3 +219,18 @@ def test_pixel_samples_leave_no_cyclic_garbage(est):
         gc.garbage.clear()
         gc.enable()
     assert not ours, f"vrlab objects in reference cycles after a block: {ours}"
+
+
+def test_pixels_with_nothing_to_shade_keep_the_estimators_columns():
+    """A camera that sees only the sky: every block has nothing to shade, and estimators with
+    several output columns (optimal MIS with its emitted column, fitted controls) still give the
+    sky's radiance."""
+    from vrlab.render import load_scene
+
+    sky = scene('<shape type="sphere"><point name="center" value="0, 5, 0"/><float name="radius" value="0.2"/></shape>'
+                '<emitter type="constant"><rgb name="radiance" value="0.3, 0.5, 0.7"/></emitter>',
+                origin="0, 0.5, 0", target="0, -1, 0", up="0, 0, -1")
+    sc = load_scene(sky) if isinstance(sky, str) else sky
+    for est in (MIS(["light", "bsdf"], heuristic="optimal"), DefensiveMixture(["light", "bsdf"]), "mis-power"):
+        img = render(sc, 4, est, rng=0)
+        assert np.allclose(img.value, [0.3, 0.5, 0.7]), est
