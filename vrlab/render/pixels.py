@@ -85,12 +85,24 @@ class PixelIntegrand:
         self.estimator.check(probe)
         self.unit_dim = int(self.estimator.unit_dim(probe))
         #: columns of the estimator's unit outputs (what a block with nothing to shade is made of)
-        self.columns = int(np.shape(self.estimator.unit_outputs(probe, np.zeros((0, 1, self.unit_dim))))[-1])
+        self.columns = self._output_columns()
         self._check_reach(probe.used)
         self.dim = 2 + self.units * self.unit_dim
         evals = int(self.estimator.evals_per_unit)
         #: rays (and RIS candidates) per pixel sample: the memory of a block is about this x 4 x 12 bytes
         self.work_per_sample = 1 + self.units * (evals + int(self.estimator.candidates_per_unit)) + self.dim // 4
+
+    def _output_columns(self) -> int:
+        """The estimator's unit outputs' width, from an empty batch of shading points of group
+        0 (its textured parameters and tangent frame as empty arrays)."""
+        lit = self.lighting
+        bsdf = lit.bsdfs[0]
+        values = {a: np.zeros((0,) if a in bsdf.SCALAR_TEXTURES else (0, 2 if a in bsdf.GRADIENT_TEXTURES else 3))
+                  for a in bsdf.textures} or None
+        empty = np.zeros((0, 3), np.float32)
+        tangents = (empty, empty) if bsdf.needs_tangents else None
+        probe = self.shading(0, empty, empty, empty, None, values, tangents)
+        return int(np.shape(self.estimator.unit_outputs(probe, np.zeros((0, 1, self.unit_dim))))[-1])
 
     def _check_reach(self, used: set) -> None:
         """Refuse an estimator whose techniques cannot reach some emitter: delta lights (point,

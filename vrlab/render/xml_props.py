@@ -234,6 +234,13 @@ class Props:
                                     f"got a {obj.kind}")
         return obj
 
+    def scalar(self, name: str, default: float | None = None):
+        """A scalar parameter that may also be a texture (a roughness, a weight, an opacity):
+        the nested or referenced ``<texture name=...>``, else the ``<float>`` (or ``default``)."""
+        if name in self.named:
+            return self.object(name, ("texture",))
+        return self.float(name, default)
+
     def children(self, kind: str, at_most: int | None = None) -> list:
         """The nested objects (and references) of ``kind``, in document order: the unnamed
         ones and, as in Mitsuba (which finds a shape's BSDF by its kind), named ones too."""

@@ -61,9 +61,7 @@ class BlendBSDF(BSDFModel):
         nested = p.children("bsdf")
         if len(nested) != 2:
             raise ValueError(f"bsdf: blendbsdf needs exactly two nested BSDFs, got {len(nested)}")
-        weight = p.object("weight", ("texture",)) if p.has("weight") and p.element("weight").tag == "texture" \
-            else p.float("weight", 0.5)
-        return cls(nested[0], nested[1], weight)
+        return cls(nested[0], nested[1], p.scalar("weight", 0.5))
 
     # -- the nested BSDFs' lobes, in sampling order: BSDF 1's first (u0 <= w picks it) ------
     @property

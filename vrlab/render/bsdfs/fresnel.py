@@ -311,3 +311,14 @@ def conductor_index_from_props(p) -> dict:
     return {"material": p.string("material", "none"),
             "eta": p.texture("eta", kind="unbounded") if p.has("eta") else None,
             "k": p.texture("k", kind="unbounded") if p.has("k") else None}
+
+
+def interface_iors(int_ior: Any, ext_ior: Any) -> tuple[Any, Any, float]:
+    """``(int_ior, ext_ior, eta)`` of an interface element (``roughplastic``,
+    ``roughdielectric``): each index a number or a name as given (:func:`ior_param`), eta =
+    int / ext; equal indices are refused (no interface), naming both."""
+    int_ior, ext_ior = ior_param(int_ior, "int_ior"), ior_param(ext_ior, "ext_ior")
+    n_int, n_ext = ior_value(int_ior, "int_ior"), ior_value(ext_ior, "ext_ior")
+    if n_int == n_ext:
+        raise ValueError(f"int_ior, ext_ior: the interior and exterior indices must differ, got {n_int:g} both")
+    return int_ior, ext_ior, n_int / n_ext

@@ -55,9 +55,7 @@ class Mask(NestedTextures, BSDFModel):
         inner = p.children("bsdf")
         if len(inner) != 1:
             raise ValueError(f"bsdf: mask needs exactly one nested BSDF, got {len(inner)}")
-        opacity = p.object("opacity", ("texture",)) if p.has("opacity") and p.element("opacity").tag == "texture" \
-            else p.float("opacity", 0.5)
-        return cls(inner[0], opacity)
+        return cls(inner[0], p.scalar("opacity", 0.5))
 
     def _a(self, shape: tuple) -> np.ndarray:
         return np.broadcast_to(np.clip(np.asarray(self.opacity, float), 0.0, 1.0), shape)

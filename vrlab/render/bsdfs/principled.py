@@ -59,7 +59,7 @@ from ..registry import register
 from .base import BSDFDirections, BSDFModel, dirs, reflect, shape_of
 from .fresnel import fresnel_dielectric, refract
 from .principled_lobes import (GTR1, ClearcoatReflection, MicrofacetReflection, MicrofacetRefraction,
-                               PrincipledParams, SidedCosine, ggx, schlick, schlick_r0, schlick_weight,
+                               PrincipledParams, SidedCosine, disney_diffuse, ggx, schlick, schlick_r0, schlick_weight,
                                smith_ggx1, tint, unit, up, vdot)
 
 __all__ = ["Principled"]
@@ -215,14 +215,9 @@ class Principled(PrincipledParams, BSDFModel):
             Gcc = smith_ggx1(wo, wh, 0.25) * smith_ggx1(wi, wh, 0.25)
             value += np.where(on, cc * self.CLEARCOAT_WEIGHT * Fcc * Dcc * Gcc * aco, 0.0)[..., None]
         on = active & (np.asarray(brdf) > 0) & refl & front
-        Fo, Fi = schlick_weight(aco), schlick_weight(aci)
         cos_d = vdot(wh, wi)
-        Rr = 2.0 * rough * cos_d * cos_d
-        diff = (1.0 - 0.5 * Fi) * (1.0 - 0.5 * Fo) + Rr * (Fo + Fi + Fo * Fi * (Rr - 1.0))
-        if self.has["flatness"]:
-            Fss = (1.0 + (0.5 * Rr - 1.0) * Fo) * (1.0 + (0.5 * Rr - 1.0) * Fi)
-            f_ss = 1.25 * (Fss * (1.0 / np.where(on, aco + aci, 1.0) - 0.5) + 0.5)
-            diff = diff + self.v("flatness") * (f_ss - diff)
+        diff = disney_diffuse(schlick_weight(aco), schlick_weight(aci), rough, cos_d,
+                              np.where(on, aco + aci, 1.0), self.v("flatness") if self.has["flatness"] else None)
         value += np.where(on[..., None], (brdf * aco / np.pi * diff)[..., None] * base, 0.0)
         if self.has["sheen"]:          # Mitsuba adds it inside the diffuse branch (scalar variants)
             sheen = self.v("sheen")

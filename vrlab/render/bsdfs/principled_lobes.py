@@ -59,9 +59,22 @@ def weight_param(value: Any, name: str, low: float = 0.0, high: float = 1.0):
 
 def texture_or(p, name: str, default: float):
     """A scalar parameter of a scene element: a nested ``<texture>`` or a ``<float>``."""
-    if name in p.named:                                # a nested or referenced <texture>
-        return p.object(name, ("texture",))
-    return p.float(name, default)
+    return p.scalar(name, default)
+
+
+def disney_diffuse(Fo, Fi, rough, cos_d, cos_sum, flatness=None) -> np.ndarray:
+    """Burley's diffuse factor (2012, with retro-reflection): (1 - Fo/2)(1 - Fi/2) + R_r (Fo + Fi
+    + Fo Fi (R_r - 1)), R_r = 2 roughness cos_d^2, Fo, Fi the Schlick weights of the two
+    directions; with ``flatness`` blended towards Hanrahan-Krueger's subsurface
+    approximation 1.25 (F_ss (1 / cos_sum - 1/2) + 1/2), F_ss = (1 + (R_r/2 - 1) Fo)(1 + (R_r/2 - 1) Fi)
+    (Mitsuba 3's ``principled``/``principledthin``; ``cos_sum`` = |cos_o| + |cos_i|, not 0)."""
+    Rr = 2.0 * rough * cos_d * cos_d
+    diff = (1.0 - 0.5 * Fi) * (1.0 - 0.5 * Fo) + Rr * (Fo + Fi + Fo * Fi * (Rr - 1.0))
+    if flatness is None:
+        return diff
+    Fss = (1.0 + (0.5 * Rr - 1.0) * Fo) * (1.0 + (0.5 * Rr - 1.0) * Fi)
+    f_ss = 1.25 * (Fss * (1.0 / cos_sum - 0.5) + 0.5)
+    return diff + flatness * (f_ss - diff)
 
 
 # ------------------------------------------------------------------ elementwise helpers

@@ -40,7 +40,7 @@ from ...distributions.base import as_points
 from ..registry import register
 from .base import BSDFModel, dirs
 from .fresnel import fresnel_dielectric
-from .principled_lobes import (Flipped, MicrofacetReflection, PrincipledParams, SidedCosine, ggx, schlick,
+from .principled_lobes import (Flipped, MicrofacetReflection, PrincipledParams, SidedCosine, disney_diffuse, ggx, schlick,
                                schlick_r0, schlick_weight, tint, unit, up, vdot)
 
 __all__ = ["PrincipledThin"]
@@ -117,14 +117,9 @@ class PrincipledThin(PrincipledParams, BSDFModel):
             value += np.where(on[..., None], trans, 0.0)
         on = active & refl & (st_a < 1) & (dt < 1)
         aco = np.abs(co)
-        Fo, Fi = schlick_weight(aco), schlick_weight(ci)
         cos_d = vdot(wh, b)
-        Rr = 2.0 * rough * cos_d * cos_d
-        diff = (1.0 - 0.5 * Fi) * (1.0 - 0.5 * Fo) + Rr * (Fo + Fi + Fo * Fi * (Rr - 1.0))
-        if self.has["flatness"]:
-            Fss = (1.0 + (0.5 * Rr - 1.0) * Fo) * (1.0 + (0.5 * Rr - 1.0) * Fi)
-            f_ss = 1.25 * (Fss * (1.0 / np.where(on, aco + np.abs(ci), 1.0) - 0.5) + 0.5)
-            diff = diff + self.v("flatness") * (f_ss - diff)
+        diff = disney_diffuse(schlick_weight(aco), schlick_weight(ci), rough, cos_d,
+                              np.where(on, aco + np.abs(ci), 1.0), self.v("flatness") if self.has["flatness"] else None)
         w = (1.0 - st) * (1.0 - dt)
         value += np.where(on[..., None], (w * co / np.pi * diff)[..., None] * base, 0.0)
         if self.has["sheen"]:

@@ -99,11 +99,7 @@ class RoughSurface:
     def roughness_props(cls, p, default_distribution: str = "beckmann", default_alpha: float = 0.1) -> dict:
         """``alpha`` / ``alpha_u`` / ``alpha_v`` (numbers or textures), ``distribution`` and
         ``sample_visible`` of a scene element."""
-        def value(name, default):
-            if p.has(name) and p.element(name).tag == "texture":
-                return p.object(name, ("texture",))
-            return p.float(name, default)
-
+        value = p.scalar
         out = {"distribution": p.string("distribution", default_distribution, cls.DISTRIBUTIONS),
                "sample_visible": p.bool("sample_visible", True)}
         if p.has("alpha_u") or p.has("alpha_v"):

@@ -71,7 +71,7 @@ from ...distributions import VisibleNormals
 from ...distributions.base import Distribution, as_points, as_uniforms
 from ..registry import register
 from .base import BSDFModel, color_param, dirs, plain, reflect, shape_of, times_rgb
-from .fresnel import fresnel_dielectric, ior_from_props, ior_param, ior_value, refract
+from .fresnel import fresnel_dielectric, interface_iors, ior_from_props, refract
 from .rough import RoughSurface, half_vector
 
 __all__ = ["RoughDielectric", "RoughDielectricDirections"]
@@ -121,11 +121,7 @@ class RoughDielectric(RoughSurface, BSDFModel):
                  specular_reflectance: Any = 1.0, specular_transmittance: Any = 1.0, sample_visible: bool = True, *,
                  alpha_u: Any = None, alpha_v: Any = None):
         self._init_roughness(alpha, alpha_u, alpha_v, distribution, sample_visible)
-        self.int_ior, self.ext_ior = ior_param(int_ior, "int_ior"), ior_param(ext_ior, "ext_ior")
-        n_int, n_ext = ior_value(self.int_ior, "int_ior"), ior_value(self.ext_ior, "ext_ior")
-        if n_int == n_ext:
-            raise ValueError(f"int_ior, ext_ior: the interior and exterior indices must differ, got {n_int:g} both")
-        self.eta = n_int / n_ext
+        self.int_ior, self.ext_ior, self.eta = interface_iors(int_ior, ext_ior)
         self.specular_reflectance = color_param(specular_reflectance, "specular_reflectance")
         self.specular_transmittance = color_param(specular_transmittance, "specular_transmittance")
 

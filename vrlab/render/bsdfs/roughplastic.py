@@ -65,7 +65,7 @@ from ..._vec import dot as vdot
 from ...distributions import GGX, Beckmann, CosineHemisphere, VisibleNormals
 from ..registry import register
 from .base import INV_PI, BSDFModel, color_param, dirs, plain, reflect, shape_of, times_rgb
-from .fresnel import fresnel_dielectric, ior_from_props, ior_param, ior_value, refract
+from .fresnel import fresnel_dielectric, interface_iors, ior_from_props, refract
 from .plastic import scalar_mean
 from .rough import MicrofacetReflection, RoughSurface, half_vector
 
@@ -147,11 +147,7 @@ class RoughPlastic(RoughSurface, BSDFModel):
             raise TypeError("alpha: roughplastic needs a number, not a texture (its tables are computed for one "
                             "roughness, as in Mitsuba 3)")
         self._init_roughness(alpha, None, None, distribution, sample_visible)
-        self.int_ior, self.ext_ior = ior_param(int_ior, "int_ior"), ior_param(ext_ior, "ext_ior")
-        n_int, n_ext = ior_value(self.int_ior, "int_ior"), ior_value(self.ext_ior, "ext_ior")
-        if n_int == n_ext:
-            raise ValueError(f"int_ior, ext_ior: the interior and exterior indices must differ, got {n_int:g} both")
-        self.eta = n_int / n_ext
+        self.int_ior, self.ext_ior, self.eta = interface_iors(int_ior, ext_ior)
         self.inv_eta2 = 1.0 / (self.eta * self.eta)
         self.diffuse_reflectance = color_param(diffuse_reflectance, "diffuse_reflectance")
         self.specular_reflectance = color_param(specular_reflectance, "specular_reflectance")
