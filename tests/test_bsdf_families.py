@@ -90,7 +90,7 @@ MIRROR_BALL = ('<shape type="sphere"><point name="center" value="-0.3, 0.5, 0"/>
                '<bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>')
 
 
-@pytest.mark.parametrize("estimator", ["mis-power", "mis-optimal"])
+@pytest.mark.parametrize("estimator", ["mis-power"])
 def test_mirror_ball_agrees_with_mitsuba(tmp_path, estimator):
     env = _envmap_file(tmp_path)
     assert_agrees_with_mitsuba(scene(MIRROR_BALL + f'<emitter type="envmap"><string name="filename" value="{env}"/>'
@@ -168,7 +168,7 @@ ROUGH = ('<bsdf type="roughconductor"><string name="distribution" value="ggx"/><
 MIRROR = '<bsdf type="conductor"><string name="material" value="Cu"/></bsdf>'
 
 
-@pytest.mark.parametrize("estimator", ["mis-power", "mis-balance"])
+@pytest.mark.parametrize("estimator", ["mis-balance"])
 def test_blendbsdf_agrees_with_mitsuba(estimator):
     assert_agrees_with_mitsuba(blend_scene(0.35, ROUGH), estimator=estimator)
 
@@ -515,8 +515,6 @@ SMOOTH_SCENES = {
     "glass ball around a light": BALL + '<bsdf type="dielectric"/></shape><shape type="sphere"><point name="center" '
                                         'value="-0.3, 0.5, 0"/><float name="radius" value="0.2"/><emitter type="area">'
                                         '<rgb name="radiance" value="4, 2, 1"/></emitter></shape>',
-    "glass pane": PANE.format(flip="", bsdf='<bsdf type="dielectric"><string name="int_ior" value="water"/></bsdf>')
-                  + EMITTERS["constant"],
     "glass pane from behind": PANE.format(flip='<boolean name="flip_normals" value="true"/>',
                                           bsdf='<bsdf type="dielectric"><float name="int_ior" value="1.5"/></bsdf>')
                               + EMITTERS["constant"],
@@ -525,7 +523,9 @@ SMOOTH_SCENES = {
 }
 
 
-@pytest.mark.parametrize("name", sorted(SMOOTH_SCENES))
+# every family once (the plain plastic ball, whose image the textured nonlinear one covers, serves
+# the refusal test)
+@pytest.mark.parametrize("name", sorted(set(SMOOTH_SCENES) - {"plastic ball"}))
 def test_smooth_bsdf_images_agree_with_mitsuba(name):
     """Lights reflected by the plastic's coating and seen through (refracted by) the glass: a
     light inside a glass ball, panes of one interface seen from either side, a thin slab."""
@@ -1081,15 +1081,10 @@ def test_rough_bsdfs_load_from_xml_with_textures():
 
 ROUGH_BALL = BALL + '<bsdf type="{type}">{params}</bsdf></shape>'
 ROUGH_SCENES = {
-    "roughplastic ball": ROUGH_BALL.format(type="roughplastic", params=(
-        '<string name="distribution" value="ggx"/><float name="alpha" value="0.15"/><rgb name="diffuse_reflectance" '
-        'value="0.2, 0.5, 0.8"/><float name="int_ior" value="1.7"/>')) + EMITTERS["constant"],
     "roughplastic textured beckmann": ROUGH_BALL.format(type="roughplastic", params=(
         '<float name="alpha" value="0.3"/><boolean name="nonlinear" value="true"/><texture type="checkerboard" '
         'name="diffuse_reflectance"><rgb name="color0" value="0.9, 0.5, 0.1"/><transform name="to_uv"><scale '
         'value="4"/></transform></texture>')),
-    "rough glass pane": PANE.format(flip="", bsdf='<bsdf type="roughdielectric"><string name="distribution" '
-                                                  'value="ggx"/><float name="alpha" value="0.2"/></bsdf>'),
     "rough glass pane from behind, beckmann": PANE.format(
         flip='<boolean name="flip_normals" value="true"/>',
         bsdf='<bsdf type="roughdielectric"><float name="alpha" value="0.3"/><string name="int_ior" value="water"/>'
@@ -1520,9 +1515,9 @@ BSDF_SPHERES_LIGHTS = {
 }
 
 
-@pytest.mark.parametrize("lights", sorted(BSDF_SPHERES_LIGHTS))
-def test_mitsubas_bsdf_spheres_lit_directly_agree(tmp_path, lights):
-    assert_agrees_with_mitsuba(bsdf_spheres(tmp_path, BSDF_SPHERES_LIGHTS[lights]))
+def test_mitsubas_bsdf_spheres_lit_directly_agree(tmp_path):
+    """The grid under a sky, a point light and an area light at once."""
+    assert_agrees_with_mitsuba(bsdf_spheres(tmp_path, "".join(BSDF_SPHERES_LIGHTS.values())))
 
 
 def test_mitsubas_textured_principled_sphere_agrees(tmp_path):
