@@ -63,6 +63,20 @@ def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t, bt
 
 
+def tangent_towards(n: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The unit tangent of unit normals ``n`` closest to ``v`` (Gram-Schmidt: normalize(v -
+    n (n.v)), the shading frame's s when v = dp/du); where v is parallel to n, the tangent of
+    :func:`orthonormal_basis`.  Shapes ``(..., 3)`` broadcast; float64."""
+    n, v = np.asarray(n, np.float64), np.asarray(v, np.float64)
+    s = v - n * np.sum(n * v, -1, keepdims=True)
+    length = np.linalg.norm(s, axis=-1, keepdims=True)
+    ok = length > 1e-12
+    s = s / np.where(ok, length, 1.0)
+    if ok.all():
+        return s
+    return np.where(ok, s, orthonormal_basis(np.broadcast_to(n, s.shape))[0])
+
+
 class Frame:
     """The orthonormal frames ``(t, b, n)`` of unit normals ``n (..., 3)``, built once
     and reused for several ``to_local`` / ``to_world`` transforms (the renderer needs

@@ -106,14 +106,10 @@ class ShadingIntegrand(Integrand):
         (with the unflipped n for a twosided BSDF seen from the back: Mitsuba mirrors z only);
         and the local ``dp_du``, ``dp_dv`` (and the world ``dp_du_world``, which Mitsuba's normal
         map reads as if it were local) for the BSDF's ``at``."""
-        from ..distributions.frames import orthonormal_basis
+        from ..distributions.frames import tangent_towards
 
         n64 = np.asarray(ns, np.float64)
-        du = np.asarray(dp_du, np.float64)
-        s = du - n64 * np.sum(n64 * du, -1, keepdims=True)
-        length = np.linalg.norm(s, axis=-1, keepdims=True)
-        fallback = orthonormal_basis(n64)[0]
-        s = np.where(length > 1e-12, s / np.where(length > 1e-12, length, 1.0), fallback)
+        s = tangent_towards(n64, dp_du)
         n_up = n64 if flip is None else n64 * flip[:, None]
         t = np.cross(n_up, s)
         frame = Frame._trusted(ns, s.astype(F32), t.astype(F32))

@@ -35,7 +35,7 @@ import numpy as np
 
 from ... import checks
 from ...distributions.base import as_points
-from ...distributions.frames import Frame, Oriented
+from ...distributions.frames import Frame, Oriented, tangent_towards
 from ...distributions.lobes import DeltaDirection, LobeMixture
 from ..registry import register
 from .base import BSDFModel, NestedTextures, color_param, dirs, scale
@@ -80,9 +80,7 @@ class NormalMap(NestedTextures, BSDFModel):
         below = np.sum(np.asarray(wo, np.float64) * n, -1) <= 0
         if np.any(below):
             n = np.where(below[..., None], n * np.array([-1.0, -1.0, 1.0]), n)
-        du = np.asarray(self.dp_du_world, np.float64)
-        s = du - n * np.sum(n * du, -1, keepdims=True)
-        s = s / np.maximum(np.linalg.norm(s, axis=-1, keepdims=True), 1e-30)
+        s = tangent_towards(n, self.dp_du_world)
         t = np.cross(n, s)
         return Frame._trusted(*(np.broadcast_to(a, shape + (3,)) for a in (n, s, t)))
 
