@@ -259,7 +259,7 @@ class Estimator:
         gen = as_generator(rng) if not isinstance(rng, np.random.Generator) else rng
         t0 = time.perf_counter()
         stats = None
-        for u in uniform_blocks(points, self.dim_u(integrand), m, gen, chunk):
+        for u in uniform_blocks(points, self.unit_dim(integrand), m, gen, chunk):
             block = self.accumulate(self.unit_outputs(integrand, u))
             stats = block if stats is None else stats.merge(block)
         return self.to_estimate(stats, time.perf_counter() - t0, points)

@@ -43,8 +43,8 @@ from .. import checks
 from .._rng import RNGLike, as_generator
 from ..distributions.base import as_float
 from ..estimate import Estimate, Moments
-from .base import (DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, point_engine, ratio,
-                   support_probe)
+from .base import (DEFAULT_CHUNK, Estimator, _plain, as_integrand, check_chunk, check_n, ratio, support_probe,
+                   uniform_blocks)
 
 from .regression import CoMoments, regression_estimate
 from .heuristics import (HEURISTICS, _check_beta_alpha, _check_dims, _check_distributions,  # noqa: F401
@@ -52,63 +52,28 @@ from .heuristics import (HEURISTICS, _check_beta_alpha, _check_dims, _check_dist
                          resolve_all, split_counts, unit_counts)
 
 # ----------------------------------------------------------------------------------------
-# uniforms for several techniques
-# ----------------------------------------------------------------------------------------
-def _segments(points: Any, dims: list[int], plan: list[tuple[int, int]], gen: np.random.Generator,
-              chunk: int):
-    """Yield ``(segment, technique, u)`` blocks for ``plan = [(technique, count), ...]``.
-
-    * ``points`` an array ``(*batch, n, max dim_u)``: consecutive rows per segment,
-      the first ``dim_u`` columns;
-    * an engine instance (``random``): one engine of dimension max dim_u, consecutive
-      rows per segment;
-    * None, a class or a name: one fresh engine per segment with that technique's
-      ``dim_u``, all seeded from the same generator (independent streams).
-    """
-    dmax = max(dims[i] for i, _ in plan)
-    if isinstance(points, np.ndarray):
-        total = sum(c for _, c in plan)
-        if points.ndim < 2 or points.shape[-2] != total or points.shape[-1] < dmax:
-            raise ValueError(f"points: an array of uniforms must have shape (*batch, {total}, >= {dmax}), "
-                             f"got {points.shape}")
-        points = checks.uniforms_array(points, "points", d=dmax)
-        start = 0
-        for s, (i, c) in enumerate(plan):
-            yield s, i, points[..., start:start + c, : dims[i]]
-            start += c
-        return
-    shared = point_engine(points, dmax, gen) if callable(getattr(points, "random", None)) else None
-    for s, (i, c) in enumerate(plan):
-        engine = shared if shared is not None else point_engine(points, dims[i], gen)
-        step = chunk if getattr(engine, "extensible", True) else c
-        done = 0
-        while done < c:
-            k = min(step, c - done)
-            u = np.asarray(engine.random(k), dtype=float)
-            yield s, i, u[..., : dims[i]]
-            done += k
-
-
-# ----------------------------------------------------------------------------------------
 # multi-sample MIS
 # ----------------------------------------------------------------------------------------
 class MIS(Estimator):
     """Veach's multi-sample MIS estimator (see the module docstring for the formulas).
 
-    ``fractions`` c_i split the n evaluations: n_i = ``split_counts(n, c)`` (largest
-    remainder, >= 2 for each c_i > 0; c_i = 0 gives n_i = 0 and weight 0, and the other
-    techniques must then cover the support).  ``heuristic``: one of ``HEURISTICS`` or a
-    callable ``q -> w``; ``beta`` (power), ``alpha`` (cutoff), ``optimal_pilot`` (share
-    of n used to fit the optimal weights' coefficients; 0: same samples).
+    A sample unit holds ``unit_counts()`` = c_i samples of technique i (the smallest whole
+    numbers in the ratio of ``fractions``; c_i = 0 gives weight 0, and the other techniques
+    must then cover the support).  ``estimate`` with n evaluations folds m = n //
+    sum(c) units, n_i = m c_i, through ``unit_outputs`` -> ``accumulate`` -> ``summarize``,
+    the code the renderer runs per pixel.  ``heuristic``: one of ``HEURISTICS`` or a
+    callable ``q -> w``; ``beta`` (power), ``alpha`` (cutoff), ``optimal_pilot`` (share of
+    n used to fit the optimal weights' coefficients in a separate pass; 0: fitted on the
+    units themselves).
 
-    The techniques' sample sets are independent, so Var[F] = sum_i Var_i[w_i f / p_i] / n_i;
-    ``estimate`` reports that (per technique) in ``extra["variance_contributions"]``
-    (last axis: technique), with ``extra["counts"]``; for ``optimal`` the per-technique
-    residual variances of the regression form (scaled by N / (N - K) for the K fitted
-    coefficients) and ``extra["alpha"]``.  ``Estimate.variance`` is N Var[F] (per-sample
-    equivalent) and ``n`` = N (with a pilot: the main pass's N; ``n_evals`` counts both).
-    Works batched (integrand values (*batch, n),
-    distributions broadcasting over leading axes, or uniforms (*batch, n, d)).
+    The techniques' samples are independent, so Var[F] = sum_i Var_i[w_i f / p_i] / n_i;
+    ``estimate`` reports that per technique in ``extra["variance_contributions"]`` (last
+    axis: technique), with ``extra["counts"]``; for ``optimal``, ``extra["alpha"]`` (the
+    fitted coefficients).  ``Estimate.variance`` is N Var[F] (per-sample equivalent) and
+    ``n`` = N samples.  Fractions that are not a ratio of whole numbers up to 64, and an
+    optimal pilot, allocate n_i = ``split_counts(n, c)`` per technique instead
+    (:mod:`~vrlab.estimators.mis_by_technique`).  Works batched (integrand values
+    (*batch, n), distributions broadcasting over leading axes, or uniforms (*batch, m, d)).
     """
 
     def __init__(self, distributions: Sequence, fractions: Sequence[float] | None = None,
@@ -199,17 +164,17 @@ class MIS(Estimator):
         v = np.moveaxis(v, axis, -1)
         return np.moveaxis(v.reshape(v.shape[:-1] + (v.shape[-1] // c, c)).sum(-1), -1, axis)
 
-    def unit_values(self, integrand, u: np.ndarray) -> np.ndarray:
-        """Unit values sum_i (1/c_i) sum_j w_i(X_ij) f(X_ij) / p_i(X_ij) for the unit counts c
-        (eq. 9.3 with n_i = c_i), from uniforms ``u (*batch, m, unit_dim)``: columns of
-        technique 0's c_0 samples first, then technique 1's, ...  Not for ``optimal``, whose
-        estimate is a regression over units (:meth:`unit_outputs`)."""
+    def unit_terms(self, integrand, u: np.ndarray):
+        """Yield ``(i, T_i)``: technique i's term T_i = (1/c_i) sum_j w_i(X_ij) f(X_ij) /
+        p_i(X_ij) of each unit ``(*batch, m)`` (eq. 9.3 with n_i = c_i), from uniforms ``u
+        (*batch, m, unit_dim)``; the unit value is their sum.  Techniques without samples
+        are skipped.  The terms of different techniques are independent (disjoint uniforms),
+        so Var[unit] = sum_i Var[T_i]: ``estimate`` reports those per technique."""
         if self.heuristic == "optimal":
             raise ValueError("heuristic: 'optimal' fits its weights over all units and has no unit values; "
                              "its unit_outputs are the balance value and the density controls")
         dists = resolve_all(self.distributions, integrand)
         counts = self.unit_counts()
-        total = 0.0
         for i, c, x in self._unit_samples(integrand, u):
             f = integrand(x)
             if self.heuristic == "balance":  # (1/c_i) w_i f / p_i = f / sum_k c_k p_k
@@ -223,12 +188,24 @@ class MIS(Estimator):
                 P = _stack_pdfs(dists, x)
                 w = mis_weights(P * counts.astype(P.dtype), self.heuristic, beta=self.beta, alpha=self.alpha)
                 v = ratio(w[..., i], P.dtype.type(c) * P[..., i]) * f
-            v = self._per_unit(v, c)
+            yield i, self._per_unit(v, c)
+
+    @staticmethod
+    def _add_up(terms):
+        """The sum of the terms, technique after technique (one order for the lab and the renderer)."""
+        total = 0.0
+        for v in terms:
             if isinstance(total, np.ndarray) and total.shape == v.shape:
                 total += v
             else:
                 total = total + v
         return total
+
+    def unit_values(self, integrand, u: np.ndarray) -> np.ndarray:
+        """Unit values sum_i T_i (:meth:`unit_terms`) from uniforms ``u (*batch, m,
+        unit_dim)``: columns of technique 0's c_0 samples first, then technique 1's, ...  Not
+        for ``optimal``, whose estimate is a regression over units (:meth:`unit_outputs`)."""
+        return self._add_up(v for _, v in self.unit_terms(integrand, u))
 
     # -- optimal MIS per unit (the renderer's view): a regression on density controls ------
     @property
@@ -318,74 +295,46 @@ class MIS(Estimator):
 
     def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
                  chunk: int = DEFAULT_CHUNK) -> Estimate:
-        """Estimate ``integrand``'s integral with ``n`` evaluations split among the techniques.
+        """Estimate ``integrand``'s integral with ``n`` evaluations: m = n // ``evals_per_unit``
+        sample units of ``unit_counts()`` samples per technique (n_i = m c_i), through
+        :meth:`unit_outputs` -> :meth:`accumulate` -> :meth:`summarize`, the renderer's code.
+        ``extra``: ``counts`` (n_i), ``variance_contributions`` (Var[T_i] / m per technique,
+        last axis; not for ``optimal``, which reports ``alpha``, the fitted coefficients of the
+        controls H_k - 1 of the first K - 1 techniques: beta_k = a_k - a_K c_k / c_K in the
+        paper's a).  ``n`` of the result counts samples, and ``variance`` is per sample (N
+        Var[F]), so stderr^2 = variance / n.
 
-        ``points``: None, a point-set class or name (one engine per technique, seeded
-        from ``rng``), an engine instance of dimension ``dim_u()`` (consecutive rows per
-        technique), or an array ``(*batch, n, dim_u())`` (consecutive row blocks per
-        technique: the optimal pilot first, then technique 0, 1, ...).
-        """
+        ``points``: None or a point-set class, name or engine of dimension ``unit_dim()``
+        (one row per unit), or an array ``(*batch, m, unit_dim())``.  Fractions that are not
+        a ratio of whole numbers, and an optimal pilot, allocate n_i per technique instead
+        (:func:`~vrlab.estimators.mis_by_technique.estimate_by_technique`)."""
+        if self._unit is None or self.optimal_pilot > 0:
+            from .mis_by_technique import estimate_by_technique
+            return estimate_by_technique(self, integrand, n, rng=rng, points=points, chunk=chunk)
         integrand, chunk = as_integrand(integrand), check_chunk(chunk)
         self.check(integrand)
-        n = check_n(n)
-        gen = as_generator(rng)
+        m = self.units_for(n)
+        gen = as_generator(rng) if not isinstance(rng, np.random.Generator) else rng
         t0 = time.perf_counter()
-        dists = resolve_all(self.distributions, integrand)
-        K = len(dists)
-        dims = [int(d.dim_u) for d in dists]
-        n_pilot = 0
-        if self.heuristic == "optimal" and self.optimal_pilot > 0:  # >= 2 per technique
-            n_pilot = max(int(round(self.optimal_pilot * n)), 2 * int(np.sum(self.fractions > 0)))
-        pilot_counts = split_counts(n_pilot, self.fractions) if n_pilot else np.zeros(K, np.int64)
-        counts = split_counts(n - int(pilot_counts.sum()), self.fractions)
-        plan = [(i, int(c)) for i, c in enumerate(pilot_counts) if c > 0]
-        n_pilot_segments = len(plan)
-        plan += [(i, int(c)) for i, c in enumerate(counts) if c > 0]
-        blocks = _segments(points, dims, plan, gen, chunk)
-        if self.heuristic == "optimal":
-            from .optimal import fit_optimal      # the lab's whole-sample fit (the renderer needs none)
-            value, contrib, extra = fit_optimal(integrand, dists, blocks, n_pilot_segments, pilot_counts, counts)
-        else:
-            value, contrib, extra = self._weighted(integrand, dists, blocks, counts)
-        N = int(counts.sum())
-        var_f = contrib.sum(-1)
-        scalar = (lambda a: float(a) if np.ndim(a) == 0 else np.asarray(a))
-        return Estimate(scalar(value), scalar(np.sqrt(var_f)), N, n, time.perf_counter() - t0,
-                        scalar(N * var_f), self.label,
-                        {"counts": counts.tolist(), "pilot_counts": pilot_counts.tolist(),
-                         "variance_contributions": contrib, **extra})
-
-    # -- the heuristics with explicit weights ------------------------------------------
-    def _weighted(self, integrand, dists, blocks, counts):
-        K = len(dists)
-        moments = [Moments() for _ in range(K)]
-        for _, i, u in blocks:
-            dist = dists[i]
-            x = dist.sample(u)
-            if self.heuristic == "balance":  # w_i f / p_i = n_i f / sum_k n_k p_k: no stacked weights
-                q = 0.0
-                for k, d in enumerate(dists):
-                    if counts[k]:
-                        q = q + counts[k] * np.asarray(d.pdf(x), dtype=float)
-                moments[i].add(ratio(counts[i] * integrand(x), q))
-                continue
-            P = _stack_pdfs(dists, x)
-            w = mis_weights(P * counts, self.heuristic, beta=self.beta, alpha=self.alpha)
-            f = integrand(x)
-            moments[i].add(ratio(w[..., i], P[..., i]) * f)
-        return self._combine(moments, counts)
-
-    @staticmethod
-    def _combine(moments: list, counts: np.ndarray):
-        means, contrib = [], []
-        for mom, c in zip(moments, counts):
-            if c > 0:
-                means.append(np.asarray(mom.mean, float))
-                contrib.append(np.asarray(mom.variance, float) / c)
+        stats, terms = None, {}
+        for u in uniform_blocks(points, self.unit_dim(integrand), m, gen, chunk):
+            if self.heuristic == "optimal":
+                out = self.unit_outputs(integrand, u)
             else:
-                means.append(np.asarray(0.0))
-                contrib.append(np.asarray(0.0))
-        shape = np.broadcast_shapes(*[np.shape(m) for m in means + contrib])
-        value = sum(np.broadcast_to(m, shape) for m in means)
-        return value, np.stack([np.broadcast_to(v, shape) for v in contrib], -1), {}
-
+                parts = dict(self.unit_terms(integrand, u))
+                for i, v in parts.items():
+                    terms.setdefault(i, Moments()).add(v)
+                out = self._add_up(parts.values())[..., None]
+            block = self.accumulate(out)
+            stats = block if stats is None else stats.merge(block)
+        est = self.to_estimate(stats, time.perf_counter() - t0, points)
+        E = self.evals_per_unit
+        est.n, est.n_evals = m * E, m * E
+        if est.variance is not None:
+            est.variance = _plain(np.asarray(est.variance) * E)
+        est.extra["counts"] = (m * self.unit_counts()).tolist()
+        est.extra["pilot_counts"] = [0] * len(self.fractions)
+        if terms:                                     # Var[T_i] / m; 0 for techniques without samples
+            var = [np.asarray(terms[i].variance) / m if i in terms else np.zeros(()) for i in range(len(self.fractions))]
+            est.extra["variance_contributions"] = np.stack(np.broadcast_arrays(*var), -1)
+        return est

@@ -91,6 +91,10 @@ class RQMC(Estimator):
     def dim_u(self, integrand) -> int:
         return self._base().dim_u(integrand)
 
+    def unit_dim(self, integrand) -> int:
+        """The base estimator's uniforms per unit: the dimension of the randomized point sets."""
+        return self._base().unit_dim(integrand)
+
     def check(self, integrand) -> None:
         self._base().check(integrand)
 
@@ -146,7 +150,7 @@ class RQMC(Estimator):
                              f"per replicate), got {n}")
         self.check(integrand)
         t0 = time.perf_counter()
-        engines, how = self.engines(points, self.dim_u(integrand), rng)
+        engines, how = self.engines(points, self.unit_dim(integrand), rng)
         values, evals = [], 0
         for engine in engines:
             est = base.estimate(integrand, per, points=engine, chunk=chunk)
