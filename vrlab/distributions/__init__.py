@@ -7,6 +7,7 @@ from .._lazy import lazy_attributes
 from .base import Distribution
 from .discrete import AliasTable, CDFTable
 from .frames import Frame, Oriented, orthonormal_basis, to_local, to_world
+from .light_bvh import LightBVH
 from .interval import Exponential, LinearInterval, Product, TruncatedNormal, UniformBox, UniformInterval
 from .mixture import Mixture
 from .point_masses import OffAtoms, PointMasses, atom_mass
@@ -21,7 +22,7 @@ from .tabulated import PiecewiseConstant1D, PiecewiseConstant2D
 __all__ = [
     "AliasTable", "CDFTable", "Distribution", "Frame", "Oriented", "orthonormal_basis", "to_local", "to_world",
     "Exponential", "LinearInterval", "Product", "TruncatedNormal", "UniformBox", "UniformInterval",
-    "Mixture", "OffAtoms", "PointMasses", "atom_mass", "Disk", "Rectangle", "Triangle", "concentric_disk",
+    "LightBVH", "Mixture", "OffAtoms", "PointMasses", "atom_mass", "Disk", "Rectangle", "Triangle", "concentric_disk",
     "GGX", "CosineHemisphere", "PhongLobe", "UniformCone", "UniformHemisphere", "UniformSphere",
     "PiecewiseConstant1D", "PiecewiseConstant2D",
     "LightSample", "SolidAngleFromArea", "SphereCone",

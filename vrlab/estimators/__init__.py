@@ -15,6 +15,9 @@ estimator                technique                                         modul
                          optimal)
 ``OneSampleMIS``         one technique per sample (mixture for balance)    ``onesample``
 ``RIS``                  resampled importance sampling, reservoirs         ``ris``
+``ReSTIR``               reservoirs per pixel, spatial reuse across the    ``restir``
+                         elements of a batched integrand (pairwise,
+                         balance or 1/M weights)
 =======================  ================================================  ====================
 
 ``recipes()`` is the one registry of named recipes (:mod:`vrlab.estimators.registry`): the
@@ -31,11 +34,12 @@ _WHERE = {
     "DefensiveMixture": "control", "CRNDifference": "crn", "crn_difference": "crn",
     "MonteCarlo": "importance", "MetropolisHastings": "metropolis", "HEURISTICS": "mis", "MIS": "mis",
     "mis_weights": "mis", "OneSampleMIS": "onesample", "RIS": "ris", "Reservoir": "ris", "RQMC": "rqmc",
-    "Stratified": "stratified", "Recipe": "registry", "recipes": "registry", "register_recipe": "registry",
+    "ReSTIR": "restir", "Stratified": "stratified", "Recipe": "registry", "recipes": "registry",
+    "register_recipe": "registry",
 }
 
 __all__ = [
-    "HEURISTICS", "MIS", "OneSampleMIS", "RIS", "Reservoir", "mis_weights",
+    "HEURISTICS", "MIS", "OneSampleMIS", "RIS", "ReSTIR", "Reservoir", "mis_weights",
     "Antithetic", "BiasWarning", "CRNDifference", "ControlVariate", "DefensiveMixture", "Estimator",
     "MetropolisHastings", "MonteCarlo", "RQMC", "Stratified", "crn_difference", "point_engine",
     "support_probe", "uniform_blocks", "Recipe", "recipes", "register_recipe",

@@ -47,8 +47,8 @@ SHADOW_EPS = 1e-4             # a blocker must be this much closer (relative) th
 class DirectLighting:
     """A scene's geometry, camera, BSDF groups and lights, and the rays of direct lighting.
 
-    ``light_selection``: how the ``"light"`` technique picks a light (``"uniform"`` or
-    ``"power"``).  ``lights`` is None when the scene has no emitters; ``light_error`` says
+    ``light_selection``: how the ``"light"`` technique picks a light (``"uniform"``,
+    ``"power"`` or ``"bvh"``).  ``lights`` is None when the scene has no emitters; ``light_error`` says
     why light sampling is unavailable (no emitters, or ``obj`` emitters), for the
     ``"light"`` technique to report.
     """

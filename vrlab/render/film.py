@@ -173,7 +173,7 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     also with the same result;
     ``progress(done, total)`` is called after each unit (tile x spp batch) with the pixel
     samples done and their total, H x W x spp; ``light_selection``:
-    ``"uniform"`` or ``"power"``.  ``spp_batch``: samples per pixel of one work unit
+    ``"uniform"``, ``"power"`` or ``"bvh"``.  ``spp_batch``: samples per pixel of one work unit
     (default 64; the image depends on it, not on how units are run).  ``checkpoint``: a
     ``.npz`` path where the per-pixel statistics are saved after each batch; an existing
     checkpoint of the same render resumes it, or extends it to a larger ``spp``

@@ -5,7 +5,8 @@
   to solid angle over every hit (``SolidAngleFromArea``: p_w = sum_k p_A d_k^2 /
   |cos theta_k|).
 * :class:`LightSet`: all lights plus the light-selection table (uniform, or by power =
-  mean radiance x area through an ``AliasTable``).  When every emitter is black, power
+  mean radiance x area through an ``AliasTable``), or, with ``"bvh"``, pbrt-v4's light BVH:
+  P_j depends on the shading point and its normal (:mod:`vrlab.render.light_tree`).  When every emitter is black, power
   selection has nothing to weigh: it falls back to uniform selection and the lights
   contribute zero, as they do under any selection (a black image, as in Mitsuba).  ``sample`` draws (light j, direction)
   pairs with density P_j p_j(w); all sphere lights are sampled in one batched call, so
@@ -29,7 +30,7 @@ from .shapes.sphere import sphere_cos_integral
 
 __all__ = ["Light", "LightSet", "luminance"]
 
-LIGHT_SELECTIONS = ("uniform", "power")
+LIGHT_SELECTIONS = ("uniform", "power", "bvh")
 _LUMA = np.array([0.2126, 0.7152, 0.0722])   # Rec. 709 luminance weights
 
 
@@ -188,15 +189,20 @@ class LightSet:
         #: every light gives its first point y along a sampled w (spheres, planar and non-shape lights)
         self.simple = all(l.sphere is not None or l.planar for l in self.lights)
         weights = np.array(weights, float)
-        if selection == "power":
-            power = np.array([l.power if isinstance(l, EmitterLight) else max(l.radiance.mean(), 0.0) * l.area
-                              for l in self.lights])
-            if power.sum() > 0:                  # every emitter black: nothing to weigh, uniform
-                weights = weights * power
+        power = np.array([l.power if isinstance(l, EmitterLight) else max(l.radiance.mean(), 0.0) * l.area
+                          for l in self.lights])
+        if selection == "power" and power.sum() > 0:     # every emitter black: nothing to weigh, uniform
+            weights = weights * power
         if not weights.sum() > 0:
             raise ValueError("sampling_weight: every emitter has sampling_weight 0 (or no power): none can be "
                              "sampled")
         self.selection = AliasTable(weights)
+        #: pbrt-v4's light BVH (``"bvh"``): P_j per shading point; else None (``selection``'s P_j)
+        self.tree = None
+        if selection == "bvh":
+            from .light_tree import BVHSelection
+
+            self.tree = BVHSelection(self.lights, weights * power)
 
     def __len__(self) -> int:
         return len(self.lights)
@@ -207,17 +213,43 @@ class LightSet:
     def __getitem__(self, j: int):
         return self.lights[j]
 
-    def sample(self, ref: np.ndarray, u3: np.ndarray) -> tuple[np.ndarray, ...]:
+    def _select(self, ref: np.ndarray, n, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(j, P_j)``: the light chosen by ``u (m,)`` and its selection probability (j = -1,
+        P = 0 where the light BVH finds no light that can reach the point)."""
+        if self.tree is not None:
+            return self.tree.sample(ref, n, u)
+        j = self.selection.sample(u)
+        return j, self.selection.pmf(j)
+
+    def selection_pmf(self, ref: np.ndarray, j: np.ndarray, n=None) -> np.ndarray:
+        """P_j at points ``ref`` (normals ``n``; None: none) for light indices ``j`` (-1: 0)."""
+        if self.tree is not None:
+            return self.tree.pmf(ref, n, j)
+        return np.where(j >= 0, self.selection.pmf(np.maximum(j, 0)), 0.0)
+
+    def sample(self, ref: np.ndarray, u3: np.ndarray, n: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """``(j, w, pdf, front, y, le)`` for uniforms ``u3 (m, 3)``: light j ~ P (``u3[:, 0]``),
         a direction towards it (``u3[:, 1:3]``), pdf = P_j p_j(w) (solid angle; P_j for a
         delta light), whether light j emits towards ``ref`` there, its first point y along w
         (see :meth:`Light.sample`; NaN where unknown) and ``le``, the radiance arriving along
-        w (None when every light is a shape with a constant radiance: the caller's table)."""
-        j = self.selection.sample(u3[:, 0])
+        w (None when every light is a shape with a constant radiance: the caller's table).
+        ``n``: the points' normals, for ``"bvh"`` selection (None: no normal); with it, j may be
+        -1 (no light can reach the point: pdf 0, not in front)."""
+        j, pj = self._select(ref, n, u3[:, 0])
+        none = j < 0
+        if none.any():                    # light 0 stands in for the direction; its pdf is zeroed
+            return (j,) + self._directions(ref, u3, np.maximum(j, 0), np.where(none, 0.0, pj), none)
+        return (j,) + self._directions(ref, u3, j, pj)
+
+    def _directions(self, ref, u3, j, pj, none=None) -> tuple[np.ndarray, ...]:
+        """``(w, pdf, front, y, le)`` of :meth:`sample` for chosen lights ``j`` with selection
+        probabilities ``pj`` (rows ``none``: no light, pdf 0 and not in front)."""
         n = len(ref)
         if len(self.lights) == 1 and not self.is_sphere[0] and not self.is_emitter[0]:     # no gathers
             w, pdf, front, y = self.lights[0].sample(ref, u3[:, 1:3])
-            return j, w.astype(ref.dtype, copy=False), pdf * self.selection.pmf(j), front, y, None
+            if none is not None:
+                front = front & ~none
+            return w.astype(ref.dtype, copy=False), pdf * pj, front, y, None
         w = np.zeros_like(ref)
         pdf = np.zeros(n)
         front = np.ones(n, bool)
@@ -238,12 +270,16 @@ class LightSet:
                 w[m], pdf[m], front[m], y[m], le[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
             else:
                 w[m], pdf[m], front[m], y[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
-        return j, w, pdf * self.selection.pmf(j), front, y, le
+        if none is not None:
+            front &= ~none
+        return w, pdf * pj, front, y, le
 
-    def pdf(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray, hit_p: np.ndarray | None = None) -> np.ndarray:
+    def pdf(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray, hit_p: np.ndarray | None = None,
+            n: np.ndarray | None = None) -> np.ndarray:
         """P_j p_j(w) for light indices ``j`` (-1: no light, density 0; a delta light: P_j);
         ``hit_p``: where each ray met light j, if known (see :meth:`Light.pdf`; for a sphere
-        it means w is in its cone, so only the cone's solid angle is needed)."""
+        it means w is in its cone, so only the cone's solid angle is needed); ``n``: the
+        points' normals (``"bvh"`` selection; None: no normal)."""
         out = np.zeros(len(ref))
         has = j >= 0
         sph = has & self.is_sphere[np.maximum(j, 0)]
@@ -256,7 +292,7 @@ class LightSet:
                 out[m] = 1.0 / (2.0 * np.pi * SphereCone.cone_size(norm(c - ref[m]), r))
         for i, m in _rows_by_light(j, ~self.is_sphere):
             out[m] = self.lights[i].pdf(ref[m], w[m], None if hit_p is None else hit_p[m])
-        return out * np.where(has, self.selection.pmf(np.maximum(j, 0)), 0.0)
+        return out * self.selection_pmf(ref, j, n)
 
     def first_points(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray) -> np.ndarray:
         """The first point along ``w`` of the non-shape lights ``j`` (NaN for other rows): a

@@ -61,7 +61,7 @@ class PixelIntegrand:
 
     ``units``: the estimator's units per shading point (default: 1, or the preset's, from
     ``emitter_samples`` / ``bsdf_samples``, which default to the scene's integrator
-    settings); ``light_selection``: ``"uniform"`` or ``"power"`` for the ``"light"``
+    settings); ``light_selection``: ``"uniform"``, ``"power"`` or ``"bvh"`` for the ``"light"``
     technique.  ``dim`` is the number of uniforms per pixel sample.
     """
 

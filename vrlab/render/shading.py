@@ -309,7 +309,8 @@ class ShadingIntegrand(Integrand):
             if lit.lights is None:
                 r.pdfs["light"] = np.zeros(len(r.j), F32)
             else:
-                r.pdfs["light"] = lit.lights.pdf(self.rep(self.p, r.x), r.w, r.j, r.hit_p).astype(F32)
+                r.pdfs["light"] = lit.lights.pdf(self.rep(self.p, r.x), r.w, r.j, r.hit_p,
+                                                 self.rep(self.n, r.x)).astype(F32)
                 if r.lobe is not None:                       # no light sample is a delta lobe's atom
                     r.pdfs["light"][r.lobe != -1] = 0
         return r.pdfs["light"]

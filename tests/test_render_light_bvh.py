@@ -1,0 +1,111 @@
+"""``light_selection="bvh"`` (vrlab.render.light_tree): pbrt-v4's light BVH picks the light per
+shading point; renders stay unbiased against uniform selection, P_j at a point sums to 1,
+and the density of a sample is the density ``pdf`` reports (needed by MIS)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import render_pair, run_cli
+from test_render import EMIT, FLOOR, RECT_LIGHT, SPHERE_LIGHT, bonferroni_z, scene
+from vrlab.render.direct import DirectLighting
+
+# rectangle lights facing down, one tilted to face away from half the floor, and a disk
+RECTS = RECT_LIGHT + f"""<shape type="rectangle">
+    <transform name="to_world"><scale x="0.2" y="0.5"/><rotate x="1" angle="90"/><rotate z="1" angle="60"/>
+      <translate x="-0.6" y="0.8" z="-0.3"/></transform>{EMIT}</shape>
+  <shape type="disk"><transform name="to_world"><scale value="0.15"/><rotate x="1" angle="90"/>
+      <translate x="0.5" y="0.6" z="0.4"/></transform>{EMIT}</shape>"""
+ENV = '<emitter type="constant"><rgb name="radiance" value="0.2"/></emitter>'
+
+
+def _z(a, b):
+    """Per-pixel z of two renders; pixels with no variance in either (the black sky) must agree."""
+    (ia, sa), (ib, sb) = a, b
+    d, s = ia.astype(float) - ib, np.sqrt(sa.astype(float) ** 2 + sb.astype(float) ** 2)
+    return np.where(s > 0, d / np.where(s > 0, s, 1.0), np.where(d == 0, 0.0, np.inf))
+
+
+def _mean_z(a, b):
+    """z of the image means (green channel: the channels of a pixel are correlated, its pixels
+    are not), each mean's standard error from its pixels'."""
+    (ia, sa), (ib, sb) = (tuple(x[..., 1] for x in r) for r in (a, b))
+    n = ia.size
+    se = np.sqrt((sa.astype(float) ** 2).sum() + (sb.astype(float) ** 2).sum()) / n
+    return (ia.astype(float).mean() - ib.astype(float).mean()) / se
+
+
+@pytest.mark.parametrize("strategy", ["light", "mis-power"])
+def test_many_lights_bvh_is_unbiased_against_uniform(strategy):
+    kw = dict(width=12, height=9)
+    bvh = render_pair("many_lights", 64, strategy, rng=1, light_selection="bvh", **kw)
+    uni = render_pair("many_lights", 256, strategy, rng=2, light_selection="uniform", **kw)
+    z = _z(bvh, uni)
+    assert np.max(np.abs(z)) < bonferroni_z(z.size)
+    assert abs(_mean_z(bvh, uni)) < 4
+
+
+@pytest.mark.parametrize("strategy", ["light", "mis-power"])
+@pytest.mark.parametrize("extra", ["", ENV], ids=["rectangles", "rectangles+environment"])
+def test_rectangle_lights_bvh_is_unbiased_against_uniform(strategy, extra):
+    sc = scene(FLOOR + RECTS + SPHERE_LIGHT.replace('value="0.3"', 'value="0.1"') + extra,
+               origin="0, 2.5, 0.01", fov=70, width=10, height=8)
+    bvh = render_pair(sc, 256, strategy, rng=3, light_selection="bvh")
+    uni = render_pair(sc, 256, strategy, rng=4, light_selection="uniform")
+    z = _z(bvh, uni)
+    assert np.max(np.abs(z)) < bonferroni_z(z.size)
+    assert abs(_mean_z(bvh, uni)) < 4
+
+
+def _lights(extra=""):
+    sc = scene(FLOOR + RECTS + SPHERE_LIGHT + extra)
+    return DirectLighting(sc, "bvh").lights
+
+
+def _floor_points(m, seed):
+    g = np.random.default_rng(seed)
+    p = np.column_stack([g.uniform(-2, 2, m), np.zeros(m), g.uniform(-2, 2, m)])
+    return p, np.tile([0.0, 1.0, 0.0], (m, 1))
+
+
+@pytest.mark.parametrize("extra", ["", ENV])
+def test_selection_probabilities_sum_to_at_most_one_and_match_samples(extra):
+    lights = _lights(extra)
+    assert lights.tree is not None and (len(lights.tree.infinite) == 1) == bool(extra)
+    p, n = _floor_points(200, 0)
+    L = len(lights)
+    table = np.stack([lights.selection_pmf(p, np.full(len(p), j), n) for j in range(L)], 1)
+    assert np.all(table.sum(1) <= 1 + 1e-12) and np.mean(np.abs(table.sum(1) - 1) < 1e-12) > 0.5
+    if extra:                                     # pbrt's mix: the environment gets 1 / (1 + 1)
+        np.testing.assert_allclose(table[:, lights.tree.infinite[0]], 0.5)
+    u3 = np.random.default_rng(1).random((len(p), 3))
+    j, w, pdf, front, y, le = lights.sample(p, u3, n)
+    ok = j >= 0
+    assert ok.mean() > 0.5 and np.all(pdf[~ok] == 0) and not front[~ok].any()
+    # the density of each sample is the one pdf() reports for it (MIS needs both to agree)
+    back = lights.pdf(p[ok], w[ok], j[ok], None, n[ok])
+    np.testing.assert_allclose(back, pdf[ok], rtol=1e-6)
+
+
+def test_a_light_facing_away_is_never_selected_there():
+    """Points above the plane of the tilted rectangle, behind it, cannot see it: P = 0."""
+    lights = _lights()
+    p, n = _floor_points(400, 2)
+    j = np.random.default_rng(3).integers(0, len(lights), len(p))
+    pmf = lights.selection_pmf(p, j, n)
+    u = np.random.default_rng(4).random((len(p), 3))
+    js, *_ = lights.sample(p, u, n)
+    # a sample's light always has P > 0 at its point
+    has = js >= 0
+    assert np.all(lights.selection_pmf(p[has], js[has], n[has]) > 0)
+    assert np.all(pmf >= 0)
+
+
+def test_cli_accepts_light_selection_bvh(tmp_path, capsys):
+    out = tmp_path / "img.npy"
+    code, _, err = run_cli(capsys, ["render", "many_lights", "--spp", "2", "--width", "8", "--height", "6",
+                                    "--light-selection", "bvh", "-o", str(out)])
+    assert code == 0, err
+    assert np.load(out).shape == (6, 8, 3)
+    code, _, err = run_cli(capsys, ["render", "many_lights", "--light-selection", "tree", "-o", str(out)])
+    assert code == 2 and "bvh" in err
