@@ -191,7 +191,7 @@ def test_obj_mesh_bvh_matches_reference(tmp_path):
                 '<translate x="-3"/></transform></shape>', tmp_path)
     geo = SceneGeometry(sc)
     assert geo.n_triangles == 2 * (2 * nu * (nv - 1) + 2)
-    assert any(g.bvh is not None for g in geo.planar)
+    assert geo.accel is not None                          # 340 triangles: the scene's BVH
     o = rng.normal(size=(3000, 3)) * 3
     d = rng.normal(size=(3000, 3))
     d[::2] = (rng.normal(size=(1500, 3)) * 0.8 + [[-1.5, 0, 0]]) - o[::2]
@@ -215,6 +215,52 @@ def test_builtin_scene_like_rays_and_chunking():
     # broadcasting one origin against many directions
     c = geo.intersect(o[0], d[:10])
     np.testing.assert_array_equal(c.t, geo.intersect(np.repeat(o[:1], 10, 0), d[:10]).t)
+
+
+def test_one_bvh_over_every_kind_matches_reference(tmp_path):
+    """Above DENSE_COST every primitive (parallelograms, cube faces, mesh triangles, spheres,
+    an ellipsoid, disks) goes into one BVH: closest hits equal the one-primitive-at-a-time
+    reference, and ``occluded`` equals closest t < t_max (any hit)."""
+    rng = np.random.default_rng(12)
+    tri = rng.uniform(-0.2, 0.2, (300, 3, 3)) + rng.uniform(-2, 2, (300, 1, 3)) + [0, 1.5, -3]
+    v = tri.reshape(-1, 3)
+    text = "\n".join(f"v {a} {b} {c}" for a, b, c in v) + "\n" + \
+        "\n".join(f"f {3 * k + 1} {3 * k + 2} {3 * k + 3}" for k in range(300)) + "\n"
+    (tmp_path / "soup.obj").write_text(text)
+    sc = _scene(SHAPES + '<shape type="obj"><string name="filename" value="soup.obj"/></shape>', tmp_path)
+    geo = SceneGeometry(sc)
+    assert geo.accel is not None and len(geo.accel) > 300
+    o, d = _rays(rng, sc, 4000, geo)
+    for t_min in (0.0, 0.3):
+        h = _check(sc, o, d, t_min)
+    assert set(range(len(sc.shapes))) <= set(h.shape.tolist())   # every shape was hit
+    t_max = rng.uniform(0, 2, len(o)) * np.where(np.isfinite(h.t), h.t, 5.0)
+    np.testing.assert_array_equal(geo.occluded(o, d, t_max, t_min=0.3), h.t < t_max)
+    # float32 rays (the renderer's) take the float64 BVH decisions too
+    h32 = geo.intersect(o.astype(np.float32), d.astype(np.float32))
+    assert np.mean(h32.shape == geo.intersect(o.astype(np.float32).astype(float),
+                                              d.astype(np.float32).astype(float)).shape) == 1.0
+
+
+def test_bvh_build_is_a_valid_sah_tree():
+    """Every primitive in exactly one leaf, node boxes contain their children's and their
+    primitives' boxes, and the SAH separates two far clusters at the root."""
+    rng = np.random.default_rng(4)
+    pts = np.concatenate([rng.normal(size=(500, 3)) * 0.1, rng.normal(size=(300, 3)) * 0.1 + [10, 0, 0]])
+    lo, hi = pts - 0.01, pts + 0.01
+    bvh = BVH.from_boxes(lo, hi)
+    leaves = np.flatnonzero(bvh.count > 0)
+    members = np.concatenate([bvh.order[bvh.start[k]:bvh.start[k] + bvh.count[k]] for k in leaves])
+    np.testing.assert_array_equal(np.sort(members), np.arange(len(pts)))
+    for k in leaves:
+        p = bvh.order[bvh.start[k]:bvh.start[k] + bvh.count[k]]
+        assert np.all(bvh.lo[k] <= lo[p]) and np.all(bvh.hi[k] >= hi[p])
+    inner = np.flatnonzero(bvh.count == 0)
+    for c in (bvh.left[inner], bvh.right[inner]):
+        assert np.all(bvh.lo[inner] <= bvh.lo[c]) and np.all(bvh.hi[inner] >= bvh.hi[c])
+    sides = [bvh.hi[bvh.left[0], 0], bvh.lo[bvh.right[0], 0]]
+    assert sides[0] < 1 and sides[1] > 9                       # the root splits the clusters
+    assert bvh.count.max() <= 16
 
 
 def test_bvh_slab_test_finds_all_boxes():

@@ -271,11 +271,12 @@ class DirectLighting:
         le = self.emitted(hits, w)
         seen = np.flatnonzero(hits.shape >= 0)
         if len(seen) and self.blocker_geometry.n_shapes:
+            t_max = hits.t[seen] * (1.0 - SHADOW_EPS)
             if len(seen) < len(o):
-                tb = self.blocker_geometry.distance(np.take(o, seen, axis=0), np.take(w, seen, axis=0))
+                blocked = self.blocker_geometry.occluded(np.take(o, seen, axis=0), np.take(w, seen, axis=0), t_max)
             else:
-                tb = self.blocker_geometry.distance(o, w)
-            hidden = seen[tb < hits.t[seen] * (1.0 - SHADOW_EPS)]
+                blocked = self.blocker_geometry.occluded(o, w, t_max)
+            hidden = seen[blocked]
             hits.shape[hidden] = -1
             le[hidden] = 0.0
         return hits, le
@@ -301,7 +302,7 @@ class DirectLighting:
         t_max *= 1.0 - SHADOW_EPS
         visible = np.ones(len(o), bool)
         if self.blocker_geometry.n_shapes:
-            visible &= self.blocker_geometry.distance(o, w) >= t_max
+            visible &= ~self.blocker_geometry.occluded(o, w, t_max)
         if self.emitter_geometry.n_shapes > 1 or (self.emitter_geometry.n_shapes and self.lights.is_emitter.any()):
             # another emitter in front of light j
             te, se = self.emitter_geometry.distance(o, w, with_shape=True)

@@ -24,7 +24,6 @@ veach_mis than with the tuning (2.9-3.3 s against 2.1-2.6 s at 128x96, 16 spp, o
 """
 from __future__ import annotations
 
-import copy
 import os
 import pickle
 import time

@@ -21,25 +21,30 @@ the unit geometric normal, which follows Mitsuba: ``M^-T`` of the object normal 
 analytic shapes (rectangle, disk, sphere, ellipsoid), the winding ``e1 x e2`` for
 meshes (cube, obj), outward for closed shapes, and reversed by ``flip_normals``.
 
-Groups of up to a few dozen primitives (every built-in scene) are tested *all pairs* in
-float32 (:mod:`vrlab.render.dense`: one contiguous row of rays per primitive, about 2.5x
-NumPy's float64 rate), which picks the closest primitive of each ray; the six faces of
-a cube are tested together, by the slab test in the cube's frame (Kay & Kajiya 1986:
-a third of the work), and the face is found for the winners only.  Then t, the point
-and the normal of the closest primitive are recomputed in float64, except for float32
-rays (the renderer's), which keep the float32 t and get float32 points and normals.
-The primitive groups live in :mod:`vrlab.render.groups`.  Hit/miss decisions are therefore float32-accurate, as in Mitsuba's scalar variants: rays should start at
-least about 1e-5 (1 + |o|) off a surface (the renderer offsets them by that much), and
-rays within float32 rounding of an edge or of a second surface may pick either.
-Larger groups keep exact float64 decisions: ``obj`` meshes of at least 64 triangles
-use a BVH (:mod:`vrlab.render.bvh`), and more than 16 quadrics (many_lights' 128
-spheres) a conservative cull of all (ray, quadric) pairs with thin matrix products
-``[d, d.o] @ W`` (the discriminant of each bounding sphere, with a tolerance that only
-admits extra pairs) followed by the stable quadratic roots of the candidate pairs.
-Among equal ``t`` (coincident surfaces; in the float32 pass, t equal to about 1e-5
-relative) the first group (parallelograms, triangles, quadrics, disks) and then the
-lowest primitive wins (a parallelogram before a cube face).  Loops run over
-primitive groups and blocks, never over single rays.
+Scenes whose all-pairs cost is small (planar primitives + disks + quadrics / 4 at most
+``DENSE_COST`` = 256: every built-in scene) are tested *all pairs*: planar primitives and up
+to 16 quadrics in float32 (:mod:`vrlab.render.dense`: one contiguous row of rays per
+primitive, about 2.5x NumPy's float64 rate), which picks the closest primitive of each ray;
+the six faces of a cube are tested together, by the slab test in the cube's frame (Kay &
+Kajiya 1986: a third of the work), and the face is found for the winners only.  Then t, the
+point and the normal of the closest primitive are recomputed in float64, except for float32
+rays (the renderer's), which keep the float32 t and get float32 points and normals.  Hit/miss
+decisions are therefore float32-accurate, as in Mitsuba's scalar variants: rays should start
+at least about 1e-5 (1 + |o|) off a surface (the renderer offsets them by that much), and
+rays within float32 rounding of an edge or of a second surface may pick either.  More than
+16 quadrics (many_lights' 128 spheres) take a conservative cull of all (ray, quadric) pairs
+with thin matrix products ``[d, d.o] @ W`` (the discriminant of each bounding sphere, with a
+tolerance that only admits extra pairs) followed by the stable quadratic roots of the
+candidate pairs, in float64.  Larger scenes put every primitive (planar, quadric, disk) into
+one BVH (:mod:`vrlab.render.accel`, :mod:`vrlab.render.bvh`: binned SAH, depth-first
+traversal per ray, any-hit shadow queries through :meth:`SceneGeometry.occluded`), with
+exact float64 decisions; cost per ray grows with the logarithm of the primitive count
+(measured in ``benchmarks/bench_accel.py``: the crossover with all pairs is near 300
+triangles or 2 000 spheres).  Among equal ``t`` (coincident surfaces; in the float32 pass,
+t equal to about 1e-5 relative) the first group (parallelograms, triangles, quadrics,
+disks) and then the lowest primitive wins (a parallelogram before a cube face).  Loops run
+over primitive groups, blocks and tree steps, never over single rays.  The primitive groups
+live in :mod:`vrlab.render.groups`.
 
 Checked: ``scene`` is a ``Scene`` and ``only`` distinct shape indices in range;
 ``intersect``/``distance`` check the ray arrays' shapes (``(N, 3)`` or broadcastable
@@ -55,13 +60,15 @@ import numpy as np
 
 from .. import checks
 from .._vec import scale
+from .accel import Accel
 from .groups import Planar, Quadrics, parallelograms, unit
 from .scene import Scene
 from .shapes.base import CustomPart, DiskPart, Parallelograms, Quadric, Triangles
 
-__all__ = ["DEFAULT_RAY_CHUNK", "Hits", "SceneGeometry"]
+__all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "Hits", "SceneGeometry"]
 
 DEFAULT_RAY_CHUNK = 1 << 15   # rays per block
+DENSE_COST = 256              # scenes up to this all-pairs cost (planar primitives + quadrics / 4) skip the BVH
 
 
 class Hits(NamedTuple):
@@ -152,6 +159,10 @@ class SceneGeometry:
                 else:
                     raise TypeError(f"shapes[{k}].parts(): unknown primitive part {type(part).__name__}; "
                                     "use the parts of vrlab.render.shapes.base")
+        # all pairs while their cost stays small (a quadric costs about a quarter of a planar
+        # primitive through the culling products), else one BVH over every primitive
+        cost = sum(len(g) for g, _, _ in para + tris) + len(disk) + len(quad) / 4
+        dense = cost <= DENSE_COST
         self.planar = []
         for group, is_para in ((para, True), (tris, False)):
             arr = np.concatenate([g for g, _, _ in group] or [np.zeros((0, 4, 3))])
@@ -159,10 +170,13 @@ class SceneGeometry:
                 ids = np.concatenate([np.full(len(g), k) for g, k, _ in group])
                 local = np.concatenate([loc for _, _, loc in group])
                 self.planar.append(Planar(arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], ids, is_para,
-                                           boxes if is_para else None, local))
+                                           boxes if is_para else None, local, dense=dense))
         self.quadrics = Quadrics(quad) if quad else None
         self.disks = disk
         self.custom = custom
+        #: the BVH over every primitive (:mod:`vrlab.render.accel`) of scenes whose all-pairs
+        #: cost exceeds ``DENSE_COST``; None: the all-pairs kernels
+        self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks)
         pts = np.vstack(pts)
         #: a length scale of the scene (for ray offsets)
         self.scale = float(np.max(np.abs(pts)) + max(radii, default=0.0))
@@ -215,12 +229,38 @@ class SceneGeometry:
                           t[sl], shape[sl], normal[sl], finish=False, shapes=with_shape)
         return (t, shape) if with_shape else t
 
+    def occluded(self, origin: np.ndarray, direction: np.ndarray, t_max: np.ndarray, t_min: float = 0.0,
+                 chunk: int = DEFAULT_RAY_CHUNK) -> np.ndarray:
+        """Whether each ray hits something with ``t_min < t < t_max`` (shadow rays).  Through
+        the BVH a ray stops at its first hit (any hit); otherwise ``distance() < t_max``."""
+        o, d = _rays(origin, direction, t_min, chunk)
+        if self.accel is None:
+            return self.distance(o, d, t_min, chunk) < t_max
+        o, d = np.broadcast_arrays(o.reshape(-1, 3), d.reshape(-1, 3))
+        t_max = np.broadcast_to(np.asarray(t_max, float), (len(d),))
+        out = np.zeros(len(d), bool)
+        for a in range(0, len(d), chunk):
+            sl = slice(a, min(a + chunk, len(d)))
+            o64, d64 = o[sl].astype(np.float64), d[sl].astype(np.float64)
+            hit = self.accel.occluded(o64, d64, t_min, t_max[sl])
+            if self.custom:
+                t = np.full(len(o64), np.inf)
+                self._custom(o64, d64, t_min, t, np.zeros(len(t), np.int64), np.zeros((len(t), 3)), None)
+                hit |= t < t_max[sl]
+            out[sl] = hit
+        return out
+
     def _closest(self, o, d, t_min, t, shape, normal, finish: bool = True, shapes: bool = True, prim=None):
         """Update ``t``, ``shape``, ``normal`` (views of one chunk) in place; with
         ``finish=False`` (float32 rays) the dense groups only set t and, with ``shapes``,
         the shape."""
+        if self.accel is not None:                     # float64 decisions: float64 rays
+            o64, d64 = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
+            self.accel.closest(o64, d64, t_min, t, shape, normal, prim)
+            self._custom(o64, d64, t_min, t, shape, normal, prim)
+            return
         index = finish or shapes
-        dense = [g for g in self.planar if g.bvh is None]
+        dense = list(self.planar)
         if self.quadrics is not None and self.quadrics.use_dense:
             dense.append(self.quadrics)
         if dense:                      # float32 all pairs: the winner, then its float64 hit
@@ -250,13 +290,11 @@ class SceneGeometry:
                     g.finish32(o, d, t_min, r, j_best[r], best[r], t, shape, normal, prim)
                 elif len(r):
                     g.finish(o, d, t_min, r, j_best[r], best[r], t, shape, normal, prim)
-        exact = [g for g in self.planar if g.bvh is not None]
-        if self.quadrics is not None and not self.quadrics.use_dense:
-            exact.append(self.quadrics)
-        if exact or self.disks or self.custom:        # float64 decisions: float64 rays
+        cull = self.quadrics is not None and not self.quadrics.use_dense
+        if cull or self.disks or self.custom:          # float64 decisions: float64 rays
             o, d = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
-        for g in exact:
-            g.closest(o, d, t_min, t, shape, normal, prim)
+        if cull:
+            self.quadrics.closest(o, d, t_min, t, shape, normal, prim)
         for k, c, minv, n in self.disks:
             ol, dl = (o - c) @ minv.T, d @ minv.T
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -270,6 +308,10 @@ class SceneGeometry:
             normal[better] = n
             if prim is not None:
                 prim[better] = 0
+        self._custom(o, d, t_min, t, shape, normal, prim)
+
+    def _custom(self, o, d, t_min, t, shape, normal, prim) -> None:
+        """Fold the custom parts' hits (their own ``intersect``) into the closest hits."""
         for k, intersect in self.custom:
             tt, nn = intersect(o, d, t_min)
             better = tt < t

@@ -1,7 +1,8 @@
 """Primitive groups of :class:`~vrlab.render.geometry.SceneGeometry` (see its module
 docstring): planar primitives (parallelograms and triangles, with the slab test for
 cubes) and quadrics, each with a float32 all-pairs pass (:mod:`.dense`) and its float64
-or float32 finish, a BVH for big meshes and a conservative cull for many quadrics."""
+or float32 finish, and a conservative cull for many quadrics; every group also has the exact
+float64 test of (ray, primitive) pairs that the scene's BVH (:mod:`.accel`) calls."""
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -11,7 +12,6 @@ import numpy as np
 from .._vec import dot as _dot
 from .._vec import norm, scale
 from ..distributions.quadrics import unit_sphere_hit
-from .bvh import BVH
 from .dense import DensePlanar, closest_quadrics
 
 __all__ = ["DENSE_QUADRICS", "Planar", "Quadrics", "parallelograms", "unit", "unit_sphere_hit"]
@@ -20,7 +20,6 @@ __all__ = ["DENSE_QUADRICS", "Planar", "Quadrics", "parallelograms", "unit", "un
 # for an (N, k) @ (k, P) product) that OpenBLAS stays single-threaded (much faster here)
 _QUADRIC_ELEMS = 1 << 15
 DENSE_QUADRICS = 16           # up to this many quadrics are tested all-pairs in float32
-_BVH_MIN_PRIMS = 64           # planar groups at least this big are traversed with a BVH
 _TOL_DISC = 1e-12             # culling slack of sphere discriminants, relative
 
 
@@ -88,7 +87,8 @@ class Planar:
     """Parallelograms (``para=True``) or triangles ``v0 + s e1 + u e2`` with their
     normals and shape indices; see the module docstring for the formulas."""
 
-    def __init__(self, v0, e1, e2, normal, shape, para: bool, boxes: dict | None = None, local=None):
+    def __init__(self, v0, e1, e2, normal, shape, para: bool, boxes: dict | None = None, local=None,
+                 dense: bool = True):
         m = np.cross(e1, e2)
         m2 = np.sum(m * m, -1)
         keep = m2 > 0                                  # degenerate ones are never hit
@@ -103,11 +103,8 @@ class Planar:
         self.a1 = np.cross(e2, m) / m2[:, None]
         self.a2 = np.cross(m, e1) / m2[:, None]
         self.packed = np.concatenate([v0, self.n, self.a1, self.a2], axis=1)
-        p = len(v0)
-        self.bvh = BVH(np.stack([v0, v0 + e1, v0 + e2] + ([v0 + e1 + e2] if para else []),
-                                axis=1)) if p >= _BVH_MIN_PRIMS else None
-        # the float32 all-pairs kernel, for groups without a BVH
-        self.kernel = None if self.bvh is not None else \
+        # the float32 all-pairs kernel (``dense``), else exact tests only (the scene's BVH)
+        self.kernel = None if not dense else \
             DensePlanar(self.n, self.a1, self.a2, v0, para, _box_faces(v0, e1, e2, self.shape, boxes or {}))
         self.shape_ext = self.shape if self.kernel is None else \
             np.concatenate([self.shape, self.shape[self.kernel.box_faces[:, 0]]])   # + boxes
@@ -164,17 +161,6 @@ class Planar:
             ok &= (np.maximum(s, u) <= 1.0) if self.para else (s + u <= 1.0)
         ok &= np.isfinite(t)
         return np.where(ok, t, np.inf)
-
-    def closest(self, o, d, t_min, t, shape, normal, prim=None):
-        """Update the closest hits ``t, shape, normal`` (and ``prim``) of a block of rays in
-        place (BVH)."""
-        rays = np.concatenate([o, d], axis=1)
-
-        def test(i, j):
-            return self.exact(rays, t_min, i, j)
-        i, j, tt = self.bvh.closest(o, d, t_min, t, test)
-        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], lambda w: self.normal[j[w]],
-                prim, lambda w: self.local[j[w]])
 
 
 class Quadrics:
