@@ -5,7 +5,8 @@
 * :class:`TriangleMeshSolidAngle`: directions from reference points towards the mesh, by
   area converted to solid angle (p_w = sum over every triangle the ray crosses of
   p_A d^2 / |cos|) or by choosing a triangle and sampling its spherical triangle uniformly
-  (Arvo 1995, :class:`vrlab.distributions.SphericalTriangle`).
+  (Arvo 1995, :class:`vrlab.distributions.SphericalTriangle`); ``sample_given``, ``pdf_given``:
+  towards one given triangle (the light BVH's per-triangle leaves, :mod:`vrlab.render.light_tree`).
 
 The spherical-triangle sampler and the solid angle of a triangle live in :mod:`.triangles`.
 """
@@ -90,9 +91,13 @@ class TriangleMeshSurface(Surface):
         """``(x, k)``: points (..., 3) and their triangle indices (...)."""
         u = _f64(as_uniforms(u, 2), 2, "u")
         k, r = self.table.sample(u[..., 0], return_remapped=True)
-        b = _BARY.sample(np.stack([r, u[..., 1]], -1))
-        x = self.v0[k] + self.e1[k] * b[..., 1:] + self.e2[k] * (1.0 - b[..., 0] - b[..., 1])[..., None]
-        return x, k
+        return self.point_on(k, np.stack([r, u[..., 1]], -1)), k
+
+    def point_on(self, k: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """Uniform points on the given triangles ``k (...)`` from uniforms ``u (..., 2)``:
+        x = b0 v0 + b1 v1 + (1 - b0 - b1) v2, (b0, b1) = ``planar.Triangle``'s warp of u."""
+        b = _BARY.sample(u)
+        return self.v0[k] + self.e1[k] * b[..., 1:] + self.e2[k] * (1.0 - b[..., 0] - b[..., 1])[..., None]
 
     def sample(self, u: np.ndarray) -> np.ndarray:
         return self.sample_point(u)[0]
@@ -291,12 +296,67 @@ class TriangleMeshSolidAngle(Distribution):
             (k, r), tot = s.table.sample(u[:, 0], return_remapped=True), None
         else:
             tot, k, r = self._totals(ref, u[:, 0])
+        w, y, t = self._spherical(k, np.stack([r, u[:, 1]], -1), ref)
+        return w, y, t, k, ref, shape, tot
+
+    def _spherical(self, k, u, ref):
+        """``(w, y, t)``: w uniform in the spherical triangle of triangles ``k`` from ``ref``
+        (or by area below ``min_solid_angle``), y = ref + t w the point on k."""
         va, vb, vc, n = self._rel(k, ref)
-        w = _Geom(va, vb, vc, self.min_solid_angle).sample(np.stack([r, u[:, 1]], -1))
+        w = _Geom(va, vb, vc, self.min_solid_angle).sample(u)
         with np.errstate(divide="ignore", invalid="ignore"):
             t = dot(va, n) / dot(w, n)
         t = np.where(np.isfinite(t) & (t > 0), t, 0.0)
-        return w, ref + w * t[:, None], t, k, ref, shape, tot
+        return w, ref + w * t[:, None], t
+
+    # -- one given triangle per point (the light BVH's per-triangle leaves) -----------------
+    def sample_given(self, triangles: Any, u: np.ndarray) -> MeshLightSample:
+        """Directions towards the given ``triangles`` (one index per point, broadcast with
+        ``u (..., 2)`` and ref): by area (y uniform on triangle k, w = normalize(y - ref)) or,
+        with ``method="spherical"``, uniform in k's spherical triangle.  ``pdf`` is the density
+        *given* k, p_k(w) (see :meth:`pdf_given`), not the mesh's sum over hits."""
+        u, ref, shape = self._flat(as_uniforms(u, 2), 2, "u")
+        k = self._given(triangles, shape)
+        if self.method == "area":
+            y = self.surface.point_on(k, u)
+            v = y - ref
+            w, dist = _unit(v, self.surface.face_normals[k]), norm(v)
+        else:
+            w, y, dist = self._spherical(k, u, ref)
+        pdf = self._density_given(w, ref, k)
+        return MeshLightSample(*(a.reshape(shape + a.shape[1:]) for a in (w, y, dist, pdf, k)))
+
+    def pdf_given(self, w: np.ndarray, triangles: Any) -> np.ndarray:
+        """p_k(w), the density of directions towards triangle k alone, for unit-able ``w``
+        that meet triangle ``k`` (not checked; t is the distance to k's plane along w):
+        by area t^2 / (A_k |cos theta_k|) = 2 t^2 / |w . (e1 x e2)|; spherical 1 / Omega_k
+        (the area density below ``min_solid_angle``, as in the mesh density)."""
+        w, ref, shape = self._flat(w, 3, "w")
+        return self._density_given(_unit(w), ref, self._given(triangles, shape)).reshape(shape)
+
+    def _given(self, triangles, shape):
+        k = np.asarray(triangles)
+        if k.dtype.kind not in "iu":
+            raise TypeError(f"triangles must be integer triangle indices, got {checks.describe(triangles)}")
+        k = np.broadcast_to(k, shape).reshape(-1).astype(np.int64)
+        if len(k) and (k.min() < 0 or k.max() >= len(self.surface.n)):
+            raise ValueError(f"triangles: indices must lie in [0, {len(self.surface.n) - 1}], got {k.min()} "
+                             f"to {k.max()}")
+        return k
+
+    def _density_given(self, w, ref, k):
+        va, vb, vc, n = self._rel(k, ref)
+        wn = np.abs(dot(w, n))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = dot(va, n) / dot(w, n)
+        ok = (wn > 0) & np.isfinite(t) & (t > 0)
+        tt, wn = np.where(ok, t, 0.0), np.where(ok, wn, 1.0)
+        p = 2.0 * tt * tt / wn
+        if self.method == "spherical":
+            om = _omega(va, vb, vc, n)
+            sph = om >= max(self.min_solid_angle, np.finfo(float).tiny)
+            p = np.where(sph, 1.0 / np.where(sph, om, 1.0), p)
+        return np.where(ok, p, 0.0)
 
     def sample(self, u: np.ndarray) -> np.ndarray:
         w, *_, shape, _ = self._sample(u)

@@ -129,8 +129,11 @@ class Estimator:
     ``min_units``              units one fold needs (a pixel's spp at least this)
     ``per_unit``               True when the estimate is the fold of independent units, so
                                it can run one unit at a time (the renderer's shading points)
+    ``spatial``                True for reuse across the pixels of a block (ReSTIR): the renderer
+                               calls ``spatial_check``/``spatial_dim``/``spatial_outputs(view,
+                               u (N, B, dim))`` (N units over B pixels, ``view`` a
+                               :class:`vrlab.render.reuse.BlockPixels`) -> ``(3, N, B, c)``
     =========================  ===============================================================
-
     ``estimate`` goes through ``unit_outputs`` -> ``accumulate`` -> ``merge`` ->
     ``summarize``, the same code the renderer runs per pixel.  Estimators that are not a fold
     of independent units (stratified, RQMC, Metropolis chains, pairs of integrands) set
@@ -153,6 +156,9 @@ class Estimator:
     candidates_per_unit: int = 0
     #: True when a unit also evaluates a closed-form control integral (the renderer's cost model)
     closed_form_per_unit: bool = False
+    #: True when a unit reuses samples across the pixels of a block (ReSTIR): the renderer
+    #: calls the ``spatial_*`` hooks, not one unit per shading point
+    spatial: bool = False
 
     # -- scikit-learn style settings ----------------------------------------------------
     def get_params(self) -> dict:
@@ -189,6 +195,18 @@ class Estimator:
         """Uniforms of one sample unit, as ``unit_values`` takes them (``dim_u`` unless a
         unit holds several samples of different techniques, as in MIS)."""
         return int(self.dim_u(integrand))
+
+    def spatial_check(self, integrand) -> None:
+        """Spatial hook (class docstring): validate settings against the renderer's integrand."""
+        raise TypeError(f"estimator: {self.label} is not spatial (spatial = False)")
+
+    def spatial_dim(self, integrand) -> int:
+        """Spatial hook: uniforms per pixel sample of one spatial unit."""
+        raise TypeError(f"estimator: {self.label} is not spatial (spatial = False)")
+
+    def spatial_outputs(self, view, u: np.ndarray) -> np.ndarray:
+        """Spatial hook: outputs ``(3, N, B, c)`` of N independent units over B pixels."""
+        raise TypeError(f"estimator: {self.label} is not spatial (spatial = False)")
 
     def traced_per_unit(self) -> int:
         """Integrand evaluations per unit that the renderer traces a shadow ray for

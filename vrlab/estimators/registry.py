@@ -40,6 +40,9 @@ recipe                 estimator                                                
 ``rqmc-sobol[:<R>]``   ``RQMC(MonteCarlo(), replicates=R)`` on scrambled Sobol' (Halton)    lab
 ``ris:<m>``            ``RIS(source, |f|, m)`` (Talbot et al. 2005); render: ``RIS("light",  both
                        target="unshadowed", m=M)``
+``restir``             render: ``ReSTIR(candidates=M, neighbours=5, radius=3, mis="pairwise")``:  render
+                       light-candidate reservoirs per pixel, spatial reuse within a tile
+                       (Bitterli et al. 2020; Lin et al. 2022; ``vrlab.render.reuse``)
 =====================  ==================================================================  ======
 """
 from __future__ import annotations
@@ -352,3 +355,16 @@ register_recipe("ris", "RIS(source, |f|, m): resampled importance sampling with 
                 arg="<m>", arg_required=True, render=_ris_preset,
                 render_help="resampled light candidates, see --ris-candidates", needs="light",
                 uses=("emitter_samples", "light_selection", "ris_candidates"))
+
+
+def _restir_preset(emitter_samples, bsdf_samples, ris_candidates):
+    return _cls("restir", "ReSTIR", "restir")(candidates=ris_candidates, neighbours=5, radius=3.0, passes=1,
+                                              mis="pairwise"), 1
+
+
+register_recipe("restir", "ReSTIR(candidates=M, neighbours=5, radius=3, mis='pairwise'): per-pixel reservoirs of "
+                "light candidates with spatial reuse (Bitterli et al. 2020; Lin et al. 2022)", "restir",
+                render=_restir_preset,
+                render_help="per-pixel RIS reservoirs of light candidates (--ris-candidates) with unbiased spatial "
+                "reuse (pairwise MIS) among the pixels of a tile", needs="light",
+                uses=("light_selection", "ris_candidates"))

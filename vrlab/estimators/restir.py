@@ -67,10 +67,12 @@ Costs: ``n`` counts unit values per pixel (one f(Y) W per pass); ``candidates_pe
 target evaluations without a ray; ``traced_per_unit()`` the shadow rays per pixel per pass:
 1 (visibility reuse) + passes x (k for "1/M", 2k "pairwise", k (k + 1) "balance").  In the lab
 a batched integrand returns every pixel's value at a point, so evaluating pixel b alone costs
-B values: memory and time grow as B^2 per pass (fine for rows of tens of pixels).
+B values: memory and time grow as B^2 per pass (fine for rows of tens of pixels).  The
+renderer (``spatial = True``, :mod:`vrlab.render.reuse`) runs the same ``run`` on its view.
 """
 from __future__ import annotations
 
+import copy
 import itertools
 from typing import Any
 
@@ -100,12 +102,34 @@ def grid_offsets(shape: tuple, radius: float) -> np.ndarray:
 class PixelView:
     """The integrand and target of a batched integrand read per pixel: ``f(x, pix)`` and
     ``phat(x, pix)`` give pixel pix's value at each point (x (..., k), pix int broadcast to
-    x.shape[:-1], flat index on the grid ``shape``).  The one place pixel-indexed evaluation
-    happens: the renderer's per-pixel shading integrand would replace it."""
+    x.shape[:-1], flat index on the grid ``shape``); the renderer's is ``reuse.BlockPixels``."""
 
-    def __init__(self, integrand, target, shape: tuple):
-        self.integrand, self.target, self.shape = integrand, target, tuple(shape)
+    def __init__(self, integrand, target, shape: tuple, source=None):
+        self.integrand, self.target, self.shape, self.source = integrand, target, tuple(shape), source
         self.B = int(np.prod(self.shape, dtype=int))
+
+    def candidates(self, uc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(x, p, t)``: candidates (N, B, c, k) from ``uc (N, B, c, d)``, density, targets."""
+        N, B, c, d = uc.shape
+        x = np.asarray(self.source.sample(uc.reshape(N * B * c, d)), dtype=float)
+        p = np.asarray(self.source.pdf(x), dtype=float).reshape(N, B, c)
+        x = x.reshape(N, B, c, x.shape[-1])
+        return x, p, self.phat(x, np.arange(B)[:, None])
+
+    def neighbours(self, un: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(nbr, present)`` (N, B, k): flat neighbour indices from one uniform each, a uniform
+        offset of the periodic grid (every neighbour present)."""
+        if un.shape[-1] == 0:
+            return np.zeros(un.shape, int), np.ones(un.shape, bool)
+        offs = grid_offsets(self.shape, radius)
+        pick = offs[np.minimum((un * len(offs)).astype(int), len(offs) - 1)]         # (N, B, k, nd)
+        coords = np.stack(np.unravel_index(np.arange(un.shape[1]), self.shape), -1)[None, :, None, :]
+        nb = (coords + pick) % np.array(self.shape)
+        return np.ravel_multi_index(tuple(np.moveaxis(nb, -1, 0)), self.shape), np.ones(un.shape, bool)
+
+    @staticmethod
+    def nonzero(f) -> np.ndarray:             # where values f (no channel axis in the lab) are not 0
+        return np.asarray(f) != 0
 
     def _pick(self, values, x, pix, who: str) -> np.ndarray:
         v, lead = np.asarray(values, dtype=float), x.shape[:-1]
@@ -140,6 +164,8 @@ class ReSTIR(Estimator):
     """
 
     evals_per_unit = 1
+    #: the renderer runs it on every pixel of a block at once (spatial reuse)
+    spatial = True
 
     def __init__(self, candidates: int = 32, neighbours: int = 5, radius: float = 3.0, passes: int = 1,
                  mis: str = "pairwise", *, source: Any = None, target: Any = None, shift: Any = None):
@@ -191,11 +217,12 @@ class ReSTIR(Estimator):
             return tuple(np.shape(integrand(x0))[:-1])
         except (ValueError, TypeError, AttributeError) as exc:
             raise ValueError(f"integrand: ReSTIR reads its pixel grid from the values at one point of the domain "
-                             f"and could not ({exc}); the lab's batched integrands are supported, the renderer's "
-                             "per-pixel shading integrand is not yet") from None
+                             f"and could not ({exc}); it needs a batched integrand (the renderer runs "
+                             "spatial_outputs)") from None
 
     def view(self, integrand) -> PixelView:
-        return PixelView(integrand, self.target_for(integrand), self.pixel_shape(integrand))
+        return PixelView(integrand, self.target_for(integrand), self.pixel_shape(integrand),
+                         self.source_for(integrand))
 
     def check(self, integrand) -> None:
         self.source_for(integrand)
@@ -227,7 +254,7 @@ class ReSTIR(Estimator):
     @staticmethod
     def pixel_target(view: PixelView, x, pix, f_at_pix) -> np.ndarray:
         """q_pix(x) = p̂_pix(x) 1[f_pix(x) != 0]: the visibility-aware target."""
-        return np.where(np.asarray(f_at_pix) != 0, view.phat(x, pix), 0.0)
+        return np.where(view.nonzero(f_at_pix), view.phat(x, pix), 0.0)
 
     def receiving_target(self, view: PixelView, y, src, dst, f_dst) -> np.ndarray:
         """The target at the receiving pixel dst of samples y shifted there from src: q_dst(y)."""
@@ -236,63 +263,60 @@ class ReSTIR(Estimator):
     # -- the work ----------------------------------------------------------------------------
     def unit_values(self, integrand, u):
         u = np.asarray(u, dtype=float)
-        view, source = self.view(integrand), self.source_for(integrand)
-        B, c, k, d = view.B, self.candidates, self.neighbours, int(source.dim_u)
+        view = self.view(integrand)
+        B, c, k, d = view.B, self.candidates, self.neighbours, int(view.source.dim_u)
         D = B * c * (d + 1) + self.passes * B * (k + 1)
         if u.ndim < 2 or u.shape[-1] != D:
             raise ValueError(f"u: expected shape (..., n, {D}) ({B} pixels), got {u.shape}")
         lead = u.shape[:-1]
         N = int(np.prod(lead, dtype=int))
         u = u.reshape(N, D)
-        pix = np.arange(B)
-        # 1. RIS per pixel
-        x = np.asarray(source.sample(u[:, : B * c * d].reshape(N * B * c, d)), dtype=float)
-        p = np.asarray(source.pdf(x), dtype=float).reshape(N, B, c)
-        x = x.reshape(N, B, c, x.shape[-1])
-        t = view.phat(x, pix[:, None])
-        res = Reservoir.empty((N, B), x.shape[-1]).update(x, ratio(t, p), u[:, B * c * d: B * c * (d + 1)]
-                                                          .reshape(N, B, c), t)
-        # 2. visibility reuse: keep the sample only where f_b(y_b) != 0
-        y, f, M = res.y, view.f(res.y, pix), res.M
-        vis = f != 0
-        W, q = np.where(vis, res.W, 0.0), np.where(vis, res.target, 0.0)
-        # 3. spatial reuse
         at = B * c * (d + 1)
-        for _ in range(self.passes):
-            nbr = self._neighbours(view.shape, u[:, at: at + B * k].reshape(N, B, k))
-            y, W, M, q, f = self._reuse(view, y, W, M, q, nbr, u[:, at + B * k: at + B * (k + 1)])
-            at += B * (k + 1)
-        out = np.where(W > 0, f * W, 0.0).reshape(lead + (B,))
-        return np.moveaxis(out, -1, 0).reshape(view.shape + lead)
+        rounds = [(u[:, a: a + B * k].reshape(N, B, k), u[:, a + B * k: a + B * (k + 1)])
+                  for a in range(at, D, B * (k + 1))]
+        out = self.run(view, u[:, : B * c * d].reshape(N, B, c, d), u[:, B * c * d: at].reshape(N, B, c), rounds)
+        return np.moveaxis(out.reshape(lead + (B,)), -1, 0).reshape(view.shape + lead)
 
-    def _neighbours(self, shape: tuple, un: np.ndarray) -> np.ndarray:
-        """Flat neighbour indices (N, B, k) from one uniform each: a uniform offset of the grid."""
-        if un.shape[-1] == 0:
-            return np.zeros(un.shape, int)
-        offs = grid_offsets(shape, self.radius)
-        pick = offs[np.minimum((un * len(offs)).astype(int), len(offs) - 1)]         # (N, B, k, nd)
-        coords = np.stack(np.unravel_index(np.arange(un.shape[1]), shape), -1)[None, :, None, :]
-        nb = (coords + pick) % np.array(shape)
-        return np.ravel_multi_index(tuple(np.moveaxis(nb, -1, 0)), shape)
+    def run(self, view, uc: np.ndarray, us: np.ndarray, rounds: list) -> np.ndarray:
+        """f_c(Y_c) W_c ``(*channels, N, B)`` of N independent units over the B pixels of ``view``:
+        RIS from ``uc (N, B, c, d)``, ``us (N, B, c)``, visibility reuse, one spatial reuse per
+        ``rounds`` entry (neighbour uniforms (N, B, k), final selections (N, B)); axis 0 of
+        every point array is the unit (the renderer's view tells its pixel samples apart by it)."""
+        N, B = us.shape[:2]
+        pix = np.arange(B)
+        x, p, t = view.candidates(uc)
+        if np.any(t < 0) or np.any(np.isnan(t)):
+            raise ValueError("target: the unnormalised target density must be >= 0 and not NaN")
+        res = Reservoir.empty((N, B), x.shape[-1]).update(x, ratio(t, p), us, t)
+        # visibility reuse: keep the sample only where f_b(y_b) != 0
+        y, M, f = res.y, res.M, view.f(res.y, pix)
+        vis = view.nonzero(f)
+        W, q = np.where(vis, res.W, 0.0), np.where(vis, res.target, 0.0)
+        for un, uf in rounds:
+            nbr, present = view.neighbours(un, self.radius)
+            y, W, M, q, f = self._reuse(view, y, W, M, q, nbr, present, uf)
+        return np.where(W > 0, f * W, 0.0)
 
-    def _reuse(self, view, y, W, M, q, nbr, us):
-        """One round of spatial reuse (GRIS) at every pixel; returns the new (y, W, M, q, f)."""
+    def _reuse(self, view, y, W, M, q, nbr, present, us):
+        """One round of spatial reuse (GRIS) at every pixel; returns the new (y, W, M, q, f).
+        Absent neighbours (``present`` False: outside the renderer's block) count M = 0."""
         N, B = W.shape
-        src = np.concatenate([np.broadcast_to(np.arange(B)[None, :, None], (N, B, 1)), nbr], -1)   # (N, B, S)
+        own = np.broadcast_to(np.arange(B)[None, :, None], (N, B, 1))
+        src = np.concatenate([own, np.where(present, nbr, own)], -1)                  # (N, B, S)
         dst = np.broadcast_to(np.arange(B)[None, :, None], src.shape)
         n = np.arange(N)[:, None, None]
         ys, J = self.shift_map(y[n, src], src, dst)
         fc = view.f(ys, dst)
         qc = self.receiving_target(view, ys, src, dst, fc)
-        Ms = M[n, src]
+        Ms = M[n, src] * np.concatenate([np.ones((N, B, 1), bool), present], -1)
         m = self._mis_weights(view, ys, ratio(q[n, src], J), src, dst, Ms, qc)
         w = m * qc * W[n, src] * J
         cum = np.cumsum(w, -1)
         total = cum[..., -1]
         s = np.minimum(np.sum(cum <= (us * total)[..., None], -1), src.shape[-1] - 1)[..., None]
-        take = (lambda a: np.take_along_axis(a, s, -1)[..., 0])
         y_new = np.take_along_axis(ys, s[..., None], -2)[..., 0, :]
-        q_new, f_new = take(qc), take(fc)
+        q_new = np.take_along_axis(qc, s, -1)[..., 0]
+        f_new = np.take_along_axis(fc, np.broadcast_to(s, np.shape(fc)[:-1] + (1,)), -1)[..., 0]
         return y_new, ratio(total, q_new), Ms.sum(-1), q_new, f_new
 
     def _read_at(self, view, yc, dst, src_t):
@@ -304,7 +328,7 @@ class ReSTIR(Estimator):
         """m_s(y_s) (N, B, S) of the contributors; ``own`` = p̂_{<-s}(y_s) = q_s(x_s) / J_s."""
         S = src.shape[-1]
         if self.mis == "1/M" or S == 1:
-            return Ms / Ms.sum(-1, keepdims=True)
+            return ratio(Ms, Ms.sum(-1, keepdims=True))
         if self.mis == "balance":
             # P[s, t] = p̂_{<-t}(y_s); column 0 the receiving pixel itself: q_c(y_s)
             yst = np.broadcast_to(ys[..., :, None, :], ys.shape[:-1] + (S - 1, ys.shape[-1]))
@@ -320,7 +344,44 @@ class ReSTIR(Estimator):
         back = self._read_at(view, y0, dst[..., 1:], src[..., 1:])                # p̂_{<-t}(y_0), t > 0
         aq = a * qc[..., :1]
         m_c = np.sum(share * ratio(aq, back + aq), -1, keepdims=True)
+        m_c = np.where(C > 0, m_c, 1.0)                 # no neighbour present: the canonical alone
         return np.concatenate([m_c, m_nc], -1)
+
+    # -- the renderer (spatial protocol: vrlab.render.reuse) ------------------------------------
+    def spatial_check(self, integrand) -> None:
+        """Renderer settings: ``"light"`` candidates, ``"unshadowed"`` target, its own shift."""
+        if self.source not in (None, "light"):
+            raise ValueError(f"source: in the renderer {self.label} draws its candidates with the 'light' technique "
+                             f"(samples are light points, reconnected between pixels); use None or 'light', "
+                             f"got {self.source!r}")
+        if self.target not in (None, "unshadowed"):
+            raise ValueError(f"target: in the renderer {self.label} resamples towards the unshadowed contribution; "
+                             f"use None or 'unshadowed', got {self.target!r}")
+        if self.shift is not None:
+            raise ValueError("shift: the renderer shifts samples between pixels by reconnection to the same light "
+                             "point (with its solid-angle Jacobian); leave shift=None")
+        integrand.technique("light", "source")
+
+    def spatial_dim(self, integrand) -> int:
+        """c (d + 1) + passes (k + 1) (d: the light technique's uniforms per candidate)."""
+        d = int(integrand.technique("light", "source").dim_u)
+        return self.candidates * (d + 1) + self.passes * (self.neighbours + 1)
+
+    def spatial_outputs(self, view, u: np.ndarray) -> np.ndarray:
+        """``(3, N, B, 1)``: f_c(Y_c) W_c of N units over the B pixels of ``view``
+        (:class:`vrlab.render.reuse.BlockPixels`); per pixel ``u``: ``[0, c d)`` candidates,
+        ``[c d, c (d + 1))`` their selection, per pass k neighbours and one final selection.
+        The view's reconnection is ``self.shift`` of a shallow copy (``shift_map`` sees it)."""
+        u = np.asarray(u, dtype=float)
+        c, k = self.candidates, self.neighbours
+        N, B, D = u.shape
+        d = (D - self.passes * (k + 1)) // c - 1
+        if d < 1 or D != c * (d + 1) + self.passes * (k + 1):
+            raise ValueError(f"u: expected (N, B, c (d + 1) + passes (k + 1)) uniforms, got {u.shape}")
+        est, at = copy.copy(self), c * (d + 1)
+        est.shift = view.shift
+        rounds = [(u[..., a: a + k], u[..., a + k]) for a in range(at, D, k + 1)]
+        return est.run(view, u[..., : c * d].reshape(N, B, c, d), u[..., c * d: at], rounds)[..., None]
 
     def estimate(self, integrand, n: int, *, rng: RNGLike = None, points: Any = None,
                  chunk: int = DEFAULT_CHUNK) -> Estimate:

@@ -2,8 +2,8 @@
 
 :class:`DirectLighting` holds what every shading point needs (Mitsuba 3's ``direct``
 integrator, one bounce): the scene's geometry, one BSDF model per group of shapes with the
-same material, the lights (:class:`~vrlab.render.lights.LightSet`, selection ``"uniform"``
-or ``"power"``) and the two kinds of rays leaving a surface.  It holds no estimator: the
+same material, the lights (:class:`~vrlab.render.lights.LightSet`, selection ``"uniform"``,
+``"power"`` or ``"bvh"``) and the two kinds of rays leaving a surface.  It holds no estimator: the
 integral over directions at shading points is :class:`~vrlab.render.shading.ShadingIntegrand`,
 and the estimator objects of :mod:`vrlab.estimators` act on it (:mod:`vrlab.render.pixels`).
 
@@ -65,8 +65,7 @@ class DirectLighting:
         self.geometry = SceneGeometry(scene, track_prim=prim)
         emits = np.array([s.emitter is not None for s in scene.shapes], bool)
         # rays leaving a surface only need the first emitter they meet and whether a
-        # non-emitter blocks it: two smaller geometries (see ``trace``)
-        self.emitter_geometry = SceneGeometry(scene, np.flatnonzero(emits), track_prim=prim)
+        # non-emitter blocks it: two smaller geometries (see ``trace``; the emitters' below)
         self.blocker_geometry = SceneGeometry(scene, np.flatnonzero(~emits), track_prim=prim)
         self.camera = scene.sensor
         self.hide_emitters = bool(scene.integrator.hide_emitters)
@@ -114,6 +113,12 @@ class DirectLighting:
                 self.lights = LightSet(shapes, light_selection, free, radius=max(self.geometry.scale, 1e-6))
             except ValueError as exc:            # an emitting shape without light sampling
                 self.light_error = str(exc)
+        # split mesh lights ("bvh": a leaf per triangle) need the exact triangle of each hit
+        split = [] if self.lights is None else self.lights.shape_of_light[self.lights.split].tolist()
+        self.emitter_geometry = SceneGeometry(scene, np.flatnonzero(emits), track_prim=prim or bool(split),
+                                              unmerged=split)
+        #: whether some light's samples must not be hidden by their own light (split meshes)
+        self.self_occluding = bool(split)
         if self.lights is not None:
             self.light_of_shape = np.append(self.lights.light_of_shape, -1)
             if envs:
@@ -296,17 +301,23 @@ class DirectLighting:
         first point along w (``LightSet.sample`` with ``simple`` lights): no non-emitter is
         closer than y by more than ``SHADOW_EPS`` (relative; a distance query without hit
         data) and the first emitter met is light j itself (decided by index, not distance:
-        near a sphere's silhouette its float32 t is too rough to compare)."""
+        near a sphere's silhouette its float32 t is too rough to compare).  For split mesh
+        lights (a triangle per light-BVH leaf) y must be the first point of the mesh itself:
+        no emitter, j included, is closer than y by more than ``SHADOW_EPS``."""
         o = self._origin(p, n, w)
         t_max = dot(y - o, w)
         t_max *= 1.0 - SHADOW_EPS
         visible = np.ones(len(o), bool)
         if self.blocker_geometry.n_shapes:
             visible &= ~self.blocker_geometry.occluded(o, w, t_max)
-        if self.emitter_geometry.n_shapes > 1 or (self.emitter_geometry.n_shapes and self.lights.is_emitter.any()):
-            # another emitter in front of light j
+        if self.emitter_geometry.n_shapes > 1 or self.self_occluding or \
+                (self.emitter_geometry.n_shapes and self.lights.is_emitter.any()):
+            # another emitter in front of light j (or, for split meshes, any part of j itself)
             te, se = self.emitter_geometry.distance(o, w, with_shape=True)
-            visible &= (se == self.lights.shape_of_light[j]) | (te >= t_max)
+            own = se == self.lights.shape_of_light[j]
+            if self.self_occluding:
+                own &= ~self.lights.split[j]
+            visible &= own | (te >= t_max)
         return visible
 
 

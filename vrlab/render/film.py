@@ -228,7 +228,9 @@ def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLi
                          f"for {est.label} with {integrand.units} unit(s) per shading point) exceeds the per-pixel "
                          f"block limit {MAX_PIXEL_WORK}; use spp_batch <= {MAX_PIXEL_WORK // work}")
     if chunk_pixels is None:
-        chunk_pixels = max(1, (4 * _RAYS_PER_CHUNK) // (batch * work))
+        # spatial estimators (ReSTIR) reuse among the pixels of a block: a whole tile, whatever
+        # the work (they bound their memory by steps of sample indices, vrlab.render.reuse)
+        chunk_pixels = TILE_PIXELS if est.spatial else max(1, (4 * _RAYS_PER_CHUNK) // (batch * work))
     elif min(chunk_pixels, TILE_PIXELS) * batch * work > MAX_PIXEL_WORK:
         raise ValueError(f"chunk_pixels: a block of {chunk_pixels} pixels x {batch} spp x {work} (rays + "
                          f"uniforms/4 per sample) exceeds the block limit {MAX_PIXEL_WORK}; use "

@@ -104,9 +104,12 @@ def _rays(origin, direction, t_min, chunk) -> tuple[np.ndarray, np.ndarray]:
 class SceneGeometry:
     """All shapes of ``scene`` as arrays of primitives (see the module docstring), or only
     the shapes ``only`` (indices into ``scene.shapes``, which the hits report);
-    ``track_prim=False``: hits report primitive 0 (no mesh needs its triangle index)."""
+    ``track_prim=False``: hits report primitive 0 (no mesh needs its triangle index);
+    ``unmerged``: shapes whose triangles are never paired into parallelograms (their hits
+    report the exact triangle: the light BVH's per-triangle mesh lights)."""
 
-    def __init__(self, scene: Scene, only: Sequence[int] | None = None, track_prim: bool = True):
+    def __init__(self, scene: Scene, only: Sequence[int] | None = None, track_prim: bool = True,
+                 unmerged: Sequence[int] = ()):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
         if only is not None:
@@ -122,6 +125,7 @@ class SceneGeometry:
         self._n_tri = 0
         self.n_shapes = len(scene.shapes) if only is None else len(only)
         radii = []
+        unmerged = {int(k) for k in unmerged}
         for k in range(len(scene.shapes)) if only is None else [int(i) for i in only]:
             s = scene.shapes[k]
             pts.append(s.center)
@@ -135,7 +139,7 @@ class SceneGeometry:
                     t = part.tri
                     self._n_tri += len(t)
                     pts.append(t.reshape(-1, 3))
-                    if part.merge:
+                    if part.merge and k not in unmerged:
                         tol = 1e-12 * (1.0 + np.max(np.abs(t)))
                         pg, rest, first = parallelograms(t, tol)
                         para.append((pg, k, first))

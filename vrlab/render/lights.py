@@ -6,7 +6,11 @@
   |cos theta_k|).
 * :class:`LightSet`: all lights plus the light-selection table (uniform, or by power =
   mean radiance x area through an ``AliasTable``), or, with ``"bvh"``, pbrt-v4's light BVH:
-  P_j depends on the shading point and its normal (:mod:`vrlab.render.light_tree`).  When every emitter is black, power
+  P_j depends on the shading point and its normal (:mod:`vrlab.render.light_tree`); there an
+  emissive triangle mesh is *split*: each triangle is a leaf, (j, t) ~ P(j, t | p, n), w is
+  sampled towards triangle t and the density is P(j, t | p, n) p_t(w) for the mesh's first
+  triangle t along w (see :meth:`LightSet.sample` for why that convention, not the sum over
+  the ray's hits of :meth:`Light.pdf`, keeps closed or layered meshes unbiased).  When every emitter is black, power
   selection has nothing to weigh: it falls back to uniform selection and the lights
   contribute zero, as they do under any selection (a black image, as in Mitsuba).  ``sample`` draws (light j, direction)
   pairs with density P_j p_j(w); all sphere lights are sampled in one batched call, so
@@ -87,6 +91,32 @@ class Light:
         if self.planar:
             return s.w, s.pdf, dot(ref - s.y, surface.normal(s.y)) > 0, s.y
         return s.w, s.pdf, np.ones(len(s.w), bool), np.full_like(s.y, np.nan)
+
+    def sample_triangle(self, ref: np.ndarray, u: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``(w, p_t(w), front, y)`` of a mesh light's given triangles ``t (m,)`` (a split light of
+        the light BVH): w towards triangle t by area or by its spherical triangle (the
+        emitter's ``triangle_sampling``, ``TriangleMeshSolidAngle.sample_given``), p_t the
+        density given t, front: t's winding normal (flip_normals is in the winding) or, with
+        vertex normals, the shading normal at y faces ``ref``; y the sampled point on t."""
+        s = self.surface.solid_angle_from(ref, **self.directions).sample_given(t, u)
+        normal = self.surface.face_normals[t]
+        if self.shape.has_shading_normals:              # as DirectLighting.facing judges hits
+            normal = self.shape.shading_normals(s.y, normal, t)
+        return s.w, s.pdf, dot(ref - s.y, normal) > 0, s.y
+
+    def pdf_triangle(self, ref: np.ndarray, w: np.ndarray, t: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """``(p_t(w), t)``: the density of ``w`` given the triangle t of this mesh that the ray
+        (ref, w) meets *first* (``t``: known from the renderer's trace; None: found here by
+        ``surface.hits``, O(F) per ray); t = -1 and density 0 where the ray misses the mesh."""
+        if t is None:
+            t = self.surface.hits(np.asarray(ref, float), np.asarray(w, float))[1][:, 0]
+        t = np.asarray(t, np.int64)
+        out = np.zeros(len(t))
+        hit = np.flatnonzero(t >= 0)
+        if len(hit):
+            out[hit] = self.surface.solid_angle_from(ref[hit], **self.directions).pdf_given(w[hit], t[hit])
+        return out, t
 
     def pdf(self, ref: np.ndarray, w: np.ndarray, hit_p: np.ndarray | None = None) -> np.ndarray:
         """Solid-angle pdf of directions ``w`` from ``ref``.  For planar lights, ``hit_p``
@@ -182,6 +212,7 @@ class LightSet:
         self.is_sphere = np.array([l.sphere is not None for l in self.lights])
         self.is_delta = np.array([getattr(l, "is_delta", False) for l in self.lights])
         self.is_emitter = np.array([isinstance(l, EmitterLight) for l in self.lights])
+        self.is_infinite = np.array([getattr(l, "is_infinite", False) for l in self.lights])
         self.centers = np.array([l.sphere[0] if l.sphere is not None else np.zeros(3) for l in self.lights])
         self.radii = np.array([l.sphere[1] if l.sphere is not None else 1.0 for l in self.lights])
         self.signs = np.array([l.sign for l in self.lights])
@@ -199,10 +230,14 @@ class LightSet:
         self.selection = AliasTable(weights)
         #: pbrt-v4's light BVH (``"bvh"``): P_j per shading point; else None (``selection``'s P_j)
         self.tree = None
+        #: lights whose triangles are leaves of the light BVH (mesh lights without vertex normals)
+        self.split = np.zeros(len(self.lights), bool)
         if selection == "bvh":
             from .light_tree import BVHSelection
 
-            self.tree = BVHSelection(self.lights, weights * power)
+            self.split = np.array([isinstance(l, Light) and "method" in getattr(l, "directions", {})
+                                   for l in self.lights], bool)
+            self.tree = BVHSelection(self.lights, weights, power, self.split)
 
     def __len__(self) -> int:
         return len(self.lights)
@@ -213,18 +248,20 @@ class LightSet:
     def __getitem__(self, j: int):
         return self.lights[j]
 
-    def _select(self, ref: np.ndarray, n, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(j, P_j)``: the light chosen by ``u (m,)`` and its selection probability (j = -1,
-        P = 0 where the light BVH finds no light that can reach the point)."""
+    def _select(self, ref: np.ndarray, n, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(j, P, t)``: the light chosen by ``u (m,)``, its selection probability (j = -1,
+        P = 0 where the light BVH finds no light that can reach the point) and, for a split
+        mesh light, the triangle chosen with it (P = P(j, t | p, n)); t = -1 otherwise."""
         if self.tree is not None:
             return self.tree.sample(ref, n, u)
         j = self.selection.sample(u)
-        return j, self.selection.pmf(j)
+        return j, self.selection.pmf(j), np.full(len(j), -1)
 
-    def selection_pmf(self, ref: np.ndarray, j: np.ndarray, n=None) -> np.ndarray:
-        """P_j at points ``ref`` (normals ``n``; None: none) for light indices ``j`` (-1: 0)."""
+    def selection_pmf(self, ref: np.ndarray, j: np.ndarray, n=None, t=None) -> np.ndarray:
+        """P_j at points ``ref`` (normals ``n``; None: none) for light indices ``j`` (-1: 0); for
+        split mesh lights P(j, t | p, n) of triangles ``t`` (None: the marginal over t)."""
         if self.tree is not None:
-            return self.tree.pmf(ref, n, j)
+            return self.tree.pmf(ref, n, j, t)
         return np.where(j >= 0, self.selection.pmf(np.maximum(j, 0)), 0.0)
 
     def sample(self, ref: np.ndarray, u3: np.ndarray, n: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
@@ -234,18 +271,31 @@ class LightSet:
         (see :meth:`Light.sample`; NaN where unknown) and ``le``, the radiance arriving along
         w (None when every light is a shape with a constant radiance: the caller's table).
         ``n``: the points' normals, for ``"bvh"`` selection (None: no normal); with it, j may be
-        -1 (no light can reach the point: pdf 0, not in front)."""
-        j, pj = self._select(ref, n, u3[:, 0])
+        -1 (no light can reach the point: pdf 0, not in front).
+
+        Split mesh lights (``"bvh"``: one leaf per triangle, :mod:`vrlab.render.light_tree`):
+        (j, t) ~ P(j, t | p, n), then w towards triangle t; pdf = P(j, t | p, n) p_t(w) and y
+        the sampled point on t.  That pdf is the density of the light technique *restricted
+        to samples whose triangle t is the first thing seen along w* (the renderer's shadow
+        test of these rows also rejects the mesh itself in front of y): a sample on a far or
+        hidden triangle of a closed mesh contributes 0, and every direction that reaches the
+        mesh's first triangle t* has density P(j, t* | p, n) p_t*(w), the value :meth:`pdf`
+        gives a BSDF sample that hit t*.  So the estimator is unbiased and MIS weights sum to
+        1 (both techniques on the space of (light, first triangle, w)), with no sum over the
+        ray's hits as in :meth:`Light.pdf`."""
+        j, pj, t = self._select(ref, n, u3[:, 0])
         none = j < 0
         if none.any():                    # light 0 stands in for the direction; its pdf is zeroed
-            return (j,) + self._directions(ref, u3, np.maximum(j, 0), np.where(none, 0.0, pj), none)
-        return (j,) + self._directions(ref, u3, j, pj)
+            return (j,) + self._directions(ref, u3, np.maximum(j, 0), np.where(none, 0.0, pj), none, t)
+        return (j,) + self._directions(ref, u3, j, pj, None, t)
 
-    def _directions(self, ref, u3, j, pj, none=None) -> tuple[np.ndarray, ...]:
+    def _directions(self, ref, u3, j, pj, none=None, t=None) -> tuple[np.ndarray, ...]:
         """``(w, pdf, front, y, le)`` of :meth:`sample` for chosen lights ``j`` with selection
-        probabilities ``pj`` (rows ``none``: no light, pdf 0 and not in front)."""
+        probabilities ``pj`` (rows ``none``: no light, pdf 0 and not in front; ``t``: the
+        triangles of split lights)."""
         n = len(ref)
-        if len(self.lights) == 1 and not self.is_sphere[0] and not self.is_emitter[0]:     # no gathers
+        if len(self.lights) == 1 and not self.is_sphere[0] and not self.is_emitter[0] \
+                and not self.split[0]:                                          # no gathers
             w, pdf, front, y = self.lights[0].sample(ref, u3[:, 1:3])
             if none is not None:
                 front = front & ~none
@@ -268,6 +318,11 @@ class LightSet:
                 if le is None:
                     le = np.take(self.radiance32, j, axis=0)
                 w[m], pdf[m], front[m], y[m], le[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
+            elif self.split[i]:
+                tm = t[m]
+                if none is not None:                 # rows without a light stand in with triangle 0
+                    tm = np.maximum(tm, 0)
+                w[m], pdf[m], front[m], y[m] = self.lights[i].sample_triangle(ref[m], u3[m, 1:3], tm)
             else:
                 w[m], pdf[m], front[m], y[m] = self.lights[i].sample(ref[m], u3[m, 1:3])
         if none is not None:
@@ -275,12 +330,15 @@ class LightSet:
         return w, pdf * pj, front, y, le
 
     def pdf(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray, hit_p: np.ndarray | None = None,
-            n: np.ndarray | None = None) -> np.ndarray:
+            n: np.ndarray | None = None, prim: np.ndarray | None = None) -> np.ndarray:
         """P_j p_j(w) for light indices ``j`` (-1: no light, density 0; a delta light: P_j);
         ``hit_p``: where each ray met light j, if known (see :meth:`Light.pdf`; for a sphere
         it means w is in its cone, so only the cone's solid angle is needed); ``n``: the
-        points' normals (``"bvh"`` selection; None: no normal)."""
+        points' normals (``"bvh"`` selection; None: no normal).  Split mesh lights: P(j, t* | p,
+        n) p_t*(w) with t* the first triangle of mesh j along w (see :meth:`sample`): ``prim``
+        (with ``hit_p``), the triangle each ray met, else found by intersecting the mesh."""
         out = np.zeros(len(ref))
+        tri = None
         has = j >= 0
         sph = has & self.is_sphere[np.maximum(j, 0)]
         if sph.any():
@@ -291,8 +349,14 @@ class LightSet:
                 c, r = self._spheres(j[m], ref)
                 out[m] = 1.0 / (2.0 * np.pi * SphereCone.cone_size(norm(c - ref[m]), r))
         for i, m in _rows_by_light(j, ~self.is_sphere):
-            out[m] = self.lights[i].pdf(ref[m], w[m], None if hit_p is None else hit_p[m])
-        return out * self.selection_pmf(ref, j, n)
+            if self.split[i]:
+                if tri is None:
+                    tri = np.full(len(ref), -1)
+                known = None if hit_p is None or prim is None else prim[m]
+                out[m], tri[m] = self.lights[i].pdf_triangle(ref[m], w[m], known)
+            else:
+                out[m] = self.lights[i].pdf(ref[m], w[m], None if hit_p is None else hit_p[m])
+        return out * self.selection_pmf(ref, j, n, tri)
 
     def first_points(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray) -> np.ndarray:
         """The first point along ``w`` of the non-shape lights ``j`` (NaN for other rows): a
@@ -301,6 +365,20 @@ class LightSet:
         for i, m in _rows_by_light(j, self.is_emitter):
             y[m] = self.lights[i].first_point(ref[m], w[m])
         return y
+
+    def point_normals(self, y: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """Unit normals ``(m, 3)`` of shape lights ``j`` at their points ``y``, on the side
+        they emit to (as ``Light.sample`` judges it: a sphere's outward normal times its sign,
+        a planar light's surface normal); zeros for the other rows (non-shape lights, j = -1)."""
+        out = np.zeros(np.shape(y), np.float64)
+        y = np.asarray(y, np.float64)
+        for i, m in _rows_by_light(j, ~self.is_emitter):
+            light = self.lights[i]
+            if light.sphere is not None:
+                out[m] = light.sign * (y[m] - light.sphere[0]) / light.sphere[1]
+            else:
+                out[m] = light.surface.normal(y[m])
+        return out
 
     def emitter_radiance(self, ref: np.ndarray, w: np.ndarray, j: np.ndarray, le: np.ndarray) -> np.ndarray:
         """``le`` (area lights' constant radiance by ``j``) with the rows of non-shape lights

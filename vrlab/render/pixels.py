@@ -82,10 +82,16 @@ class PixelIntegrand:
         self.units = k if units is None else checks.integer(units, "units", low=1, high=MAX_SAMPLES)
         self.lighting = DirectLighting(scene, light_selection)
         probe = self.shading(0, *(np.zeros((0, 3), np.float32) for _ in range(3)))
-        self.estimator.check(probe)
-        self.unit_dim = int(self.estimator.unit_dim(probe))
-        #: columns of the estimator's unit outputs (what a block with nothing to shade is made of)
-        self.columns = self._output_columns()
+        if self.estimator.spatial:                  # reuse across pixels (ReSTIR): vrlab.render.reuse
+            from .reuse import check_spatial
+
+            check_spatial(self, probe)
+            self.columns = 1
+        else:
+            self.estimator.check(probe)
+            self.unit_dim = int(self.estimator.unit_dim(probe))
+            #: columns of the estimator's unit outputs (what a block with nothing to shade is made of)
+            self.columns = self._output_columns()
         self._check_reach(probe.used)
         self.dim = 2 + self.units * self.unit_dim
         evals = int(self.estimator.evals_per_unit)
@@ -148,20 +154,14 @@ class PixelIntegrand:
         if u.ndim != 3 or u.shape[-1] != self.dim or pixels.shape != (u.shape[0], 2):
             raise ValueError(f"u: expected uniforms (P, S, {self.dim}) for pixels (P, 2), got {u.shape} "
                              f"and {pixels.shape}")
+        if self.estimator.spatial:                  # every pixel of the block at once: vrlab.render.reuse
+            from .reuse import spatial_outputs
+
+            return spatial_outputs(self, pixels, u)
         P, S = u.shape[:2]
         lit = self.lighting
-        o, d = lit.camera.pixel_rays(pixels[:, None, :], u[..., :2], np.float32)
-        o, d = o.reshape(-1, 3), d.reshape(-1, 3)
-        # hide_emitters: camera rays pass through emitting shapes (Mitsuba 3.9 draws what lies
-        # behind them), so they meet the other shapes only
-        hits = (lit.blocker_geometry if lit.hide_emitters else lit.geometry).intersect(o, d)
-        if lit.environment is not None and not lit.hide_emitters:       # the environment behind it all
-            lit.escaped(hits, o, d, np.flatnonzero(hits.shape < 0))
-        le = lit.emitted(hits, d)
-        if lit.environment is not None:                                # nothing to shade out there
-            hits.shape[hits.shape == lit.env_shape] = -1
-        shape = np.maximum(hits.shape, 0)
-        group = np.where((hits.shape >= 0) & lit.shaded[shape], lit.group_of_shape[shape], -1)
+        hits, d, le, group = self.camera(pixels, u)
+        R = len(d)                                     # camera rays: P x S
         counts = np.bincount(group + 1, minlength=len(lit.bsdfs) + 1)[1:]
         u2 = u.reshape(P * S, self.dim)
         ue = u2[:, 2:]                                   # a view (whole rows are gathered below: 5x faster)
@@ -169,7 +169,7 @@ class PixelIntegrand:
         n_shading = lit.shading_normals(hits)                           # None: the geometric ones
         for g in np.flatnonzero(counts):
             ns = None
-            if counts[g] == len(o):                                       # one group everywhere: no gathers
+            if counts[g] == R:                                       # one group everywhere: no gathers
                 rows, p, n, wo, ug = slice(None), hits.p, hits.n, -d, ue
                 if n_shading is not None:
                     ns = n_shading
@@ -189,12 +189,32 @@ class PixelIntegrand:
                 if isinstance(rows, slice) and vals.flags.writeable and vals.base is None:
                     out = vals                                 # every ray in this group: no copy
                     continue
-                out = np.zeros((3, len(o), vals.shape[-1]), np.result_type(vals, np.float32))
+                out = np.zeros((3, R, vals.shape[-1]), np.result_type(vals, np.float32))
             out[:, rows] = vals
         if out is None:
-            out = np.zeros((3, len(o), self.columns), np.float32)
+            out = np.zeros((3, R, self.columns), np.float32)
         out = self.estimator.add_emitted(out, le.T)
         return out.reshape(3, P, S, -1)
+
+    def camera(self, pixels: np.ndarray, u: np.ndarray) -> tuple:
+        """``(hits, d, le, group)`` of the camera rays of pixels ``(P, 2)`` with uniforms
+        ``u (P, S, dim)``, rows in (pixel, sample) order: the first hits, ray directions
+        ``(P S, 3)``, the emitted radiance seen ``(P S, 3)`` and each hit's BSDF group (-1:
+        nothing to shade)."""
+        lit = self.lighting
+        o, d = lit.camera.pixel_rays(pixels[:, None, :], u[..., :2], np.float32)
+        o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+        # hide_emitters: camera rays pass through emitting shapes (Mitsuba 3.9 draws what lies
+        # behind them), so they meet the other shapes only
+        hits = (lit.blocker_geometry if lit.hide_emitters else lit.geometry).intersect(o, d)
+        if lit.environment is not None and not lit.hide_emitters:       # the environment behind it all
+            lit.escaped(hits, o, d, np.flatnonzero(hits.shape < 0))
+        le = lit.emitted(hits, d)
+        if lit.environment is not None:                                # nothing to shade out there
+            hits.shape[hits.shape == lit.env_shape] = -1
+        shape = np.maximum(hits.shape, 0)
+        group = np.where((hits.shape >= 0) & lit.shaded[shape], lit.group_of_shape[shape], -1)
+        return hits, d, le, group
 
     def values(self, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
         """The values ``(P, S, 3)`` of the pixel samples (for averaging estimators: each an

@@ -15,6 +15,7 @@ name                estimator                                                   
 ``"mixture"``       ``OneSampleMIS(["bsdf", "light"], probabilities=[n_b, n_l])``          1
 ``"cv"``            ``ControlVariate("lambertian", alpha=1.0, distribution="light")``    n_l
 ``"ris"``           ``RIS("light", target="unshadowed", m=M)``                           n_l
+``"restir"``        ``ReSTIR(candidates=M, neighbours=5, radius=3, mis="pairwise")``     1
 ==================  ================================================================  =========
 
 "units" is the number of the estimator's sample units averaged at each shading point
@@ -22,7 +23,9 @@ name                estimator                                                   
 integrator (Veach's power heuristic, beta = 2); ``"mixture"`` the Russian lecture's
 one-sample mixture (1/2 BSDF + 1/2 light for one sample of each); ``"ris"`` Talbot et
 al. (2005) with the unshadowed target; ``"cv"`` light sampling with the closed-form
-unoccluded Lambertian part as a control variate, alpha = 1.  :data:`PRESETS` is a live view
+unoccluded Lambertian part as a control variate, alpha = 1; ``"restir"`` per-pixel
+reservoirs of M light candidates with spatial reuse among the pixels of a tile
+(:mod:`vrlab.render.reuse`).  :data:`PRESETS` is a live view
 of the registry: a recipe registered with a render builder is a preset at once.
 """
 from __future__ import annotations

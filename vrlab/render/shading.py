@@ -53,12 +53,12 @@ from .techniques import F32, NO_SAMPLE, _Directional, _LightTechnique, _Lobe
 class _Rows:
     """What is known about the rows (samples) of one point array: directions, lights, rays."""
 
-    __slots__ = ("x", "w", "wl", "j", "lobe", "first", "front", "le", "le_raw", "y", "hit_p", "pdfs")
+    __slots__ = ("x", "w", "wl", "j", "lobe", "first", "front", "le", "le_raw", "y", "hit_p", "hit_prim", "pdfs")
 
     def __init__(self, x, w, wl, j, lobe=None):
         self.x, self.w, self.wl, self.j = x, w, wl, j
         self.lobe = lobe                  # None: every row a continuous point (k = -1)
-        self.first = self.front = self.le = self.le_raw = self.y = self.hit_p = None
+        self.first = self.front = self.le = self.le_raw = self.y = self.hit_p = self.hit_prim = None
         self.pdfs: dict = {}
 
 
@@ -250,11 +250,14 @@ class ShadingIntegrand(Integrand):
             hits, _ = lit.trace(p[rows], n[rows], r.w[rows])
             first = lit.light_hit(hits) == r.j[rows]
             if whole:
-                r.hit_p = hits.p
+                r.hit_p, r.hit_prim = hits.p, hits.prim
             else:
                 if r.hit_p is None:
                     r.hit_p = np.full((len(r.j), 3), np.nan, p.dtype)
+                    r.hit_prim = np.full(len(r.j), -1)
                 r.hit_p[rows] = hits.p
+                if hits.prim is not None and r.hit_prim is not None:
+                    r.hit_prim[rows] = hits.prim
             # the traced first hit decides the facing (a light sample on a closed or open mesh
             # may lie on a far or back face: its light is seen from the front only)
             front = lit.facing(hits, r.w[rows])
@@ -310,7 +313,7 @@ class ShadingIntegrand(Integrand):
                 r.pdfs["light"] = np.zeros(len(r.j), F32)
             else:
                 r.pdfs["light"] = lit.lights.pdf(self.rep(self.p, r.x), r.w, r.j, r.hit_p,
-                                                 self.rep(self.n, r.x)).astype(F32)
+                                                 self.rep(self.n, r.x), r.hit_prim).astype(F32)
                 if r.lobe is not None:                       # no light sample is a delta lobe's atom
                     r.pdfs["light"][r.lobe != -1] = 0
         return r.pdfs["light"]

@@ -79,7 +79,7 @@ class _Directional:
         hits, le = lit.trace(s.rep(s.p, u), s.rep(s.n, u), w)
         j = lit.light_hit(hits)
         x, r = s.new_points(w, j, shape, lobe)
-        r.wl, r.le, r.hit_p = wl, le, hits.p
+        r.wl, r.le, r.hit_p, r.hit_prim = wl, le, hits.p, hits.prim
         r.first, r.front = np.ones(len(j), bool), lit.facing(hits, w)
         r.pdfs[self.key] = self._local_pdf(wo_l, wl, r.lobe)
         return x

@@ -284,7 +284,9 @@ def _check_render(est, z: float) -> str:
     value = np.asarray(img.value, float).reshape(-1, 3)
     se = np.asarray(img.stderr, float).reshape(-1, 3)
     mean = value.mean(0)
-    se_mean = np.sqrt(np.sum(se**2, 0)) / len(value)
+    # a spatial estimator's pixels are correlated (samples reused between neighbours): the
+    # image mean's standard error is then bounded by the pixels' mean one (Minkowski), not pooled
+    se_mean = se.mean(0) if est.spatial else np.sqrt(np.sum(se**2, 0)) / len(value)
     tol = np.sqrt(se_mean**2 + (_FOOTPRINT_TOL * CLOSED_FORM_RADIANCE) ** 2)
     scores = np.abs(mean - CLOSED_FORM_RADIANCE) / tol
     if not np.all(np.isfinite(scores)) or np.any(scores > z):

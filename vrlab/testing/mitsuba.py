@@ -232,13 +232,14 @@ def assert_agrees_with_mitsuba(scene: Any, *, samples: int | None = None, refere
                                variant: str = "scalar_rgb", base: Any = None, params: dict | None = None,
                                reference: tuple | None = None, workers: int = 1, alpha: float = 0.01,
                                pass_fraction: float = 0.9975, var_floor: float = 1e-4,
-                               mean_threshold: float = MEAN_Z_THRESHOLD) -> Agreement:
+                               mean_threshold: float = MEAN_Z_THRESHOLD, light_selection: str = "uniform"
+                               ) -> Agreement:
     """Render ``scene`` (file path, built-in name or XML string) with vrlab's ``render`` and
     compare with Mitsuba 3; ``AssertionError`` with the numbers unless both tests pass.
 
     vrlab renders ``spp = max(1, samples // (W H))`` samples per pixel (``samples``: see
-    :func:`sample_budget`, default :data:`DEFAULT_SAMPLES` = Mitsuba's 2e6) with ``estimator``
-    and ``rng``; its RGB image goes to XYZ by :func:`rgb_to_xyz`.  Mitsuba renders the
+    :func:`sample_budget`, default :data:`DEFAULT_SAMPLES` = Mitsuba's 2e6) with ``estimator``,
+    ``rng`` and ``light_selection`` (``"uniform"``, ``"power"`` or ``"bvh"``); its RGB image goes to XYZ by :func:`rgb_to_xyz`.  Mitsuba renders the
     reference (:func:`mitsuba_reference`, ``seed``, ``variant``) with ``reference_factor`` times
     as many samples per pixel (see :data:`REFERENCE_FACTOR`), unless ``reference = (mean,
     var, reference_spp)`` is given (XYZ, as returned by :func:`mitsuba_reference`; e.g. the
@@ -270,7 +271,7 @@ def assert_agrees_with_mitsuba(scene: Any, *, samples: int | None = None, refere
         if ref_mean.shape != (h, w, 3):
             raise ValueError(f"reference: the scene's image is {(h, w, 3)}, the reference {ref_mean.shape}")
     t1 = time.perf_counter()
-    est = render(vscene, spp, estimator, rng=rng, workers=workers)
+    est = render(vscene, spp, estimator, rng=rng, workers=workers, light_selection=light_selection)
     t2 = time.perf_counter()
     value, stderr = np.asarray(est.value, np.float64), np.asarray(est.stderr, np.float64)
     bad = ~(np.isfinite(value) & np.isfinite(stderr))
