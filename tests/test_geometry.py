@@ -131,8 +131,8 @@ def _rays(rng, scene, n, geo):
     return o, d
 
 
-def _check(scene, o, d, t_min):
-    geo = SceneGeometry(scene)
+def _check(scene, o, d, t_min, backend="auto"):
+    geo = SceneGeometry(scene, backend=backend)
     h = geo.intersect(o, d, t_min=t_min)
     t, k, n = reference(scene, o, d, t_min)
     hit = np.isfinite(t)
@@ -217,10 +217,16 @@ def test_builtin_scene_like_rays_and_chunking():
     np.testing.assert_array_equal(c.t, geo.intersect(np.repeat(o[:1], 10, 0), d[:10]).t)
 
 
-def test_one_bvh_over_every_kind_matches_reference(tmp_path):
+@pytest.mark.parametrize("backend", ["numpy", "embree"])
+def test_one_bvh_over_every_kind_matches_reference(tmp_path, backend):
     """Above DENSE_COST every primitive (parallelograms, cube faces, mesh triangles, spheres,
     an ellipsoid, disks) goes into one BVH: closest hits equal the one-primitive-at-a-time
-    reference, and ``occluded`` equals closest t < t_max (any hit)."""
+    reference, and ``occluded`` equals closest t < t_max (any hit).  With ``"embree"`` the
+    planar primitives are Embree's (float32 decisions: the rays here keep clear of edges)."""
+    from vrlab.render.embree import embree_available
+
+    if backend == "embree" and not embree_available():
+        pytest.skip("embreex is not installed on this platform (the NumPy BVH traces everything)")
     rng = np.random.default_rng(12)
     tri = rng.uniform(-0.2, 0.2, (300, 3, 3)) + rng.uniform(-2, 2, (300, 1, 3)) + [0, 1.5, -3]
     v = tri.reshape(-1, 3)
@@ -228,11 +234,12 @@ def test_one_bvh_over_every_kind_matches_reference(tmp_path):
         "\n".join(f"f {3 * k + 1} {3 * k + 2} {3 * k + 3}" for k in range(300)) + "\n"
     (tmp_path / "soup.obj").write_text(text)
     sc = _scene(SHAPES + '<shape type="obj"><string name="filename" value="soup.obj"/></shape>', tmp_path)
-    geo = SceneGeometry(sc)
+    geo = SceneGeometry(sc, backend=backend)
     assert geo.accel is not None and len(geo.accel) > 300
+    assert (geo.accel.embree is not None) == (backend == "embree")
     o, d = _rays(rng, sc, 4000, geo)
     for t_min in (0.0, 0.3):
-        h = _check(sc, o, d, t_min)
+        h = _check(sc, o, d, t_min, backend=backend)
     assert set(range(len(sc.shapes))) <= set(h.shape.tolist())   # every shape was hit
     t_max = rng.uniform(0, 2, len(o)) * np.where(np.isfinite(h.t), h.t, 5.0)
     np.testing.assert_array_equal(geo.occluded(o, d, t_max, t_min=0.3), h.t < t_max)
@@ -459,3 +466,28 @@ def test_distance_queries_match_intersect(ellipsoid):
                                        rtol=2e-6 if dt is np.float32 else 0)
         if only is not None:
             assert set(np.unique(h.shape)) <= {-1, *only}
+
+
+def test_embree_geometry_pickles_and_backend_is_checked(tmp_path):
+    """Workers receive the geometry pickled: the Embree scene is rebuilt there, with the same
+    hits; an unknown backend is refused naming ``backend``."""
+    import pickle
+
+    from vrlab.render.embree import embree_available
+
+    rng = np.random.default_rng(3)
+    tri = rng.uniform(-0.2, 0.2, (400, 3, 3)) + rng.uniform(-2, 2, (400, 1, 3))
+    text = "\n".join(f"v {a} {b} {c}" for a, b, c in tri.reshape(-1, 3)) + "\n" + \
+        "\n".join(f"f {3 * k + 1} {3 * k + 2} {3 * k + 3}" for k in range(400)) + "\n"
+    (tmp_path / "soup.obj").write_text(text)
+    sc = _scene('<shape type="obj"><string name="filename" value="soup.obj"/></shape>', tmp_path)
+    with pytest.raises(ValueError, match="backend"):
+        SceneGeometry(sc, backend="optix")
+    geo = SceneGeometry(sc, backend="embree" if embree_available() else "numpy")
+    o = rng.normal(size=(2000, 3)) * 4
+    d = rng.uniform(-2, 2, (2000, 3)) - o
+    a = geo.intersect(o, d)
+    b = pickle.loads(pickle.dumps(geo)).intersect(o, d)
+    np.testing.assert_array_equal(a.shape, b.shape)
+    np.testing.assert_array_equal(a.t, b.t)
+    assert np.mean(a.shape >= 0) > 0.2

@@ -22,7 +22,7 @@ import numpy as np
 from .bvh import BVH
 from .groups import Planar, Quadrics, unit_sphere_hit
 
-__all__ = ["Accel"]
+__all__ = ["Accel", "BACKENDS"]
 
 
 class _Disks:
@@ -48,13 +48,27 @@ class _Disks:
         return np.where(ok, t, np.inf)
 
 
+BACKENDS = ("auto", "numpy", "embree")
+
+
 class Accel:
     """A BVH over the primitives of ``planar`` (a list of :class:`Planar` groups),
     ``quadrics`` (a :class:`Quadrics` or None) and ``disks`` (``(shape, center, M^-1,
-    normal)`` tuples); see the module docstring."""
+    normal)`` tuples); see the module docstring.  ``backend``: ``"numpy"`` (every kind in the
+    NumPy BVH), ``"embree"`` (planar primitives through Embree, :mod:`vrlab.render.embree`;
+    the others in the NumPy BVH) or ``"auto"`` (Embree where ``embreex`` imports)."""
 
-    def __init__(self, planar: list[Planar], quadrics: Quadrics | None, disks: list):
-        self.kinds: list = list(planar)
+    def __init__(self, planar: list[Planar], quadrics: Quadrics | None, disks: list, backend: str = "auto"):
+        from .embree import EmbreeTriangles, embree_available
+
+        if backend not in BACKENDS:
+            raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
+        if backend == "embree" and not embree_available():
+            raise ValueError("backend: 'embree' needs the embreex package (pip install embreex)")
+        use_embree = bool(planar) and (backend == "embree" or (backend == "auto" and embree_available()))
+        #: the planar groups traced by Embree (None: in the NumPy BVH)
+        self.embree = EmbreeTriangles(planar) if use_embree else None
+        self.kinds: list = [] if use_embree else list(planar)
         if quadrics is not None:
             self.kinds.append(quadrics)
         if disks:
@@ -62,10 +76,10 @@ class Accel:
         sizes = [len(k) for k in self.kinds]
         self.first = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
         lo, hi = zip(*(self._boxes(k) for k in self.kinds)) if self.kinds else ([np.zeros((0, 3))],) * 2
-        self.bvh = BVH.from_boxes(np.concatenate(lo), np.concatenate(hi))
+        self.bvh = BVH.from_boxes(np.concatenate(lo), np.concatenate(hi)) if self.kinds else None
 
     def __len__(self) -> int:
-        return int(self.first[-1])
+        return int(self.first[-1]) + (0 if self.embree is None else sum(len(g) for g in self.embree.planar))
 
     @staticmethod
     def _boxes(kind) -> tuple[np.ndarray, np.ndarray]:
@@ -111,8 +125,17 @@ class Accel:
         return test
 
     def closest(self, o, d, t_min, t, shape, normal, prim=None) -> None:
-        """Update the closest hits ``t, shape, normal`` (and ``prim``) of float64 rays in place."""
+        """Update the closest hits ``t, shape, normal`` (and ``prim``) of rays in place (the NumPy
+        BVH needs float64 rays; Embree's planar hits come first and keep ties)."""
+        if self.embree is not None:
+            self.embree.closest(o, d, t_min, t, shape, normal, prim)
+        if self.bvh is None:
+            return
+        o, d = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
         i, j, tt = self.bvh.closest(o, d, t_min, t, self._test(o, d, t_min))
+        if self.embree is not None and len(i):            # strictly closer than a planar hit
+            keep = tt < t[i]
+            i, j, tt = i[keep], j[keep], tt[keep]
         if not len(i):
             return
         t[i] = tt
@@ -134,5 +157,12 @@ class Accel:
                 prim[rows] = local
 
     def occluded(self, o, d, t_min: float, t_max: np.ndarray) -> np.ndarray:
-        """Whether each float64 ray hits a primitive with ``t_min < t < t_max``."""
-        return self.bvh.occluded(o, d, t_min, t_max, self._test(o, d, t_min))
+        """Whether each ray hits a primitive with ``t_min < t < t_max``."""
+        hit = np.zeros(len(o), bool) if self.embree is None else self.embree.occluded(o, d, t_min, t_max)
+        if self.bvh is not None:
+            rest = np.flatnonzero(~hit)
+            if len(rest):
+                o64, d64 = o[rest].astype(np.float64), d[rest].astype(np.float64)
+                hit[rest] = self.bvh.occluded(o64, d64, t_min, np.broadcast_to(t_max, (len(o),))[rest],
+                                              self._test(o64, d64, t_min))
+        return hit

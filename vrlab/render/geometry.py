@@ -60,7 +60,7 @@ import numpy as np
 
 from .. import checks
 from .._vec import scale
-from .accel import Accel
+from .accel import BACKENDS, Accel
 from .groups import Planar, Quadrics, parallelograms, unit
 from .scene import Scene
 from .shapes.base import CustomPart, DiskPart, Parallelograms, Quadric, Triangles
@@ -106,12 +106,15 @@ class SceneGeometry:
     the shapes ``only`` (indices into ``scene.shapes``, which the hits report);
     ``track_prim=False``: hits report primitive 0 (no mesh needs its triangle index);
     ``unmerged``: shapes whose triangles are never paired into parallelograms (their hits
-    report the exact triangle: the light BVH's per-triangle mesh lights)."""
+    report the exact triangle: the light BVH's per-triangle mesh lights); ``backend``: how a
+    large scene's BVH traces planar primitives (:data:`~vrlab.render.accel.BACKENDS`:
+    ``"auto"`` Embree where ``embreex`` is installed, else NumPy)."""
 
     def __init__(self, scene: Scene, only: Sequence[int] | None = None, track_prim: bool = True,
-                 unmerged: Sequence[int] = ()):
+                 unmerged: Sequence[int] = (), backend: str = "auto"):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
+        checks.choice(backend, "backend", BACKENDS)
         if only is not None:
             idx = np.asarray(only)
             if idx.ndim != 1 or (idx.size and idx.dtype.kind not in "iu"):
@@ -180,7 +183,7 @@ class SceneGeometry:
         self.custom = custom
         #: the BVH over every primitive (:mod:`vrlab.render.accel`) of scenes whose all-pairs
         #: cost exceeds ``DENSE_COST``; None: the all-pairs kernels
-        self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks)
+        self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks, backend)
         pts = np.vstack(pts)
         #: a length scale of the scene (for ray offsets)
         self.scale = float(np.max(np.abs(pts)) + max(radii, default=0.0))
@@ -245,9 +248,9 @@ class SceneGeometry:
         out = np.zeros(len(d), bool)
         for a in range(0, len(d), chunk):
             sl = slice(a, min(a + chunk, len(d)))
-            o64, d64 = o[sl].astype(np.float64), d[sl].astype(np.float64)
-            hit = self.accel.occluded(o64, d64, t_min, t_max[sl])
+            hit = self.accel.occluded(o[sl], d[sl], t_min, t_max[sl])
             if self.custom:
+                o64, d64 = o[sl].astype(np.float64), d[sl].astype(np.float64)
                 t = np.full(len(o64), np.inf)
                 self._custom(o64, d64, t_min, t, np.zeros(len(t), np.int64), np.zeros((len(t), 3)), None)
                 hit |= t < t_max[sl]
@@ -258,10 +261,11 @@ class SceneGeometry:
         """Update ``t``, ``shape``, ``normal`` (views of one chunk) in place; with
         ``finish=False`` (float32 rays) the dense groups only set t and, with ``shapes``,
         the shape."""
-        if self.accel is not None:                     # float64 decisions: float64 rays
-            o64, d64 = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
-            self.accel.closest(o64, d64, t_min, t, shape, normal, prim)
-            self._custom(o64, d64, t_min, t, shape, normal, prim)
+        if self.accel is not None:
+            self.accel.closest(o, d, t_min, t, shape, normal, prim)
+            if self.custom:
+                self._custom(o.astype(np.float64, copy=False), d.astype(np.float64, copy=False), t_min, t, shape,
+                             normal, prim)
             return
         index = finish or shapes
         dense = list(self.planar)

@@ -238,6 +238,8 @@ class LightSet:
             self.split = np.array([isinstance(l, Light) and "method" in getattr(l, "directions", {})
                                    for l in self.lights], bool)
             self.tree = BVHSelection(self.lights, weights, power, self.split)
+            # a split mesh light's sample is a point on one triangle: its first point along w
+            self.simple = all(l.sphere is not None or l.planar or s for l, s in zip(self.lights, self.split))
 
     def __len__(self) -> int:
         return len(self.lights)
@@ -264,7 +266,8 @@ class LightSet:
             return self.tree.pmf(ref, n, j, t)
         return np.where(j >= 0, self.selection.pmf(np.maximum(j, 0)), 0.0)
 
-    def sample(self, ref: np.ndarray, u3: np.ndarray, n: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    def sample(self, ref: np.ndarray, u3: np.ndarray, n: np.ndarray | None = None,
+               triangles: bool = False) -> tuple[np.ndarray, ...]:
         """``(j, w, pdf, front, y, le)`` for uniforms ``u3 (m, 3)``: light j ~ P (``u3[:, 0]``),
         a direction towards it (``u3[:, 1:3]``), pdf = P_j p_j(w) (solid angle; P_j for a
         delta light), whether light j emits towards ``ref`` there, its first point y along w
@@ -282,12 +285,15 @@ class LightSet:
         mesh's first triangle t* has density P(j, t* | p, n) p_t*(w), the value :meth:`pdf`
         gives a BSDF sample that hit t*.  So the estimator is unbiased and MIS weights sum to
         1 (both techniques on the space of (light, first triangle, w)), with no sum over the
-        ray's hits as in :meth:`Light.pdf`."""
+        ray's hits as in :meth:`Light.pdf`.  ``triangles``: also return t, the triangle of each
+        split light's sample (-1 for the other rows), as a seventh array."""
         j, pj, t = self._select(ref, n, u3[:, 0])
         none = j < 0
         if none.any():                    # light 0 stands in for the direction; its pdf is zeroed
-            return (j,) + self._directions(ref, u3, np.maximum(j, 0), np.where(none, 0.0, pj), none, t)
-        return (j,) + self._directions(ref, u3, j, pj, None, t)
+            out = (j,) + self._directions(ref, u3, np.maximum(j, 0), np.where(none, 0.0, pj), none, t)
+        else:
+            out = (j,) + self._directions(ref, u3, j, pj, None, t)
+        return out + (np.where(none, -1, t),) if triangles else out
 
     def _directions(self, ref, u3, j, pj, none=None, t=None) -> tuple[np.ndarray, ...]:
         """``(w, pdf, front, y, le)`` of :meth:`sample` for chosen lights ``j`` with selection
@@ -366,16 +372,25 @@ class LightSet:
             y[m] = self.lights[i].first_point(ref[m], w[m])
         return y
 
-    def point_normals(self, y: np.ndarray, j: np.ndarray) -> np.ndarray:
+    def point_normals(self, y: np.ndarray, j: np.ndarray, t: np.ndarray | None = None,
+                      shading: bool = False) -> np.ndarray:
         """Unit normals ``(m, 3)`` of shape lights ``j`` at their points ``y``, on the side
         they emit to (as ``Light.sample`` judges it: a sphere's outward normal times its sign,
-        a planar light's surface normal); zeros for the other rows (non-shape lights, j = -1)."""
+        a planar light's surface normal; a split mesh light's triangle ``t``: its winding
+        normal, or with ``shading`` and vertex normals the shading normal at y, which decides
+        where it faces); zeros for the other rows (non-shape lights, j = -1)."""
         out = np.zeros(np.shape(y), np.float64)
         y = np.asarray(y, np.float64)
         for i, m in _rows_by_light(j, ~self.is_emitter):
             light = self.lights[i]
             if light.sphere is not None:
                 out[m] = light.sign * (y[m] - light.sphere[0]) / light.sphere[1]
+            elif self.split[i] and t is not None:           # the triangle is known: O(1)
+                tm = np.maximum(np.asarray(t)[m], 0)
+                normal = light.surface.face_normals[tm]
+                if shading and light.shape.has_shading_normals:
+                    normal = light.shape.shading_normals(y[m], normal, tm)
+                out[m] = normal
             else:
                 out[m] = light.surface.normal(y[m])
         return out

@@ -14,8 +14,9 @@ error bar of an image region is not its pixels' errors combined as if independen
 image depends on the block size (``chunk_pixels``), not on how blocks are run.
 
 Samples are light points.  A candidate of pixel b is a ``"light"`` technique sample at its
-shading point p_b (any ``light_selection``), kept as x = (y, j): the point y on light j (the
-light's position for delta lights, a direction for lights at infinity).  A sample of pixel s
+shading point p_b (any ``light_selection``), kept as x = (y, j, t): the point y on light j
+(the light's position for delta lights, a direction for lights at infinity) and, for a mesh
+light split into triangles by the light BVH, the triangle t (its normal without a search).  A sample of pixel s
 moves to pixel c by *reconnection*, w_c = normalize(y - p_c), whose Jacobian between the
 solid-angle measures of the two pixels is
 
@@ -34,7 +35,8 @@ counts M = 0, so that pixel reuses fewer than k samples, which the pairwise and 
 weights handle (sum to 1 over the present contributors).  Not wrapped around.
 
 Scenes: the lights must give their sampled point (spheres, planar shapes, point, spot,
-directional, environment: ``LightSet.simple``); BSDFs with delta lobes are refused (light
+directional, environment, and with ``light_selection="bvh"`` triangle meshes, sampled one
+triangle at a time: ``LightSet.simple``); BSDFs with delta lobes are refused (light
 points never reach a delta lobe), as for every estimator without the ``"bsdf"`` technique.
 """
 from __future__ import annotations
@@ -94,7 +96,8 @@ def spatial_outputs(integrand, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
 class BlockPixels:
     """The camera samples of a block as the pixels of N independent spatial units: pixel b of
     unit n is the camera ray of pixel b with sample index n (row b N + n of ``hits``).  Points
-    are light points x = (y_x, y_y, y_z, j) ``(N, ..., 4)`` (first axis: the unit), pixel
+    are light points x = (y_x, y_y, y_z, j, t) ``(N, ..., 5)`` (first axis: the unit; t the
+    triangle of a split mesh light, -1 otherwise), pixel
     indices broadcast to ``x.shape[:-1]`` (the interface of ``vrlab.estimators.restir.PixelView``).
     """
 
@@ -130,7 +133,7 @@ class BlockPixels:
                              None if values is None else {a: v[k] for a, v in values.items()},
                              None if tangents is None else (tangents[0][k], tangents[1][k]))
 
-    def _G(self, y: np.ndarray, j: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    def _G(self, y: np.ndarray, j: np.ndarray, tri: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """G_b(y) = |cos theta_y| / |y - p_b|^2 at camera rows ``rows`` (1 for delta lights and
         lights at infinity; 0 where there is no light or no shading point)."""
         out = np.zeros(len(rows))
@@ -144,7 +147,7 @@ class BlockPixels:
             m = np.flatnonzero(area)
             v = y[m] - np.asarray(self.p[rows[m]], np.float64)
             d2 = np.sum(v * v, -1)
-            cos = np.abs(np.sum(self.lights.point_normals(y[m], jj[m]) * v, -1))
+            cos = np.abs(np.sum(self.lights.point_normals(y[m], jj[m], tri[m]) * v, -1))
             out[m] = np.divide(cos, d2 * np.sqrt(d2), out=np.zeros(len(m)), where=d2 > 0)
         return out
 
@@ -154,7 +157,7 @@ class BlockPixels:
         ``uc (N, B, c, 3)`` as light points, their densities (solid angle x lights, P_j for a
         delta light) and the pixels' unshadowed targets there (no ray)."""
         N, B, c, dd = uc.shape
-        x, p, t = np.zeros((N * B, c, 4)), np.zeros((N * B, c)), np.zeros((N * B, c))
+        x, p, t = np.zeros((N * B, c, 5)), np.zeros((N * B, c)), np.zeros((N * B, c))
         ue = uc.reshape(N * B, c, dd)
         for g, (rows, *_) in (self.groups.items() if self.lights is not None else ()):
             entries = (rows % N) * B + rows // N            # unit-major (n, b) of camera row b N + n
@@ -165,8 +168,9 @@ class BlockPixels:
             t[entries] = sh.targets["unshadowed"](xs)
             r = sh.rows(xs)
             y = np.where(self.lights.is_infinite[np.maximum(r.j, 0)][:, None], r.w, r.y)
-            x[entries] = np.concatenate([y, r.j[:, None]], -1).reshape(len(rows), c, 4)
-        return x.reshape(N, B, c, 4), p.reshape(N, B, c), t.reshape(N, B, c)
+            tri = np.full(len(r.j), -1) if r.tri is None else r.tri
+            x[entries] = np.concatenate([y, r.j[:, None], tri[:, None]], -1).reshape(len(rows), c, 5)
+        return x.reshape(N, B, c, 5), p.reshape(N, B, c), t.reshape(N, B, c)
 
     def _evaluate(self, x: np.ndarray, pix) -> tuple[np.ndarray, np.ndarray]:
         """``(f (3, ...), p̂ (...))`` of light points x at pixels ``pix`` (the last call cached:
@@ -176,7 +180,7 @@ class BlockPixels:
             return last[2], last[3]
         lead = x.shape[:-1]
         rows = self._rows(lead, pix)
-        xf = x.reshape(-1, 4)
+        xf = x.reshape(-1, 5)
         f, t = np.zeros((3, len(rows)), F32), np.zeros(len(rows))
         grp = self.group[rows]
         for g in self.groups:
@@ -194,7 +198,7 @@ class BlockPixels:
         """Shading points ``(R, 1, 5)`` reconnecting each shading point of ``sh`` to its light
         point, with the rows' light point, facing and (no ray yet) cached."""
         lights = self.lights
-        y, j = xl[:, :3], np.rint(xl[:, 3]).astype(np.int64)
+        y, j, tri = xl[:, :3], np.rint(xl[:, 3]).astype(np.int64), np.rint(xl[:, 4]).astype(np.int64)
         jj = np.maximum(j, 0)
         p = np.asarray(sh.p, np.float64)
         inf = lights.is_infinite[jj]
@@ -202,7 +206,8 @@ class BlockPixels:
         dist = np.sqrt(np.sum(v * v, -1))
         valid = (j >= 0) & (dist > 0)
         w = np.divide(v, dist[:, None], out=np.tile([0.0, 0.0, 1.0], (len(v), 1)), where=valid[:, None])
-        front = valid & (lights.is_emitter[jj] | (np.sum((p - y) * lights.point_normals(y, jj), -1) > 0))
+        front = valid & (lights.is_emitter[jj] | (np.sum((p - y) * lights.point_normals(y, jj, tri, shading=True),
+                                                         -1) > 0))
         x5, r = sh.new_points(w.astype(F32), np.where(valid, j, -1), (len(w), 1))
         r.y = np.where(inf[:, None], p + EmitterLight.FAR * w, y).astype(F32)
         r.front = front
@@ -224,9 +229,9 @@ class BlockPixels:
         """Reconnection from pixel src to pixel dst: the same light point, Jacobian
         J = G_dst(y) / G_src(y) (module docstring)."""
         lead = x.shape[:-1]
-        xf = x.reshape(-1, 4)
-        y, j = xf[:, :3], np.rint(xf[:, 3]).astype(np.int64)
-        gs, gd = self._G(y, j, self._rows(lead, src)), self._G(y, j, self._rows(lead, dst))
+        xf = x.reshape(-1, 5)
+        y, j, tri = xf[:, :3], np.rint(xf[:, 3]).astype(np.int64), np.rint(xf[:, 4]).astype(np.int64)
+        gs, gd = self._G(y, j, tri, self._rows(lead, src)), self._G(y, j, tri, self._rows(lead, dst))
         return x, np.divide(gd, gs, out=np.zeros(len(gs)), where=gs > 0).reshape(lead)
 
     def neighbours(self, un: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:

@@ -53,12 +53,13 @@ from .techniques import F32, NO_SAMPLE, _Directional, _LightTechnique, _Lobe
 class _Rows:
     """What is known about the rows (samples) of one point array: directions, lights, rays."""
 
-    __slots__ = ("x", "w", "wl", "j", "lobe", "first", "front", "le", "le_raw", "y", "hit_p", "hit_prim", "pdfs")
+    __slots__ = ("x", "w", "wl", "j", "lobe", "first", "front", "le", "le_raw", "y", "hit_p", "hit_prim", "tri",
+                 "pdfs")
 
     def __init__(self, x, w, wl, j, lobe=None):
         self.x, self.w, self.wl, self.j = x, w, wl, j
         self.lobe = lobe                  # None: every row a continuous point (k = -1)
-        self.first = self.front = self.le = self.le_raw = self.y = self.hit_p = self.hit_prim = None
+        self.first = self.front = self.le = self.le_raw = self.y = self.hit_p = self.hit_prim = self.tri = None
         self.pdfs: dict = {}
 
 

@@ -151,9 +151,9 @@ class _LightTechnique:
             x, r = s.new_points(s.rep(s.n, u), np.full(len(p), -1), shape)
             r.pdfs["light"], r.first, r.front = np.zeros(len(p), F32), np.zeros(len(p), bool), np.zeros(len(p), bool)
             return x
-        j, w, pdf, front, y, le = lit.lights.sample(p, u.reshape(-1, 3), s.rep(s.n, u))
+        j, w, pdf, front, y, le, tri = lit.lights.sample(p, u.reshape(-1, 3), s.rep(s.n, u), triangles=True)
         x, r = s.new_points(w, j, shape)
-        r.pdfs["light"], r.front, r.y, r.le_raw = pdf.astype(F32), front, y, le
+        r.pdfs["light"], r.front, r.y, r.le_raw, r.tri = pdf.astype(F32), front, y, le, tri
         return x
 
     def pdf(self, x: np.ndarray) -> np.ndarray:
