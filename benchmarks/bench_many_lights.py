@@ -47,12 +47,18 @@ SELECTIONS = ("uniform", "power", "bvh")
 
 
 def methods(m: int):
-    """(label, strategy, light_selection, options) of every vrlab run."""
+    """(label, strategy, light_selection, options) of every vrlab run: light, mis-power and RIS
+    with each selection, and ReSTIR (M candidates, 5 neighbours within 3 pixels, one pass) with
+    each of its reuse weights on bvh candidates, and pairwise on power candidates."""
+    from vrlab.estimators import ReSTIR
+
     out = []
     for strategy in ("light", "mis-power", "ris"):
         for sel in SELECTIONS:
             opts = {"ris_candidates": m} if strategy == "ris" else {}
             out.append((f"{strategy} {sel}" + (f" M={m}" if strategy == "ris" else ""), strategy, sel, opts))
+    for mis, sel in (("pairwise", "bvh"), ("balance", "bvh"), ("1/M", "bvh"), ("pairwise", "power")):
+        out.append((f"restir {mis} {sel} M={m}", ReSTIR(candidates=m, neighbours=5, radius=3, mis=mis), sel, {}))
     return out
 
 
@@ -61,6 +67,31 @@ def mitsuba_scene(mi, name, xml_path, w, h):
         from mitsuba_references import load
         return load(mi, name, w, h)
     return mi.load_file(str(xml_path))
+
+
+def llvm_runner(mi, name, xml, w, h, spp):
+    """A render function of Mitsuba's ``llvm_ad_rgb`` variant (one thread; its first, compiling
+    render done here), or None without a libLLVM (see ``bench_bsdfs.py``)."""
+    import drjit as dr
+    try:
+        mi.set_variant("llvm_ad_rgb")
+        dr.set_thread_count(1)
+        scene = mitsuba_scene(mi, name, xml, w, h)
+        mi.render(scene, spp=spp, seed=0)
+    except Exception as exc:  # noqa: BLE001 - no LLVM: the row is left out
+        print(f"(no llvm_ad_rgb rows: {exc})")
+        mi.set_variant("scalar_rgb")
+        return None
+    mi.set_variant("scalar_rgb")
+
+    def run(seed):
+        mi.set_variant("llvm_ad_rgb")
+        dr.set_thread_count(1)
+        img = mi.render(scene, spp=spp, seed=seed)
+        out = np.array(img, np.float64)[..., :3]
+        mi.set_variant("scalar_rgb")
+        return out
+    return run
 
 
 def reference(mi, scene, ref_spp):
@@ -120,6 +151,9 @@ def main(argv=None):
             dr.set_thread_count(1)
             return np.array(mi.render(ms, spp=spp, seed=seed), np.float64)[..., :3]
         runs["mitsuba direct"] = mitsuba_run
+        llvm = llvm_runner(mi, name, xml, w, h, spp)
+        if llvm is not None:
+            runs["mitsuba llvm_ad_rgb direct"] = llvm
         err = {k: [] for k in runs}
         err_lit = {k: [] for k in runs}
         cpu = {k: np.inf for k in runs}

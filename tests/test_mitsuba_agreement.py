@@ -120,7 +120,8 @@ def test_agrees_with_mitsuba(name, spp, block, mean_tol):
     ("cornell_box", "cv", {}),
     ("many_lights", "ris", {"ris_candidates": 8, "light_selection": "power"}),
     ("veach_mis", "mixture", {}),
-], ids=["cornell_box-cv", "many_lights-ris", "veach_mis-mixture"])
+    ("many_lights", "restir", {"ris_candidates": 8, "light_selection": "bvh"}),
+], ids=["cornell_box-cv", "many_lights-ris", "veach_mis-mixture", "many_lights-restir-bvh"])
 def test_other_strategies_agree_with_mitsuba(name, strategy, options):
     """The same expected image from a different estimator: vrlab's own strategies against
     Mitsuba's MIS reference (with the conservative variance model of ``compare``).
