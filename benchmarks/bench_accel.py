@@ -1,5 +1,7 @@
-"""Ray intersection against primitive count: vrlab's BVH (``vrlab.render.accel``), its all-pairs
-kernels and Mitsuba 3 side by side, from 10 to 10^6 primitives (issue 24).
+"""Ray intersection against primitive count: vrlab's NumPy BVH (``vrlab.render.accel``), its
+all-pairs kernels, Embree through ``embreex`` (``vrlab.render.embree``: what large triangle
+scenes use where it is installed) and Mitsuba 3 side by side, from 10 to 10^6 primitives
+(issue 24).
 
     python benchmarks/bench_accel.py [--rays 32768] [--max 1000000] [--rounds 3] [--no-mitsuba]
 
@@ -28,6 +30,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from vrlab.render.accel import Accel  # noqa: E402
+from vrlab.render.embree import embree_available  # noqa: E402
 from vrlab.render.groups import Planar, Quadrics, unit  # noqa: E402
 
 
@@ -56,7 +59,7 @@ def triangles(P: int, n: int, rounds: int, dense_limit: float, rng) -> dict:
     ids = np.zeros(len(t), np.int64)
     t0 = time.perf_counter()
     group = Planar(v0, e1, e2, unit(np.cross(e1, e2)), ids, False, dense=False)
-    acc = Accel([group], None, [])
+    acc = Accel([group], None, [], backend="numpy")
     build = time.perf_counter() - t0
     o = rng.normal(size=(n, 3))
     o *= 3 / np.linalg.norm(o, axis=1, keepdims=True)
@@ -67,6 +70,13 @@ def triangles(P: int, n: int, rounds: int, dense_limit: float, rng) -> dict:
     acc.closest(o, d, 0.0, T, S, N)
     t_max = np.where(np.isfinite(T), 0.5 * T, 1.0)
     row["bvh any-hit"] = n / best_of(rounds, lambda: acc.occluded(o, d, 0.0, t_max))
+    if embree_available():
+        t0 = time.perf_counter()
+        emb = Accel([group], None, [], backend="embree")
+        emb.closest(o[:1], d[:1], 0.0, np.full(1, np.inf), np.full(1, -1), np.zeros((1, 3)))   # builds Embree's BVH
+        row["embree build s"] = time.perf_counter() - t0
+        row["embree closest"] = n / best_of(rounds, lambda: emb.closest(o, d, 0.0, np.full(n, np.inf), S, N))
+        row["embree any-hit"] = n / best_of(rounds, lambda: emb.occluded(o, d, 0.0, t_max))
     if len(t) <= dense_limit:
         dense = Planar(v0, e1, e2, unit(np.cross(e1, e2)), ids, False)
         o4 = np.ones((4, n), np.float32)
@@ -165,14 +175,16 @@ def main(argv=None) -> None:
     for P in sizes:
         rows.append(spheres(P, a.rays, a.rounds, 100_000, rng))
         print(rows[-1], flush=True)
-    cols = ["kind", "P", "build s", "bvh closest", "bvh any-hit", "all pairs", "mitsuba llvm_ad_rgb",
-            "mitsuba scalar_rgb"]
-    print("\n| " + " | ".join(cols + ["ratio all pairs", "ratio llvm"]) + " |")
+    cols = ["kind", "P", "build s", "bvh closest", "bvh any-hit", "all pairs", "embree build s", "embree closest",
+            "embree any-hit", "mitsuba llvm_ad_rgb", "mitsuba scalar_rgb"]
+    print("\nrays/s (build in seconds); ratios: NumPy BVH / all pairs, Embree / Mitsuba llvm_ad_rgb")
+    print("\n| " + " | ".join(cols + ["bvh / all pairs", "embree / llvm"]) + " |")
     print("|" + "---|" * (len(cols) + 2))
     for r in rows:
         cells = [r["kind"], str(r["P"])] + [f"{r[c]:.3g}" if c in r else "" for c in cols[2:]]
         cells.append(f"{r['bvh closest'] / r['all pairs']:.2f}" if "all pairs" in r else "")
-        cells.append(f"{r['bvh closest'] / r['mitsuba llvm_ad_rgb']:.3f}" if "mitsuba llvm_ad_rgb" in r else "")
+        ok = "mitsuba llvm_ad_rgb" in r and "embree closest" in r
+        cells.append(f"{r['embree closest'] / r['mitsuba llvm_ad_rgb']:.2f}" if ok else "")
         print("| " + " | ".join(cells) + " |")
 
 

@@ -11,13 +11,13 @@ backend and closed.
 
 NAMES = ("importance_sampling", "cosine_sampling", "light_surfaces", "mis", "antithetic_crn",
          "control_variates", "ris", "sampling_patterns", "discrete_sampling", "metropolis_hastings",
-         "gradient_domain", "environment_lighting")
+         "gradient_domain", "environment_lighting", "restir")
 
 __all__ = ["NAMES", "export_notebooks", "list_notebooks"]
 
 
 def list_notebooks() -> list[str]:
-    """File names of the lecture notebooks shipped with vrlab (``01_...ipynb`` to ``12_...``)."""
+    """File names of the lecture notebooks shipped with vrlab (``01_...ipynb`` to ``13_...``)."""
     from importlib import resources
 
     return sorted(p.name for p in resources.files("vrlab.notebooks").iterdir() if p.name.endswith(".ipynb"))
