@@ -274,14 +274,13 @@ def test_ignoring_the_distance_term_fails_the_oracle(monkeypatch):
     bvh = LightBVH(**random_scene(50, seed=11))
     p, n = random_points(10, seed=11)
     assert agrees_with_oracle(bvh, p, n)
-    real = LB.importance
+    real = LB.importance_prepared            # the tree walk's importance (prepared node bounds)
 
-    def no_distance(b, q, nn, floor2=1e-300):
-        pc = (b.lo + b.hi) / 2
-        d2 = np.maximum(((q - pc) ** 2).sum(1), ((b.hi - b.lo) ** 2).sum(1) / 4)
-        return real(b, q, nn, floor2) * d2
+    def no_distance(t, q, *args, **kwargs):   # q: points as columns (3, ...)
+        d2 = np.maximum(sum((q[k] - t.pc[k]) ** 2 for k in range(3)), t.r2)
+        return real(t, q, *args, **kwargs) * d2
 
-    monkeypatch.setattr(LB, "importance", no_distance)
+    monkeypatch.setattr(LB, "importance_prepared", no_distance)
     assert not agrees_with_oracle(bvh, p, n)
 
 

@@ -48,7 +48,8 @@ import numpy as np
 
 from .._vec import dot, norm, scale
 
-__all__ = ["Bounds", "cone_union", "union", "importance", "split_cost", "empty_bounds"]
+__all__ = ["Bounds", "Prepared", "cone_union", "union", "importance", "importance_prepared", "prepare",
+           "split_cost", "empty_bounds"]
 
 
 class Bounds(NamedTuple):
@@ -133,35 +134,105 @@ def _sin_sub(sin_a, cos_a, sin_b, cos_b):
 
 
 def _sin(cos):
-    return np.sqrt(np.maximum(1.0 - cos * cos, 0.0))
+    s = cos * cos
+    np.subtract(1.0, s, out=s)
+    np.maximum(s, 0.0, out=s)
+    return np.sqrt(s, out=s)
+
+
+class Prepared(NamedTuple):
+    """Light bounds in the form :func:`importance_prepared` reads, fields component-first so
+    that every array is contiguous: ``pc (3, *S)`` the box centre, ``w (3, *S)`` the cone axis,
+    ``r2 (*S)`` the squared radius of the box's bounding sphere, ``cos_o, sin_o, cos_e, phi
+    (*S)``, ``two (*S)`` bool or None (no record is two-sided)."""
+    pc: np.ndarray
+    w: np.ndarray
+    r2: np.ndarray
+    cos_o: np.ndarray
+    sin_o: np.ndarray
+    cos_e: np.ndarray
+    phi: np.ndarray
+    two: np.ndarray | None
+
+
+def prepare(b: Bounds) -> Prepared:
+    """The per-record constants of :func:`importance` (``two`` None if no record is two-sided)."""
+    e = b.hi - b.lo
+    return Prepared(np.ascontiguousarray(((b.lo + b.hi) / 2).T), np.ascontiguousarray(b.w.T), dot(e, e) / 4,
+                    b.cos_o, _sin(b.cos_o), b.cos_e, b.phi, b.two if b.two.any() else None)
 
 
 def importance(b: Bounds, p: np.ndarray, n: np.ndarray, floor2: float = 1e-300) -> np.ndarray:
     """pbrt-v4's importance of records ``b`` (m rows) at points ``p (m, 3)`` with normals
     ``n (m, 3)`` (unit, or 0 for none); ``floor2``: a lower bound on d^2 (a point light at
     p itself).  Empty records (phi = 0) have importance 0."""
-    pc = (b.lo + b.hi) / 2
-    rel = p - pc
-    dist2 = dot(rel, rel)
-    r2 = dot(b.hi - b.lo, b.hi - b.lo) / 4                # squared radius of the bounding sphere
-    d2 = np.maximum(np.maximum(dist2, r2), floor2)
-    inv = 1.0 / np.sqrt(np.where(dist2 > 0, dist2, 1.0))
-    wi = np.where((dist2 > 0)[:, None], scale(rel, inv), b.w)   # any unit vector when p = pc
-    cos_w = dot(b.w, wi)
-    cos_w = np.where(b.two, np.abs(cos_w), cos_w)
-    sin_w = _sin(cos_w)
-    inside = dist2 < r2
-    cos_b = np.where(inside, -1.0, np.sqrt(np.maximum(1.0 - r2 / np.where(inside, 1.0, d2), 0.0)))
-    sin_b = _sin(cos_b)
-    sin_o = _sin(b.cos_o)
-    cos_x = _cos_sub(sin_w, cos_w, sin_o, b.cos_o)
-    sin_x = _sin_sub(sin_w, cos_w, sin_o, b.cos_o)
-    cos_p = _cos_sub(sin_x, cos_x, sin_b, cos_b)
-    imp = b.phi * cos_p / d2
-    cos_i = np.abs(dot(wi, n))
     has_n = dot(n, n) > 0
-    imp = np.where(has_n, imp * _cos_sub(_sin(cos_i), cos_i, sin_b, cos_b), imp)
-    return np.where((cos_p > b.cos_e) & (b.phi > 0), np.maximum(imp, 0.0), 0.0)
+    return importance_prepared(prepare(b), p.T, n.T if has_n.any() else None, floor2,
+                               None if has_n.all() else has_n)
+
+
+def importance_prepared(t: Prepared, p, n=None, floor2: float = 1e-300, has_n=None,
+                        positive: bool = False) -> np.ndarray:
+    """:func:`importance` of prepared records ``t`` (fields of shape S) at points ``p (3, ...)``
+    (component-first, broadcasting against S) with unit normals ``n (3, ...)`` (None: no point
+    has one; ``has_n``: which points have one, None: all).  ``positive``: every record has
+    phi > 0 (skips that test).  The same operations in the same order for every element, so
+    a record's importance at a point does not depend on what else is in the batch."""
+    rx, ry, rz = p[0] - t.pc[0], p[1] - t.pc[1], p[2] - t.pc[2]
+    dist2 = rx * rx
+    dist2 += ry * ry
+    dist2 += rz * rz
+    d2 = np.maximum(dist2, t.r2)
+    np.maximum(d2, floor2, out=d2)
+    pos = dist2 > 0
+    centre = not pos.all()                           # p at a box centre: wi is any unit vector
+    inv = np.sqrt(np.where(pos, dist2, 1.0) if centre else dist2)
+    np.divide(1.0, inv, out=inv)
+    rx *= inv
+    ry *= inv
+    rz *= inv
+    if centre:
+        rx, ry, rz = (np.where(pos, r, wk) for r, wk in zip((rx, ry, rz), t.w))
+    cos_w = t.w[0] * rx
+    cos_w += t.w[1] * ry
+    cos_w += t.w[2] * rz
+    if t.two is not None:
+        cos_w = np.where(t.two, np.abs(cos_w), cos_w)
+    sin_w = _sin(cos_w)
+    inside = dist2 < t.r2
+    cos_b = np.divide(t.r2, d2, out=dist2)            # dist2 is not needed below
+    np.subtract(1.0, cos_b, out=cos_b)
+    np.maximum(cos_b, 0.0, out=cos_b)
+    np.sqrt(cos_b, out=cos_b)
+    cos_b = np.where(inside, -1.0, cos_b)             # (np.where: masked stores are slower)
+    sin_b = _sin(cos_b)
+    gt = cos_w > t.cos_o
+    cos_x = cos_w * t.cos_o
+    cos_x += sin_w * t.sin_o
+    cos_x = np.where(gt, 1.0, cos_x)
+    sin_x = sin_w * t.cos_o
+    sin_x -= cos_w * t.sin_o
+    sin_x = np.where(gt, 0.0, sin_x)
+    cos_p = cos_x * cos_b
+    cos_p += sin_x * sin_b
+    cos_p = np.where(cos_x > cos_b, 1.0, cos_p)
+    imp = t.phi * cos_p
+    imp /= d2
+    if n is not None:
+        cos_i = rx * n[0]
+        cos_i += ry * n[1]
+        cos_i += rz * n[2]
+        np.abs(cos_i, out=cos_i)
+        f = _cos_sub(_sin(cos_i), cos_i, sin_b, cos_b)
+        if has_n is None:
+            imp *= f
+        else:
+            imp = np.where(has_n, imp * f, imp)
+    ok = cos_p > t.cos_e
+    if not positive:
+        ok &= t.phi > 0
+    np.maximum(imp, 0.0, out=imp)
+    return np.where(ok, imp, 0.0)
 
 
 def orientation_measure(cos_o: np.ndarray, cos_e: np.ndarray) -> np.ndarray:

@@ -15,7 +15,11 @@ level; at the leaf, ``P(j | p, n) = prod P_c`` along the path.  If both children
 importance 0 (no light below can reach p) the point gets no light (j = -1, pmf 0); so
 the pmf sums to 1 over the lights minus the mass of such dead ends.  All points walk down
 together, one tree level per NumPy step.  ``pmf(p, n, j)`` walks the same path, read from
-each light's stored bit trail (child 0 or 1 at each depth).
+each light's stored bit trail (child 0 or 1 at each depth).  Both read the children's
+prepared bounds (``light_bounds.prepare``: centre, radius, sines, one table row per node) with
+``light_bounds.importance_prepared``, the same operations as ``importance``; consecutive
+rows at the same point (RIS candidates) are walked in order of u and share the importances
+of the nodes they pass together, with unchanged values.  The build is in ``light_bvh_build``.
 
 **One light**: the root is a leaf.  As pbrt-v4's ``Sample``, it is returned with pmf 1
 where its importance is > 0, else no light; pbrt's ``PDF`` returns 1 everywhere, ours
@@ -41,100 +45,13 @@ from __future__ import annotations
 import numpy as np
 
 from .. import checks
-from .light_bounds import Bounds, empty_bounds, importance, split_cost, union
+from .._vec import dot
+from .light_bounds import Bounds, Prepared, empty_bounds, importance, importance_prepared, prepare, union
+from .light_bvh_build import split_sides
 
 __all__ = ["LightBVH"]
 
-N_BUCKETS = 12
 _ONE_MINUS_EPS = np.nextafter(1.0, 0.0)
-
-
-def _segments(key: np.ndarray):
-    """``(order, starts, rank)``: a stable sort of ``key``, the first sorted position of
-    each run of equal keys and each sorted item's rank within its run."""
-    order = np.argsort(key, kind="stable")
-    k = key[order]
-    new = np.ones(len(k), bool)
-    new[1:] = k[1:] != k[:-1]
-    starts = np.flatnonzero(new)
-    run = np.cumsum(new) - 1
-    rank = np.arange(len(k)) - starts[run]
-    return order, starts, rank, run
-
-
-def _segment_union(b: Bounds, key: np.ndarray) -> tuple[np.ndarray, Bounds]:
-    """``(keys, unions)``: the union of the records with each distinct ``key``, by a
-    pairwise tree reduction (log2 of the longest run of NumPy steps)."""
-    order, starts, rank, run = _segments(key)
-    acc = b.take(order)
-    size = np.diff(np.append(starts, len(order)))[run]
-    s = 1
-    while s < (size.max() if len(size) else 0):
-        i = np.flatnonzero((rank % (2 * s) == 0) & (rank + s < size))
-        acc.put(i, union(acc.take(i), acc.take(i + s)))
-        s *= 2
-    return key[order][starts], acc.take(starts)
-
-
-def _split_sides(b: Bounds, group: np.ndarray, n_groups: int) -> np.ndarray:
-    """For lights ``b`` in nodes ``group`` (0..n_groups-1, each with >= 2 lights): True for
-    the lights that go to child 1 (see the module docstring: binned SAOH, median fallback)."""
-    G, B = n_groups, N_BUCKETS
-    c = (b.lo + b.hi) / 2
-    cmin = np.full((G, 3), np.inf)
-    cmax = np.full((G, 3), -np.inf)
-    np.minimum.at(cmin, group, c)
-    np.maximum.at(cmax, group, c)
-    bmin = np.full((G, 3), np.inf)
-    bmax = np.full((G, 3), -np.inf)
-    np.minimum.at(bmin, group, b.lo)
-    np.maximum.at(bmax, group, b.hi)
-    ext = cmax - cmin
-    with np.errstate(invalid="ignore", divide="ignore"):
-        bucket = np.minimum((B * (c - cmin[group]) / ext[group]).astype(np.int64, copy=False), B - 1)
-    bucket = np.where(ext[group] > 0, np.clip(bucket, 0, B - 1), 0)              # (K, 3)
-    # bucket bounds for every (axis, node, bucket) at once
-    K = len(group)
-    key = ((np.arange(3)[:, None] * G + group[None, :]) * B + bucket.T).ravel()
-    keys, ub = _segment_union(b.take(np.tile(np.arange(K), 3)), key)
-    buckets = empty_bounds(3 * G * B)
-    buckets.put(keys, ub)
-    buckets = Bounds(*(f.reshape((3 * G, B) + f.shape[1:]) for f in buckets))
-    col = lambda i: Bounds(*(f[:, i] for f in buckets))               # noqa: E731
-    below = [col(0)]
-    for i in range(1, B - 1):
-        below.append(union(below[-1], col(i)))
-    above = [col(B - 1)]
-    for i in range(B - 2, 0, -1):
-        above.append(union(above[-1], col(i)))
-    above = above[::-1]                                   # above[i]: buckets i+1 .. B-1
-    diag = bmax - bmin                                    # (G, 3)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        kr = (diag.max(axis=1)[None, :] / diag.T).ravel()  # (3 G,)
-    cost = np.empty((3 * G, B - 1))
-    for i in range(B - 1):
-        lo_, hi_ = below[i], above[i]
-        ok = (lo_.phi > 0) & (hi_.phi > 0)
-        with np.errstate(invalid="ignore"):
-            cost[:, i] = np.where(ok, split_cost(lo_, kr) + split_cost(hi_, kr), np.inf)
-    cost = np.where(np.isfinite(cost) & (cost > 0) & (ext.T.ravel() > 0)[:, None], cost, np.inf)
-    cost = cost.reshape(3, G, B - 1).transpose(1, 0, 2).reshape(G, -1)
-    best = np.argmin(cost, axis=1)
-    sah = np.isfinite(cost[np.arange(G), best])
-    axis, at = best // (B - 1), best % (B - 1)
-    side = bucket[np.arange(K), axis[group]] > at[group]
-    # median along the widest centroid axis where no split scored
-    med = ~sah[group]
-    if med.any():
-        wide = np.argmax(ext, axis=1)
-        coord = c[np.arange(K), wide[group]]
-        order = np.lexsort((np.arange(K), coord, group))
-        _, _, rank, _ = _segments(group[order])
-        count = np.bincount(group, minlength=G)
-        upper = np.empty(K, bool)
-        upper[order] = rank >= count[group[order]] // 2
-        side = np.where(med, upper, side)
-    return side
 
 
 def _rescale(u: np.ndarray, p0: np.ndarray, right: np.ndarray) -> np.ndarray:
@@ -204,7 +121,7 @@ class LightBVH:
             if not len(ids):
                 break
             split, group = np.unique(node_of, return_inverse=True)
-            side = _split_sides(b, group, len(split))
+            side = split_sides(b, group, len(split))
             kids = count + 2 * np.arange(len(split))
             children.append(np.column_stack([split, kids, kids + 1]))
             count += 2 * len(split)
@@ -233,6 +150,15 @@ class LightBVH:
                 c = self.children[inner]
                 self.nodes.put(inner, union(self.nodes.take(c[:, 0]), self.nodes.take(c[:, 1])))
         self.empty = not is_leaf.any()
+        with np.errstate(invalid="ignore"):              # an empty tree's root: an inverted box
+            t = prepare(self.nodes)
+        #: per node, what the walk reads (rows pc, w, r2, cos_o, sin_o, cos_e, phi; see ``light_bounds.prepare``)
+        self._table = np.concatenate([t.pc, t.w, np.stack([t.r2, t.cos_o, t.sin_o, t.cos_e, t.phi])])
+        self._two = t.two
+        self._first = np.ascontiguousarray(self.children[:, 0])
+        D = self.trail.shape[1]
+        #: each light's leaf position from the left (tree order; None for trees deeper than 62)
+        self._inorder = (self.trail.astype(np.int64) << np.arange(D - 1, -1, -1)).sum(1) if D <= 62 else None
 
     # -- queries -----------------------------------------------------------------------------
     def infinite_probability(self, n_infinite) -> float:
@@ -265,11 +191,14 @@ class LightBVH:
         if self.light[0] >= 0:                           # a single light: the root is a leaf
             ok = importance(self.nodes.take(np.zeros(N, np.int64)), p, n, self.floor2) > 0
             return np.where(ok, self.light[0], -1), ok.astype(float)
-        rows, node, u, prob = np.arange(N), np.zeros(N, np.int64), u.astype(float), np.ones(N)
+        pts, pt = _columns(p, n)
+        rows, u = np.arange(N), u.astype(float)
+        if len(pts[0][0]) < N:                           # repeated points: u ascending per point
+            rows = np.lexsort((u, pt))
+            pt, u = pt[rows], u[rows]
+        node, prob = np.zeros(N, np.int64), np.ones(N)
         while len(rows):
-            c = self.children[node]
-            imp = importance(self.nodes.take(c.T.ravel()), np.tile(p[rows], (2, 1)), np.tile(n[rows], (2, 1)),
-                             self.floor2).reshape(2, -1)
+            imp = self._children_importance(node, pt, pts)
             total = imp[0] + imp[1]
             alive = total > 0
             p0 = np.where(alive, imp[0] / np.where(alive, total, 1.0), 0.0)
@@ -277,11 +206,12 @@ class LightBVH:
             pc = np.where(right, 1.0 - p0, p0)
             u = _rescale(u, p0, right)
             prob = prob * pc
-            node = c[np.arange(len(rows)), right.astype(np.int64)]
+            node = self._first[node] + right            # the children of a node are consecutive
             leaf = alive & (self.light[node] >= 0)
             j[rows[leaf]], pmf[rows[leaf]] = self.light[node[leaf]], prob[leaf]
             keep = alive & ~leaf
-            rows, node, u, prob = rows[keep], node[keep], u[keep], prob[keep]
+            if not keep.all():
+                rows, node, u, prob, pt = rows[keep], node[keep], u[keep], prob[keep], pt[keep]
         return j, pmf
 
     def pmf(self, p, n, j) -> np.ndarray:
@@ -302,24 +232,54 @@ class LightBVH:
         if self.light[0] >= 0 and len(rows):              # a single light
             out[rows] = importance(self.nodes.take(np.zeros(len(rows), np.int64)), p[rows], n[rows], self.floor2) > 0
             return out
-        jj, node, prob, d = j[rows], np.zeros(len(rows), np.int64), np.ones(len(rows)), 0
+        if not len(rows):
+            return out
+        pts, pt = _columns(p[rows], n[rows])
+        jj = j[rows]
+        if len(pts[0][0]) < len(rows) and self._inorder is not None:    # repeated points: lights in tree order
+            order = np.lexsort((self._inorder[jj], pt))
+            rows, jj, pt = rows[order], jj[order], pt[order]
+        node, prob, d = np.zeros(len(rows), np.int64), np.ones(len(rows)), 0
         while len(rows):
-            c = self.children[node]
-            imp = importance(self.nodes.take(c.T.ravel()), np.tile(p[rows], (2, 1)), np.tile(n[rows], (2, 1)),
-                             self.floor2).reshape(2, -1)
+            imp = self._children_importance(node, pt, pts)
             total = imp[0] + imp[1]
             bit = self.trail[jj, d]
             mine = np.where(bit, imp[1], imp[0])
             alive = total > 0
             p0 = np.where(alive, imp[0] / np.where(alive, total, 1.0), 0.0)
             prob = prob * np.where(bit, 1.0 - p0, p0) * (mine > 0)
-            node = c[np.arange(len(rows)), bit.astype(np.int64)]
+            node = self._first[node] + bit
             d += 1
             leaf = self.light[node] >= 0
             out[rows[leaf]] = prob[leaf]
             keep = ~leaf & (prob > 0)
-            rows, jj, node, prob = rows[keep], jj[keep], node[keep], prob[keep]
+            if not keep.all():
+                rows, jj, node, prob, pt = rows[keep], jj[keep], node[keep], prob[keep], pt[keep]
         return out
+
+    def _children_importance(self, node: np.ndarray, pt: np.ndarray, pts: tuple) -> np.ndarray:
+        """``(2, m)``: the importances of both children of the inner nodes ``node (m,)`` at the
+        points ``pt (m,)`` (columns of ``pts``, see :func:`_columns`).  Consecutive rows at the
+        same point and node (candidates of one point that took the same path) share one
+        evaluation: the values do not change, as every element is computed alone."""
+        head = None
+        if len(pts[0][0]) < len(pt) and len(pt) > 1:
+            head = np.empty(len(pt), bool)
+            head[0] = True
+            np.not_equal(node[1:], node[:-1], out=head[1:])
+            head[1:] |= pt[1:] != pt[:-1]
+            if head.all():
+                head = None
+            else:
+                at = np.flatnonzero(head)
+                node, pt = node[at], pt[at]
+        (P, N, has_n) = pts
+        kids = self._first[node] + _PAIR                     # (2, m)
+        g = np.take(self._table, kids, axis=1)              # (11, 2, m): pc, w, r2, cos_o, sin_o, cos_e, phi
+        t = Prepared(g[0:3], g[3:6], g[6], g[7], g[8], g[9], g[10], None if self._two is None else self._two[kids])
+        imp = importance_prepared(t, np.take(P, pt, axis=1), None if N is None else np.take(N, pt, axis=1),
+                                  self.floor2, None if has_n is None else has_n[pt], positive=True)
+        return imp if head is None else imp[:, np.cumsum(head) - 1]
 
     def _points(self, p, n):
         p = checks.finite_array(p, "p", ndim=2, last=3)
@@ -330,6 +290,32 @@ class LightBVH:
             raise ValueError(f"n must have the shape of p, {p.shape}, got {n.shape}")
         length = np.linalg.norm(n, axis=1)
         return p, n / np.where(length > 0, length, 1.0)[:, None]
+
+
+_PAIR = np.array([[0], [1]])
+
+
+def _columns(p: np.ndarray, n: np.ndarray) -> tuple[tuple, np.ndarray]:
+    """``((P, N, has_n), pt)``: the distinct points as columns for the walk, ``P (3, U)``, unit
+    normals ``N (3, U)`` (None: no point has one), ``has_n (U,)`` (None: all have one), and
+    each row's point ``pt``.  Only runs of equal consecutive rows (bit for bit, p and n: the
+    candidates of one shading point) are merged, and only when they are common."""
+    P, Nn = np.ascontiguousarray(p.T), np.ascontiguousarray(n.T)
+    pt = np.arange(len(p))
+    if len(p) > 1:
+        bits = np.concatenate([P, Nn]).view(np.int64)
+        same = bits[0, 1:] == bits[0, :-1]
+        for k in range(1, 6):
+            same &= bits[k, 1:] == bits[k, :-1]
+        if 4 * np.count_nonzero(same) >= len(p):
+            new = np.concatenate([[True], ~same])
+            pt = np.cumsum(new) - 1
+            at = np.flatnonzero(new)
+            P, Nn = P[:, at], Nn[:, at]
+    has_n = dot(Nn.T, Nn.T) > 0 if len(p) else np.zeros(0, bool)
+    if not has_n.any():
+        return (P, None, None), pt
+    return (P, Nn, None if has_n.all() else has_n), pt
 
 
 def _rows(value, name: str, L: int, last: int | None = None) -> np.ndarray:

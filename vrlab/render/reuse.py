@@ -146,8 +146,8 @@ class BlockPixels:
         if area.any():
             m = np.flatnonzero(area)
             v = y[m] - np.asarray(self.p[rows[m]], np.float64)
-            d2 = np.sum(v * v, -1)
-            cos = np.abs(np.sum(self.lights.point_normals(y[m], jj[m], tri[m]) * v, -1))
+            d2 = dot(v, v)
+            cos = np.abs(dot(self.lights.point_normals(y[m], jj[m], tri[m]), v))
             out[m] = np.divide(cos, d2 * np.sqrt(d2), out=np.zeros(len(m)), where=d2 > 0)
         return out
 
@@ -203,11 +203,10 @@ class BlockPixels:
         p = np.asarray(sh.p, np.float64)
         inf = lights.is_infinite[jj]
         v = np.where(inf[:, None], y, y - p)
-        dist = np.sqrt(np.sum(v * v, -1))
+        dist = np.sqrt(dot(v, v))
         valid = (j >= 0) & (dist > 0)
         w = np.divide(v, dist[:, None], out=np.tile([0.0, 0.0, 1.0], (len(v), 1)), where=valid[:, None])
-        front = valid & (lights.is_emitter[jj] | (np.sum((p - y) * lights.point_normals(y, jj, tri, shading=True),
-                                                         -1) > 0))
+        front = valid & (lights.is_emitter[jj] | (dot(p - y, lights.point_normals(y, jj, tri, shading=True)) > 0))
         x5, r = sh.new_points(w.astype(F32), np.where(valid, j, -1), (len(w), 1))
         r.y = np.where(inf[:, None], p + EmitterLight.FAR * w, y).astype(F32)
         r.front = front

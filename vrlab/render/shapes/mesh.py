@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from ... import checks
-from ..._vec import matvec3
+from ..._vec import dot, matvec3, norm, scale
 from .. import transforms as tf
 from ..scene_checks import MAX_COORD
 from .base import Shape, Triangles, check_world_points
@@ -100,7 +100,7 @@ class Mesh(Shape):
 
     def validate(self) -> None:
         super().validate()
-        self._light_surface = None
+        self._light_surface = self._faces_cache = None
         self.vertices, self.faces = check_mesh(self.vertices, self.faces)
         check_world_points(self.vertices, self.to_world)
 
@@ -123,16 +123,32 @@ class Mesh(Shape):
     def has_shading_normals(self) -> bool:
         return self.normals is not None
 
+    def _world_faces(self) -> tuple:
+        """``(v0, d1, d2, m2, normal_map)`` per face, in world space, built once per transform
+        and vertex array: the first vertex, the dual basis of the edges (e2 x m, m x e1 with
+        m = e1 x e2), |m|^2, and to_world^-T for normals.  The vertices are transformed as
+        one row each, so a gather of them has the bits of transforming the gathered rows."""
+        key = (self.to_world, self.vertices, self.faces)
+        c = getattr(self, "_faces_cache", None)
+        if c is None or any(a is not b for a, b in zip(c[0], key)):
+            m = self.to_world
+            v = (matvec3(m[:3, :3], self.vertices) + m[:3, 3])[self.faces]                # (F, 3, 3)
+            e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
+            n = np.cross(e1, e2)
+            c = (key, (np.ascontiguousarray(v[:, 0]), np.cross(e2, n), np.cross(n, e1), dot(n, n),
+                       np.linalg.inv(m[:3, :3]).T))
+            self._faces_cache = c
+        return c[1]
+
     def barycentrics(self, p: np.ndarray, prim: np.ndarray) -> np.ndarray:
         """``(b1, b2)`` of world points ``p`` on triangles ``prim``: p = v0 + b1 (v1 - v0) +
         b2 (v2 - v0) (object-space vertex order; the dual basis of the edges)."""
-        m = self.to_world
-        v = matvec3(m[:3, :3], self.vertices[self.faces[prim]]) + m[:3, 3]           # (N, 3, 3)
-        e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
-        m = np.cross(e1, e2)
-        m2 = np.sum(m * m, -1)[:, None]
-        x = np.asarray(p, float) - v[:, 0]
-        return np.stack([np.sum(x * np.cross(e2, m), -1), np.sum(x * np.cross(m, e1), -1)], -1) / m2
+        v0, d1, d2, m2, _ = self._world_faces()
+        x = np.asarray(p, float) - v0[prim]
+        out = np.empty((len(x), 2))
+        np.divide(dot(x, d1[prim]), m2[prim], out=out[:, 0])
+        np.divide(dot(x, d2[prim]), m2[prim], out=out[:, 1])
+        return out
 
     def uv(self, p, prim):
         """The vertex uvs interpolated with the barycentrics; without uvs, Mitsuba's (b1, b2)."""
@@ -149,10 +165,17 @@ class Mesh(Shape):
         if self.normals is None:
             return n
         b = self.barycentrics(p, prim)
-        nv = self.normals[self.faces[prim]]                                          # (N, 3, 3)
-        ns = (1.0 - b[:, :1] - b[:, 1:]) * nv[:, 0] + b[:, :1] * nv[:, 1] + b[:, 1:] * nv[:, 2]
-        ns = matvec3(np.linalg.inv(self.to_world[:3, :3]).T, ns)                     # M^-T ns
-        ns /= np.maximum(np.linalg.norm(ns, axis=-1, keepdims=True), 1e-300)
+        f = self.faces[prim]
+        b1, b2 = b[:, 0], b[:, 1]
+        b0 = 1.0 - b1
+        b0 -= b2
+        ns = scale(self.normals[f[:, 0]], b0)
+        ns += scale(self.normals[f[:, 1]], b1)
+        ns += scale(self.normals[f[:, 2]], b2)
+        ns = matvec3(self._world_faces()[4], ns)                                     # M^-T ns
+        length = np.maximum(norm(ns), 1e-300)
+        for k in range(3):
+            ns[:, k] /= length
         return (-ns if self.flip_normals else ns).astype(np.asarray(n).dtype, copy=False)
 
     @property
