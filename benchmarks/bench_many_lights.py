@@ -46,7 +46,7 @@ REF_BATCH = 256
 SELECTIONS = ("uniform", "power", "bvh")
 
 
-def methods(m: int):
+def methods(m: int, meshes: bool = False):
     """(label, strategy, light_selection, options) of every vrlab run: light, mis-power and RIS
     with each selection, and ReSTIR (M candidates, 5 neighbours within 3 pixels, one pass) with
     each of its reuse weights on bvh candidates, and pairwise on power candidates."""
@@ -57,7 +57,8 @@ def methods(m: int):
         for sel in SELECTIONS:
             opts = {"ris_candidates": m} if strategy == "ris" else {}
             out.append((f"{strategy} {sel}" + (f" M={m}" if strategy == "ris" else ""), strategy, sel, opts))
-    for mis, sel in (("pairwise", "bvh"), ("balance", "bvh"), ("1/M", "bvh"), ("pairwise", "power")):
+    restir = [("pairwise", "bvh"), ("balance", "bvh"), ("1/M", "bvh")] + ([] if meshes else [("pairwise", "power")])
+    for mis, sel in restir:     # mesh lights give their sampled point only triangle by triangle (bvh)
         out.append((f"restir {mis} {sel} M={m}", ReSTIR(candidates=m, neighbours=5, radius=3, mis=mis), sel, {}))
     return out
 
@@ -145,7 +146,7 @@ def main(argv=None):
               f"{time.perf_counter() - t0:.0f} s, ref floor {floor:.2e}")
         runs = {label: (lambda seed, s=s, sel=sel, o=o: render(scene, spp, s, rng=seed, light_selection=sel,
                                                                  workers=1, **o).value)
-                for label, s, sel, o in methods(args.ris_candidates)}
+                for label, s, sel, o in methods(args.ris_candidates, name == "triangle_field")}
 
         def mitsuba_run(seed):
             dr.set_thread_count(1)

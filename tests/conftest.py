@@ -4,7 +4,10 @@ from __future__ import annotations
 import contextlib
 import re
 
+import numpy as np
 import pytest
+
+from vrlab.estimators import ReSTIR
 
 
 @contextlib.contextmanager
@@ -123,3 +126,22 @@ def mi_rgb():
     mi = pytest.importorskip("mitsuba")
     mi.set_variant("scalar_rgb")
     return mi
+
+
+# ---------------------------------------------------------------------------------------
+# ReSTIR mutations that the lab and render tests must catch
+# ---------------------------------------------------------------------------------------
+class DroppedJacobian(ReSTIR):
+    """A mistake: the shift's Jacobian left out (J = 1; in the renderer the reconnection's
+    G_c / G_s)."""
+
+    def shift_map(self, x, src, dst):
+        z, J = super().shift_map(x, src, dst)
+        return z, np.ones_like(J)
+
+
+class WrongPixelTarget(ReSTIR):
+    """A mistake: the neighbour's p̂ used where the receiving pixel's is needed."""
+
+    def receiving_target(self, view, y, src, dst, f_dst):
+        return np.where(view.nonzero(f_dst), view.phat(y, src), 0.0)

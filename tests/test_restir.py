@@ -4,6 +4,8 @@ the naive 1/M normalisation is measurably biased there, reuse lowers the varianc
 dropped Jacobian or a target read at the wrong pixel is caught."""
 import numpy as np
 import pytest
+
+from conftest import DroppedJacobian, WrongPixelTarget
 from scipy.special import ndtr
 
 from vrlab import distributions as D
@@ -162,19 +164,8 @@ def test_reuse_lowers_the_variance_per_pass(mis, family, target, most):
 # ---------------------------------------------------------------------------------------
 # mutations that must fail
 # ---------------------------------------------------------------------------------------
-class DroppedJacobian(ReSTIR):
-    """A mistake: the shift's Jacobian left out (J = 1)."""
-
-    def shift_map(self, x, src, dst):
-        z, J = super().shift_map(x, src, dst)
-        return z, np.ones_like(J)
-
-
-class WrongPixelTarget(ReSTIR):
-    """A mistake: the neighbour's p̂ used where the receiving pixel's is needed."""
-
-    def receiving_target(self, view, y, src, dst, f_dst):
-        return np.where(f_dst != 0, view.phat(y, src), 0.0)
+# DroppedJacobian and WrongPixelTarget (tests/conftest.py): the shift's Jacobian left out, and
+# the neighbour's p̂ used where the receiving pixel's is needed
 
 
 @pytest.mark.parametrize("mis", ["pairwise", "balance"])

@@ -12,6 +12,8 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
+from conftest import DroppedJacobian, WrongPixelTarget
+
 from test_render import CENTRE_TOL, EMIT, FLOOR, RECT_LIGHT, bonferroni_z, exact_image, scene
 from vrlab.estimators import RIS, ReSTIR
 from vrlab.render import PRESETS, preset, render
@@ -37,19 +39,7 @@ CHECKER_FLOOR = """<shape type="rectangle">
 CHECKERED = scene(CHECKER_FLOOR + LIGHT + BLOCKER, **VIEW)
 
 
-class DroppedJacobian(ReSTIR):
-    """A mistake: the reconnection's Jacobian G_c / G_s left out (J = 1)."""
-
-    def shift_map(self, x, src, dst):
-        z, J = super().shift_map(x, src, dst)
-        return z, np.ones_like(J)
-
-
-class WrongPixelTarget(ReSTIR):
-    """A mistake: the neighbour's target used where the receiving pixel's is needed."""
-
-    def receiving_target(self, view, y, src, dst, f_dst):
-        return np.where(view.nonzero(f_dst), view.phat(y, src), 0.0)
+# DroppedJacobian (the reconnection's G_c / G_s left out) and WrongPixelTarget: tests/conftest.py
 
 
 _REFS: dict = {}

@@ -70,7 +70,8 @@ def check_spatial(integrand, probe: ShadingIntegrand) -> None:
                         and not lights[i].planar})
         raise ValueError(f"estimator: {est.label} reconnects pixels to the sampled light points, which the scene's "
                          f"{', '.join(names)} emitters do not give (closed shapes other than spheres); use "
-                         "another estimator or sphere / planar emitters")
+                         "light_selection='bvh' for triangle meshes (sampled triangle by triangle), another "
+                         "estimator, or sphere / planar emitters")
 
 
 def spatial_outputs(integrand, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
