@@ -189,15 +189,15 @@ def test_obj_mesh_bvh_matches_reference(tmp_path):
                 '<shape type="obj"><boolean name="flip_normals" value="true"/>'
                 '<string name="filename" value="mesh.obj"/><transform name="to_world">'
                 '<translate x="-3"/></transform></shape>', tmp_path)
-    geo = SceneGeometry(sc)
+    geo = SceneGeometry(sc, backend="numpy")       # float64 decisions (Embree's: every_kind test)
     assert geo.n_triangles == 2 * (2 * nu * (nv - 1) + 2)
     assert geo.accel is not None                          # 340 triangles: the scene's BVH
     o = rng.normal(size=(3000, 3)) * 3
     d = rng.normal(size=(3000, 3))
     d[::2] = (rng.normal(size=(1500, 3)) * 0.8 + [[-1.5, 0, 0]]) - o[::2]
-    h = _check(sc, o, d, 0.0)
+    h = _check(sc, o, d, 0.0, backend="numpy")
     assert np.mean(h.shape >= 0) > 0.2
-    _check(sc, o, d, 0.5)
+    _check(sc, o, d, 0.5, backend="numpy")
 
 
 def test_builtin_scene_like_rays_and_chunking():
@@ -222,7 +222,8 @@ def test_one_bvh_over_every_kind_matches_reference(tmp_path, backend):
     """Above DENSE_COST every primitive (parallelograms, cube faces, mesh triangles, spheres,
     an ellipsoid, disks) goes into one BVH: closest hits equal the one-primitive-at-a-time
     reference, and ``occluded`` equals closest t < t_max (any hit).  With ``"embree"`` the
-    planar primitives are Embree's (float32 decisions: the rays here keep clear of edges)."""
+    planar primitives are Embree's: float32 decisions, so 99.5 % of the rays must agree (the
+    rays include grazing ones and ones starting 1e-4 off a surface)."""
     from vrlab.render.embree import embree_available
 
     if backend == "embree" and not embree_available():
@@ -239,10 +240,21 @@ def test_one_bvh_over_every_kind_matches_reference(tmp_path, backend):
     assert (geo.accel.embree is not None) == (backend == "embree")
     o, d = _rays(rng, sc, 4000, geo)
     for t_min in (0.0, 0.3):
-        h = _check(sc, o, d, t_min, backend=backend)
+        if backend == "numpy":                            # float64 decisions: exactly the reference
+            h = _check(sc, o, d, t_min, backend=backend)
+            continue
+        # Embree decides in float32 with its own (CPU-dependent SIMD) code: rays within
+        # float32 rounding of an edge or a second surface may go either way
+        h = geo.intersect(o, d, t_min=t_min)
+        t, k, _ = reference(sc, o, d, t_min)
+        same = h.shape == k
+        assert same.mean() > 0.995, same.mean()
+        both = same & np.isfinite(t)
+        np.testing.assert_allclose(h.t[both], t[both], rtol=1e-6)
     assert set(range(len(sc.shapes))) <= set(h.shape.tolist())   # every shape was hit
     t_max = rng.uniform(0, 2, len(o)) * np.where(np.isfinite(h.t), h.t, 5.0)
-    np.testing.assert_array_equal(geo.occluded(o, d, t_max, t_min=0.3), h.t < t_max)
+    agree = geo.occluded(o, d, t_max, t_min=0.3) == (h.t < t_max)
+    assert agree.all() if backend == "numpy" else agree.mean() > 0.995
     # float32 rays (the renderer's) take the float64 BVH decisions too
     h32 = geo.intersect(o.astype(np.float32), d.astype(np.float32))
     assert np.mean(h32.shape == geo.intersect(o.astype(np.float32).astype(float),
