@@ -59,7 +59,7 @@ def triangles(P: int, n: int, rounds: int, dense_limit: float, rng) -> dict:
     ids = np.zeros(len(t), np.int64)
     t0 = time.perf_counter()
     group = Planar(v0, e1, e2, unit(np.cross(e1, e2)), ids, False, dense=False)
-    acc = Accel([group], None, [], backend="numpy")
+    acc = Accel([group], None, None, backend="numpy")
     build = time.perf_counter() - t0
     o = rng.normal(size=(n, 3))
     o *= 3 / np.linalg.norm(o, axis=1, keepdims=True)
@@ -72,7 +72,7 @@ def triangles(P: int, n: int, rounds: int, dense_limit: float, rng) -> dict:
     row["bvh any-hit"] = n / best_of(rounds, lambda: acc.occluded(o, d, 0.0, t_max))
     if embree_available():
         t0 = time.perf_counter()
-        emb = Accel([group], None, [], backend="embree")
+        emb = Accel([group], None, None, backend="embree")
         emb.closest(o[:1], d[:1], 0.0, np.full(1, np.inf), np.full(1, -1), np.zeros((1, 3)))   # builds Embree's BVH
         row["embree build s"] = time.perf_counter() - t0
         row["embree closest"] = n / best_of(rounds, lambda: emb.closest(o, d, 0.0, np.full(n, np.inf), S, N))
@@ -92,7 +92,7 @@ def spheres(P: int, n: int, rounds: int, dense_limit: float, rng) -> dict:
     r = 0.5 * 10 / np.cbrt(P) * rng.random(P) + 0.01
     quad = Quadrics([(k, c[k], np.eye(3) / r[k], 1.0) for k in range(P)])
     t0 = time.perf_counter()
-    acc = Accel([], quad, [])
+    acc = Accel([], quad, None)
     build = time.perf_counter() - t0
     o, d = rng.random((n, 3)) * 10, rng.normal(size=(n, 3))
     row = {"kind": "spheres", "P": P, "build s": build}

@@ -304,9 +304,7 @@ def _columns(p: np.ndarray, n: np.ndarray) -> tuple[tuple, np.ndarray]:
     pt = np.arange(len(p))
     if len(p) > 1:
         bits = np.concatenate([P, Nn]).view(np.int64)
-        same = bits[0, 1:] == bits[0, :-1]
-        for k in range(1, 6):
-            same &= bits[k, 1:] == bits[k, :-1]
+        same = np.all(bits[:, 1:] == bits[:, :-1], axis=0)
         if 4 * np.count_nonzero(same) >= len(p):
             new = np.concatenate([[True], ~same])
             pt = np.cumsum(new) - 1

@@ -11,7 +11,8 @@ the quadrics, then the disks); the BVH is built over their boxes:
 
 At a leaf the (ray, primitive) pairs are split by kind and tested exactly in float64 (the
 planar group's dual-basis test, the stable quadratic roots in the unit-sphere frame, the
-disk's plane hit inside the unit circle).  ``closest`` then finishes each ray's hit with its
+disk's plane hit inside the unit circle: each group's ``boxes``/``exact``/``normals``/``prims``,
+:mod:`.groups`).  ``closest`` then finishes each ray's hit with its
 kind's shape index, normal and primitive index; ``occluded`` answers shadow queries (any hit
 before ``t_max``) without finishing anything.
 """
@@ -20,32 +21,9 @@ from __future__ import annotations
 import numpy as np
 
 from .bvh import BVH
-from .groups import Planar, Quadrics, unit_sphere_hit
+from .groups import Disks, Planar, Quadrics
 
 __all__ = ["Accel", "BACKENDS"]
-
-
-class _Disks:
-    """Disks ``c + M (s, 0)``, |s| <= 1, with their shape index and unit normal."""
-
-    def __init__(self, disks: list):
-        self.shape = np.array([k for k, _, _, _ in disks], np.int64)
-        self.c = np.array([c for _, c, _, _ in disks], float).reshape(-1, 3)
-        self.minv = np.array([m for _, _, m, _ in disks], float).reshape(-1, 3, 3)
-        self.n = np.array([n for _, _, _, n in disks], float).reshape(-1, 3)
-
-    def __len__(self) -> int:
-        return len(self.shape)
-
-    def exact(self, o, d, t_min, i, j):
-        minv = self.minv[j]
-        ol = np.einsum("kab,kb->ka", minv, o[i] - self.c[j])
-        dl = np.einsum("kab,kb->ka", minv, d[i])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = -ol[:, 2] / dl[:, 2]
-            x, y = ol[:, 0] + t * dl[:, 0], ol[:, 1] + t * dl[:, 1]
-            ok = np.isfinite(t) & (t > t_min) & (x * x + y * y <= 1.0)
-        return np.where(ok, t, np.inf)
 
 
 BACKENDS = ("auto", "numpy", "embree")
@@ -58,7 +36,7 @@ class Accel:
     NumPy BVH), ``"embree"`` (planar primitives through Embree, :mod:`vrlab.render.embree`;
     the others in the NumPy BVH) or ``"auto"`` (Embree where ``embreex`` imports)."""
 
-    def __init__(self, planar: list[Planar], quadrics: Quadrics | None, disks: list, backend: str = "auto"):
+    def __init__(self, planar: list[Planar], quadrics: Quadrics | None, disks: Disks | None, backend: str = "auto"):
         from .embree import EmbreeTriangles, embree_available
 
         if backend not in BACKENDS:
@@ -71,29 +49,17 @@ class Accel:
         self.kinds: list = [] if use_embree else list(planar)
         if quadrics is not None:
             self.kinds.append(quadrics)
-        if disks:
-            self.kinds.append(_Disks(disks))
+        if disks is not None:
+            self.kinds.append(disks)
         sizes = [len(k) for k in self.kinds]
         self.first = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-        lo, hi = zip(*(self._boxes(k) for k in self.kinds)) if self.kinds else ([np.zeros((0, 3))],) * 2
-        self.bvh = BVH.from_boxes(np.concatenate(lo), np.concatenate(hi)) if self.kinds else None
+        self.bvh = None
+        if self.kinds:
+            lo, hi = zip(*(k.boxes() for k in self.kinds))
+            self.bvh = BVH.from_boxes(np.concatenate(lo), np.concatenate(hi))
 
     def __len__(self) -> int:
         return int(self.first[-1]) + (0 if self.embree is None else sum(len(g) for g in self.embree.planar))
-
-    @staticmethod
-    def _boxes(kind) -> tuple[np.ndarray, np.ndarray]:
-        if isinstance(kind, Planar):
-            corners = [kind.v0, kind.v0 + kind.e1, kind.v0 + kind.e2]
-            if kind.para:
-                corners.append(kind.v0 + kind.e1 + kind.e2)
-            c = np.stack(corners, 1)
-            return c.min(1), c.max(1)
-        m = np.linalg.inv(kind.minv)                         # (P, 3, 3): x = c + M s
-        if isinstance(kind, _Disks):
-            m = m[:, :, :2]
-        half = np.sqrt(np.sum(m * m, -1))
-        return kind.c - half, kind.c + half
 
     def _split(self, j: np.ndarray):
         """``(kind index, mask or None, local j)`` per kind with pairs among ``j``."""
@@ -105,22 +71,14 @@ class Accel:
             m = which == k
             yield int(k), m, j[m] - self.first[k]
 
-    def _exact(self, kind, rays, o, d, t_min, i, j):
-        if isinstance(kind, Planar):
-            return kind.exact(rays, t_min, i, j)
-        if isinstance(kind, Quadrics):
-            return unit_sphere_hit(*kind._local(o, d, i, j)[:2], t_min)
-        return kind.exact(o, d, t_min, i, j)
-
     def _test(self, o, d, t_min):
-        rays = np.concatenate([o, d], axis=1)
-
+        """``test(i, j)``: the exact t of (ray i, global primitive j) pairs, kind by kind."""
         def test(i, j):
             t = np.empty(len(i))
             for k, m, jl in self._split(j):
                 if m is None:
-                    return self._exact(self.kinds[k], rays, o, d, t_min, i, jl)
-                t[m] = self._exact(self.kinds[k], rays, o, d, t_min, i[m], jl)
+                    return self.kinds[k].exact(o, d, t_min, i, jl)
+                t[m] = self.kinds[k].exact(o, d, t_min, i[m], jl)
             return t
         return test
 
@@ -143,18 +101,9 @@ class Accel:
             kind = self.kinds[k]
             rows, th = (i, tt) if m is None else (i[m], tt[m])
             shape[rows] = kind.shape[jl]
-            if isinstance(kind, Planar):
-                normal[rows] = kind.normal[jl]
-                local = kind.local[jl]
-            elif isinstance(kind, Quadrics):
-                ol, dl, minv = kind._local(o, d, rows, jl)
-                normal[rows] = kind._normal(ol, dl, minv, jl, th)
-                local = 0
-            else:
-                normal[rows] = kind.n[jl]
-                local = 0
+            normal[rows] = kind.normals(o, d, rows, jl, th)
             if prim is not None:
-                prim[rows] = local
+                prim[rows] = kind.prims(jl)
 
     def occluded(self, o, d, t_min: float, t_max: np.ndarray) -> np.ndarray:
         """Whether each ray hits a primitive with ``t_min < t < t_max``."""

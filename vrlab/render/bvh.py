@@ -80,7 +80,7 @@ class BVH:
             nhi = np.maximum.reduceat(phi[idx], offs) if P else np.zeros((1, 3))
             lo.append(nlo - pad)
             hi.append(nhi + pad)
-            split = self._splits(cen[idx], plo[idx], phi[idx], seg, offs, size, nlo, nhi, leaf_size)
+            split, partition = self._splits(cen[idx], plo[idx], phi[idx], seg, offs, size, nlo, nhi, leaf_size)
             inner = split >= 0                 # split: the number of primitives going left
             # reorder each inner node's primitives: left ones first (stable)
             k_in = np.flatnonzero(inner)
@@ -92,7 +92,7 @@ class BVH:
             left.append(lft)
             right.append(rgt)
             if len(k_in):
-                order[pos] = idx[self._partition]
+                order[pos] = idx[partition]
             mid = b[k_in] + split[k_in]
             b = np.stack([b[k_in], mid], 1).reshape(-1)
             e = np.stack([mid, e[k_in]], 1).reshape(-1)
@@ -104,9 +104,9 @@ class BVH:
         self.left, self.right = np.concatenate(left), np.concatenate(right)
         self.depth = len(lo)
 
-    def _splits(self, cen, plo, phi, seg, offs, size, nlo, nhi, leaf_size) -> np.ndarray:
-        """Per node of a level, the number of its primitives that go left (-1: a leaf), and
-        ``self._partition``, the permutation of the level's primitives that puts each inner
+    def _splits(self, cen, plo, phi, seg, offs, size, nlo, nhi, leaf_size) -> tuple[np.ndarray, np.ndarray]:
+        """``(split, partition)``: per node of a level, the number of its primitives that go
+        left (-1: a leaf), and the permutation of the level's primitives that puts each inner
         node's left ones first: binned SAH over the three axes for nodes of more than
         ``SAH_MIN`` primitives, the median along the widest centroid axis below that (and
         where every centroid falls into one bin)."""
@@ -139,8 +139,7 @@ class BVH:
             rank -= np.searchsorted(ms[s], ms, side="left")      # position within its node
             goes_right[med_rows] = rank >= size[ms] // 2
         n_left = np.bincount(seg, weights=~goes_right, minlength=S).astype(np.int64)
-        self._partition = np.lexsort((goes_right, seg))
-        return np.where(leaf, -1, n_left)
+        return np.where(leaf, -1, n_left), np.lexsort((goes_right, seg))
 
     @staticmethod
     def _sah(cen, plo, phi, seg, cmin, ext, size):
@@ -251,9 +250,8 @@ class BVH:
             ray = ray[(sp[ray] > 0) & (tb[ray] > -np.inf)]
         if any_hit:
             return hit_any
-        if not found_i:
-            return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
-        return np.concatenate(found_i), np.concatenate(found_j), np.concatenate(found_t), tb
+        cat = (lambda parts, dt: np.concatenate(parts) if parts else np.zeros(0, dt))      # noqa: E731
+        return cat(found_i, np.int64), cat(found_j, np.int64), cat(found_t, float), tb
 
     def closest(self, o: np.ndarray, d: np.ndarray, t_min: float, t_best: np.ndarray,
                 test: Callable[[np.ndarray, np.ndarray], np.ndarray]):
@@ -261,10 +259,7 @@ class BVH:
         ``test(i, j)`` gives the exact t (inf on a miss) of ray i and primitive j.
         Returns ``(i, j, t)``: one improving hit per ray, ``i`` ascending (among equal t the
         lowest primitive)."""
-        out = self._walk(o, d, t_min, t_best, test, any_hit=False)
-        if len(out) == 3:
-            return out
-        i, j, t, tb = out
+        i, j, t, tb = self._walk(o, d, t_min, t_best, test, any_hit=False)
         keep = t == tb[i]
         i, j, t = i[keep], j[keep], t[keep]
         s = np.lexsort((j, i))

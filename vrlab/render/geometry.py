@@ -61,7 +61,7 @@ import numpy as np
 from .. import checks
 from .._vec import scale
 from .accel import BACKENDS, Accel
-from .groups import Planar, Quadrics, parallelograms, unit
+from .groups import Disks, Planar, Quadrics, parallelograms, unit
 from .scene import Scene
 from .shapes.base import CustomPart, DiskPart, Parallelograms, Quadric, Triangles
 
@@ -179,7 +179,7 @@ class SceneGeometry:
                 self.planar.append(Planar(arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], ids, is_para,
                                            boxes if is_para else None, local, dense=dense))
         self.quadrics = Quadrics(quad) if quad else None
-        self.disks = disk
+        self.disks = Disks(disk) if disk else None
         self.custom = custom
         #: the BVH over every primitive (:mod:`vrlab.render.accel`) of scenes whose all-pairs
         #: cost exceeds ``DENSE_COST``; None: the all-pairs kernels
@@ -299,23 +299,12 @@ class SceneGeometry:
                 elif len(r):
                     g.finish(o, d, t_min, r, j_best[r], best[r], t, shape, normal, prim)
         cull = self.quadrics is not None and not self.quadrics.use_dense
-        if cull or self.disks or self.custom:          # float64 decisions: float64 rays
+        if cull or self.disks is not None or self.custom:   # float64 decisions: float64 rays
             o, d = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
         if cull:
             self.quadrics.closest(o, d, t_min, t, shape, normal, prim)
-        for k, c, minv, n in self.disks:
-            ol, dl = (o - c) @ minv.T, d @ minv.T
-            with np.errstate(divide="ignore", invalid="ignore"):
-                tt = -ol[:, 2] / dl[:, 2]
-            ok = np.isfinite(tt) & (tt > t_min)
-            x = ol[:, :2] + np.where(ok, tt, 0.0)[:, None] * dl[:, :2]
-            ok &= np.sum(x * x, -1) <= 1.0
-            better = ok & (tt < t)
-            t[better] = tt[better]
-            shape[better] = k
-            normal[better] = n
-            if prim is not None:
-                prim[better] = 0
+        if self.disks is not None:
+            self.disks.closest(o, d, t_min, t, shape, normal, prim)
         self._custom(o, d, t_min, t, shape, normal, prim)
 
     def _custom(self, o, d, t_min, t, shape, normal, prim) -> None:

@@ -14,7 +14,7 @@ from .._vec import norm, scale
 from ..distributions.quadrics import unit_sphere_hit
 from .dense import DensePlanar, closest_quadrics
 
-__all__ = ["DENSE_QUADRICS", "Planar", "Quadrics", "parallelograms", "unit", "unit_sphere_hit"]
+__all__ = ["DENSE_QUADRICS", "Disks", "Planar", "Quadrics", "parallelograms", "unit", "unit_sphere_hit"]
 
 # (ray, primitive) pairs per culling block: cache sized, and small enough (N k P <= 2^18
 # for an (N, k) @ (k, P) product) that OpenBLAS stays single-threaded (much faster here)
@@ -146,11 +146,27 @@ class Planar:
         if prim is not None:
             prim[rows] = np.take(self.local, j)
 
-    def exact(self, rays, t_min, i, j):
-        """Exact t (inf on a miss) of the pairs ``(i, j)``; ``rays = [o, d]`` ``(N, 6)``."""
-        r, q = rays[i], self.packed[j]            # [o, d], [v0, n, a1, a2]
-        oc = r[:, :3] - q[:, :3]
-        dd, n = r[:, 3:], q[:, 3:6]
+    # -- the pair interface of the scene's BVH (:mod:`.accel`), shared by every group ----------
+    def boxes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bounding boxes ``(lo, hi)`` of the primitives: the boxes of their corners."""
+        corners = [self.v0, self.v0 + self.e1, self.v0 + self.e2] + ([self.v0 + self.e1 + self.e2] if self.para
+                                                                     else [])
+        c = np.stack(corners, 1)
+        return c.min(1), c.max(1)
+
+    def normals(self, o, d, rows, j, t) -> np.ndarray:
+        """Normals of the hits ``(rays rows, primitives j, t)``: the primitives' own."""
+        return self.normal[j]
+
+    def prims(self, j) -> np.ndarray:
+        """Each primitive's index within its shape (a mesh's triangle)."""
+        return self.local[j]
+
+    def exact(self, o, d, t_min, i, j):
+        """Exact t (inf on a miss) of the pairs ``(ray i, primitive j)``."""
+        q = self.packed[j]                         # [v0, n, a1, a2]
+        oc = o[i] - q[:, :3]
+        dd, n = d[i], q[:, 3:6]
         with np.errstate(divide="ignore", invalid="ignore"):
             t = _dot(oc, n)
             t /= _dot(dd, n)
@@ -205,10 +221,26 @@ class Quadrics:
         n = x[:, 0:1] * minv[:, 0] + x[:, 1:2] * minv[:, 1] + x[:, 2:3] * minv[:, 2]   # M^-T x
         return self.sign[j, None] * unit(n)
 
+    # -- the pair interface (see ``Planar``) -------------------------------------------------
+    def boxes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Exact boxes of the ellipsoids: c_i +- sqrt(sum_j M_ij^2)."""
+        return _affine_boxes(self.c, np.linalg.inv(self.minv))
+
+    def exact(self, o, d, t_min, i, j):
+        """Exact t (inf on a miss) of the pairs ``(ray i, quadric j)``: the stable roots in the
+        unit-sphere frame."""
+        return unit_sphere_hit(*self._local(o, d, i, j)[:2], t_min)
+
+    def normals(self, o, d, rows, j, t) -> np.ndarray:
+        """Normals of the hits ``(rays rows, quadrics j, t)``: sign M^-T of the unit-sphere point."""
+        return self._normal(*self._local(o, d, rows, j), j, t)
+
+    def prims(self, j) -> np.ndarray:
+        return np.zeros(len(j), np.int64)
+
     def _fold(self, o, d, t_min, i, j, tt, t, shape, normal, prim=None):
-        def nrm(w):
-            return self._normal(*self._local(o, d, i[w], j[w]), j[w], tt[w])
-        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]], nrm, prim, lambda w: 0)
+        _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]],
+                lambda w: self.normals(o, d, i[w], j[w], tt[w]), prim, lambda w: 0)
 
     def dense(self, O: np.ndarray, D: np.ndarray, t_min: float, index: bool = True):
         """float32 ``(t, j)`` of every ray against every quadric (:mod:`.dense`)."""
@@ -284,8 +316,64 @@ class Quadrics:
             ii.append(i + r.start)
             jj.append(j + sl.start)
         i, j = _pairs(ii, jj)
-        tt = unit_sphere_hit(*self._local(o, d, i, j)[:2], t_min)
-        self._fold(o, d, t_min, i, j, tt, t, shape, normal, prim)
+        self._fold(o, d, t_min, i, j, self.exact(o, d, t_min, i, j), t, shape, normal, prim)
+
+
+class Disks:
+    """Disks ``c + M (s, 0)``, |s| <= 1 (``(shape, center, M^-1, normal)`` tuples), with their
+    shape index and unit normal; hit where the ray meets z = 0 of the disk frame M^-1 (x - c)
+    inside the unit circle."""
+
+    def __init__(self, disks: list):
+        self.shape = np.array([k for k, _, _, _ in disks], np.int64)
+        self.c = np.array([c for _, c, _, _ in disks], float).reshape(-1, 3)
+        self.minv = np.array([m for _, _, m, _ in disks], float).reshape(-1, 3, 3)
+        self.n = np.array([n for _, _, _, n in disks], float).reshape(-1, 3)
+
+    def __len__(self) -> int:
+        return len(self.shape)
+
+    @staticmethod
+    def _hit(ol: np.ndarray, dl: np.ndarray, t_min: float) -> np.ndarray:
+        """t of rays in disk frames (inf on a miss)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = -ol[:, 2] / dl[:, 2]
+            x, y = ol[:, 0] + t * dl[:, 0], ol[:, 1] + t * dl[:, 1]
+            ok = np.isfinite(t) & (t > t_min) & (x * x + y * y <= 1.0)
+        return np.where(ok, t, np.inf)
+
+    def closest(self, o, d, t_min, t, shape, normal, prim=None) -> None:
+        """Fold every ray's hits with every disk into the closest hits (all pairs, in place)."""
+        for k in range(len(self)):
+            tt = self._hit((o - self.c[k]) @ self.minv[k].T, d @ self.minv[k].T, t_min)
+            better = tt < t
+            t[better] = tt[better]
+            shape[better] = self.shape[k]
+            normal[better] = self.n[k]
+            if prim is not None:
+                prim[better] = 0
+
+    # -- the pair interface (see ``Planar``) -------------------------------------------------
+    def boxes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Exact boxes of the disks: c_i +- sqrt(M_i0^2 + M_i1^2)."""
+        return _affine_boxes(self.c, np.linalg.inv(self.minv)[:, :, :2])
+
+    def exact(self, o, d, t_min, i, j):
+        minv = self.minv[j]
+        return self._hit(np.einsum("kab,kb->ka", minv, o[i] - self.c[j]), np.einsum("kab,kb->ka", minv, d[i]),
+                         t_min)
+
+    def normals(self, o, d, rows, j, t) -> np.ndarray:
+        return self.n[j]
+
+    def prims(self, j) -> np.ndarray:
+        return np.zeros(len(j), np.int64)
+
+
+def _affine_boxes(c: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes of c + M s over the unit ball of s (M ``(P, 3, k)``): c +- the row norms of M."""
+    half = np.sqrt(np.sum(m * m, -1))
+    return c - half, c + half
 
 
 def _blocks(n_rays: int, n_prims: int, elems: int):

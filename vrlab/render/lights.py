@@ -99,10 +99,16 @@ class Light:
         density given t, front: t's winding normal (flip_normals is in the winding) or, with
         vertex normals, the shading normal at y faces ``ref``; y the sampled point on t."""
         s = self.surface.solid_angle_from(ref, **self.directions).sample_given(t, u)
+        return s.w, s.pdf, dot(ref - s.y, self.triangle_normals(s.y, t)) > 0, s.y
+
+    def triangle_normals(self, y: np.ndarray, t: np.ndarray, shading: bool = True) -> np.ndarray:
+        """Normals of a mesh light at its points ``y`` on triangles ``t``: the winding normal or,
+        with ``shading`` and vertex normals, the shading normal at y (which decides where it
+        faces, as ``DirectLighting.facing`` judges hits)."""
         normal = self.surface.face_normals[t]
-        if self.shape.has_shading_normals:              # as DirectLighting.facing judges hits
-            normal = self.shape.shading_normals(s.y, normal, t)
-        return s.w, s.pdf, dot(ref - s.y, normal) > 0, s.y
+        if shading and self.shape.has_shading_normals:
+            normal = self.shape.shading_normals(y, normal, t)
+        return normal
 
     def pdf_triangle(self, ref: np.ndarray, w: np.ndarray, t: np.ndarray | None = None
                      ) -> tuple[np.ndarray, np.ndarray]:
@@ -386,11 +392,7 @@ class LightSet:
             if light.sphere is not None:
                 out[m] = light.sign * (y[m] - light.sphere[0]) / light.sphere[1]
             elif self.split[i] and t is not None:           # the triangle is known: O(1)
-                tm = np.maximum(np.asarray(t)[m], 0)
-                normal = light.surface.face_normals[tm]
-                if shading and light.shape.has_shading_normals:
-                    normal = light.shape.shading_normals(y[m], normal, tm)
-                out[m] = normal
+                out[m] = light.triangle_normals(y[m], np.maximum(np.asarray(t)[m], 0), shading)
             else:
                 out[m] = light.surface.normal(y[m])
         return out
