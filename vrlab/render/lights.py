@@ -223,8 +223,12 @@ class LightSet:
         self.radii = np.array([l.sphere[1] if l.sphere is not None else 1.0 for l in self.lights])
         self.signs = np.array([l.sign for l in self.lights])
         self.centers32, self.radii32 = self.centers.astype(np.float32), self.radii.astype(np.float32)
-        #: every light gives its first point y along a sampled w (spheres, planar and non-shape lights)
-        self.simple = all(l.sphere is not None or l.planar for l in self.lights)
+        #: lights whose triangles are leaves of the light BVH (``"bvh"``: every mesh light)
+        self.split = np.array([selection == "bvh" and isinstance(l, Light) and "method" in getattr(l, "directions", {})
+                               for l in self.lights], bool)
+        #: every light gives its first point y along a sampled w (spheres, planar and non-shape
+        #: lights, and split meshes: a point on one triangle)
+        self.simple = all(l.sphere is not None or l.planar or s for l, s in zip(self.lights, self.split))
         weights = np.array(weights, float)
         power = np.array([l.power if isinstance(l, EmitterLight) else max(l.radiance.mean(), 0.0) * l.area
                           for l in self.lights])
@@ -236,16 +240,10 @@ class LightSet:
         self.selection = AliasTable(weights)
         #: pbrt-v4's light BVH (``"bvh"``): P_j per shading point; else None (``selection``'s P_j)
         self.tree = None
-        #: lights whose triangles are leaves of the light BVH (mesh lights without vertex normals)
-        self.split = np.zeros(len(self.lights), bool)
         if selection == "bvh":
             from .light_tree import BVHSelection
 
-            self.split = np.array([isinstance(l, Light) and "method" in getattr(l, "directions", {})
-                                   for l in self.lights], bool)
             self.tree = BVHSelection(self.lights, weights, power, self.split)
-            # a split mesh light's sample is a point on one triangle: its first point along w
-            self.simple = all(l.sphere is not None or l.planar or s for l, s in zip(self.lights, self.split))
 
     def __len__(self) -> int:
         return len(self.lights)
