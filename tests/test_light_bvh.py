@@ -315,6 +315,8 @@ def _good():
     (dict(phi=[1.0, -1.0, 1.0, 1.0]), ValueError, "phi"),
     (dict(phi="abcd"), TypeError, "phi"),
     (dict(two_sided=[1, 0, 0, 0]), TypeError, "two_sided"),
+    (dict(lo=np.full((4, 3), -1e200)), ValueError, "lo"),
+    (dict(hi=np.full((4, 3), 1e200)), ValueError, "hi"),
 ])
 def test_bad_bounds_name_the_argument(raises_naming, change, exc, name):
     with raises_naming(exc, name):
@@ -329,6 +331,7 @@ def test_bad_bounds_name_the_argument(raises_naming, change, exc, name):
     (lambda b: b.pmf(np.zeros((3, 3)), None, np.array([0, 1, 4])), ValueError, "j"),
     (lambda b: b.pmf(np.zeros((3, 3)), None, np.array([0.0, 1, 2])), ValueError, "j"),
     (lambda b: b.pmf(np.full((1, 3), np.inf), None, np.array([0])), ValueError, "p"),
+    (lambda b: b.sample(np.full((1, 3), 1e200), None, np.zeros(1)), ValueError, "p"),
     (lambda b: b.infinite_probability(-1), ValueError, "n_infinite"),
 ])
 def test_bad_queries_name_the_argument(raises_naming, call, exc, name):

@@ -246,6 +246,7 @@ def test_needs_a_batched_integrand_for_neighbours(raises_naming):
     ({"candidates": 0}, ValueError, "candidates"), ({"candidates": 2.5}, TypeError, "candidates"),
     ({"neighbours": -1}, ValueError, "neighbours"), ({"radius": 0.0}, ValueError, "radius"),
     ({"radius": -1}, ValueError, "radius"), ({"radius": "3"}, TypeError, "radius"),
+    ({"radius": 1e9}, ValueError, "radius"), ({"radius": float("inf")}, ValueError, "radius"),
     ({"mis": "power"}, ValueError, "mis"), ({"mis": None}, TypeError, "mis"),
     ({"passes": 0}, ValueError, "passes"), ({"target": 3}, TypeError, "target"),
     ({"shift": 1.0}, TypeError, "shift"), ({"source": ""}, ValueError, "source"),
@@ -253,6 +254,17 @@ def test_needs_a_batched_integrand_for_neighbours(raises_naming):
 def test_bad_settings_are_refused_naming_the_argument(raises_naming, kw, exc, name):
     with raises_naming(exc, name):
         ReSTIR(**kw)
+
+
+def test_a_radius_enumerating_too_many_offsets_is_refused(raises_naming):
+    """(2r+1)^d offsets above limits.MAX_OFFSETS: a clear error, not minutes of enumeration."""
+    cube = Integrand(lambda x: np.broadcast_to(smooth(x)[:8].reshape(2, 2, 2, *x.shape[:-1]),
+                                               (2, 2, 2) + x.shape[:-1]), [(0, 1)], SMOOTH_EXACT[:8].reshape(2, 2, 2),
+                     "smooth-cube")
+    with raises_naming(ValueError, "radius"):
+        ReSTIR(4, 2, radius=200).estimate(cube, 100, rng=0)
+    e = ReSTIR(4, 2, radius=1.5).estimate(cube, 2000, rng=0)
+    assert np.all(np.abs(e.value - cube.exact) < 4 * e.stderr + 1e-12)
 
 
 def test_clone_and_label():

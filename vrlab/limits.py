@@ -12,6 +12,8 @@ name                value       what
 ``MAX_PIXELS``      2^26        pixels of one image (67 M)
 ``MAX_SAMPLES``     1024        emitter / BSDF samples per shading point
 ``MAX_CANDIDATES``  4096        RIS candidates, and the ``:<int>`` of a lab recipe
+``MAX_RADIUS``      256         ReSTIR's neighbour radius in pixels (grid steps)
+``MAX_OFFSETS``     2^22        neighbour offsets one ReSTIR radius enumerates ((2r+1)^d)
 ``MAX_N``           2^30        integrand evaluations of one lab cell
 ``MAX_REPS``        10^6        repetitions of one lab cell
 ``max_workers()``   max(256,    worker processes (more only fork without speed-up)
@@ -27,6 +29,8 @@ MAX_SIDE = 65536
 MAX_PIXELS = 1 << 26
 MAX_SAMPLES = 1024
 MAX_CANDIDATES = 4096
+MAX_RADIUS = 256
+MAX_OFFSETS = 1 << 22
 MAX_N = 1 << 30
 MAX_REPS = 10**6
 

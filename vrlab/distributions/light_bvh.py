@@ -78,6 +78,8 @@ class LightBVH:
         w = _rows(w, "w", L, 3)
         cos_o, cos_e, phi = (_rows(v, name, L) for v, name in
                              ((cos_theta_o, "cos_theta_o"), (cos_theta_e, "cos_theta_e"), (phi, "phi")))
+        for v, name in ((lo, "lo"), (hi, "hi")):
+            _coordinates(v, name)
         if np.any(hi < lo):
             i = int(np.argwhere(hi < lo)[0, 0])
             raise ValueError(f"hi must be >= lo in every coordinate; light {i} has lo {lo[i]}, hi {hi[i]}")
@@ -282,7 +284,7 @@ class LightBVH:
         return imp if head is None else imp[:, np.cumsum(head) - 1]
 
     def _points(self, p, n):
-        p = checks.finite_array(p, "p", ndim=2, last=3)
+        p = _coordinates(checks.finite_array(p, "p", ndim=2, last=3), "p")
         if n is None:
             return p, np.zeros_like(p)
         n = checks.finite_array(n, "n", ndim=2, last=3)
@@ -293,6 +295,15 @@ class LightBVH:
 
 
 _PAIR = np.array([[0], [1]])
+#: largest coordinate magnitude: squared distances and box areas stay finite in float64
+MAX_COORDINATE = 1e100
+
+
+def _coordinates(a: np.ndarray, name: str) -> np.ndarray:
+    if a.size and np.max(np.abs(a)) > MAX_COORDINATE:
+        raise ValueError(f"{name}: coordinates must be at most {MAX_COORDINATE:g} in magnitude (squared distances "
+                         f"overflow beyond), got {a.flat[np.argmax(np.abs(a))]:g}")
+    return a
 
 
 def _columns(p: np.ndarray, n: np.ndarray) -> tuple[tuple, np.ndarray]:

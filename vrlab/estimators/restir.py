@@ -89,11 +89,16 @@ MIS_MODES = ("pairwise", "balance", "1/M")
 
 def grid_offsets(shape: tuple, radius: float) -> np.ndarray:
     """Integer offsets o (L, len(shape)) with 0 < |o| <= radius that do not wrap onto the pixel
-    itself on a periodic grid of ``shape`` (row-major order)."""
+    itself on a periodic grid of ``shape`` (row-major order).  Enumerating (2r+1)^d offsets,
+    r = floor(radius), is refused above ``limits.MAX_OFFSETS``, naming the radius."""
     shape = tuple(int(s) for s in shape)
     r = int(np.floor(radius))
     if not shape:
         return np.zeros((0, 0), int)
+    if (2 * r + 1) ** len(shape) > limits.MAX_OFFSETS:
+        raise ValueError(f"radius: {radius:g} on a {len(shape)}-d pixel grid enumerates (2r+1)^{len(shape)} = "
+                         f"{(2 * r + 1) ** len(shape):.3g} neighbour offsets, more than {limits.MAX_OFFSETS}; "
+                         "use a smaller radius")
     o = np.array(list(itertools.product(range(-r, r + 1), repeat=len(shape))), int).reshape(-1, len(shape))
     keep = (np.sum(o * o, -1) <= radius * radius) & np.any(o % np.array(shape) != 0, -1)
     return o[keep]
@@ -171,7 +176,7 @@ class ReSTIR(Estimator):
                  mis: str = "pairwise", *, source: Any = None, target: Any = None, shift: Any = None):
         self.candidates = checks.integer(candidates, "candidates", low=1, high=limits.MAX_CANDIDATES)
         self.neighbours = checks.integer(neighbours, "neighbours", low=0, high=64)
-        self.radius = checks.real(radius, "radius", low=0.0, low_open=True)
+        self.radius = checks.real(radius, "radius", low=0.0, low_open=True, high=limits.MAX_RADIUS)
         self.passes = checks.integer(passes, "passes", low=1, high=16)
         self.mis = checks.choice(mis, "mis", MIS_MODES)
         self.source = None if source is None else check_technique(source, "source")
