@@ -109,3 +109,70 @@ def test_cli_accepts_light_selection_bvh(tmp_path, capsys):
     assert np.load(out).shape == (6, 8, 3)
     code, _, err = run_cli(capsys, ["render", "many_lights", "--light-selection", "tree", "-o", str(out)])
     assert code == 2 and "bvh" in err
+
+
+# three spots over the floor, one tilted: pbrt-v4's cone bounds (theta_o = beam, theta_e =
+# cutoff - beam) must keep every point of the falloff ramp selectable
+SPOTS = "".join(f"""<emitter type="spot"><rgb name="intensity" value="{i}"/>
+    <float name="cutoff_angle" value="{cut}"/><float name="beam_width" value="{beam}"/>
+    <transform name="to_world"><lookat origin="{o}" target="{t}" up="0, 0, 1"/></transform></emitter>"""
+                for i, cut, beam, o, t in [(3, 30, 15, "0.5, 1, 0.2", "0.4, 0, 0.3"),
+                                           (2, 25, 25, "-0.6, 0.8, -0.4", "-0.5, 0, -0.5"),
+                                           (4, 40, 10, "0, 0.7, 0.8", "0.8, 0, 0.1")])
+
+
+def _spot_angles(lights, p):
+    """(spot light indices, angle from each spot's axis to every point (m, k), cutoffs (k,))."""
+    ids = [j for j in range(len(lights)) if getattr(getattr(lights.lights[j], "emitter", None), "type", "") == "spot"]
+    ems = [lights.lights[j].emitter for j in ids]
+    unit = [(p - e.position) / np.linalg.norm(p - e.position, axis=1)[:, None] for e in ems]
+    ang = np.stack([np.arccos(np.clip(u @ e.emission_cone()[0], -1, 1)) for u, e in zip(unit, ems)], 1)
+    return ids, ang, np.array([e._cut for e in ems])
+
+
+def test_spot_cones_select_exactly_where_the_spot_shines():
+    """P(spot | p) > 0 wherever the spot's falloff is positive (angle < cutoff, the ramp
+    included) and 0 beyond; the probabilities still sum to 1."""
+    lights = _lights(SPOTS)
+    p, n = _floor_points(3000, 5)
+    ids, ang, cut = _spot_angles(lights, p)
+    assert len(ids) == 3
+    for k, j in enumerate(ids):
+        pmf = lights.selection_pmf(p, np.full(len(p), j), n)
+        inside, outside = ang[:, k] < cut[k] - 1e-6, ang[:, k] > cut[k] + 1e-6
+        assert inside.sum() > 20 and outside.sum() > 20
+        assert np.all(pmf[inside] > 0) and np.all(pmf[outside] == 0)
+    table = np.stack([lights.selection_pmf(p, np.full(len(p), j), n) for j in range(len(lights))], 1)
+    assert np.all(table.sum(1) <= 1 + 1e-12) and np.mean(np.abs(table.sum(1) - 1) < 1e-12) > 0.5
+
+
+def test_a_spot_cone_without_its_ramp_fails(monkeypatch):
+    """Mutation: theta_e = 0 (the cone ends at the beam width) starves the ramp."""
+    from vrlab.render.emitters.spot import SpotLight
+
+    real = SpotLight.emission_cone
+    monkeypatch.setattr(SpotLight, "emission_cone", lambda self: (real(self)[0], real(self)[1], 1.0 - 1e-12))
+    with pytest.raises(AssertionError):
+        test_spot_cones_select_exactly_where_the_spot_shines()
+
+
+def test_a_sheared_spot_bounds_every_direction():
+    from vrlab.render.emitters.spot import SpotLight
+
+    m = np.eye(4)
+    m[0, 0] = 2.0
+    assert SpotLight(to_world=m).emission_cone() is None
+    w, cos_o, cos_e = SpotLight(to_world=np.diag([3.0, 3.0, -3.0, 1.0]), cutoff_angle=30, beam_width=10).emission_cone()
+    np.testing.assert_allclose(w, [0, 0, -1])
+    np.testing.assert_allclose([cos_o, cos_e], np.cos(np.deg2rad([10, 20])), atol=1e-6)
+
+
+@pytest.mark.parametrize("strategy", ["light", "mis-power"])
+def test_spot_lights_bvh_is_unbiased_against_uniform(strategy):
+    sc = scene(FLOOR + SPOTS + SPHERE_LIGHT.replace('value="0.3"', 'value="0.1"'),
+               origin="0, 2.5, 0.01", fov=70, width=10, height=8)
+    bvh = render_pair(sc, 128, strategy, rng=5, light_selection="bvh")
+    uni = render_pair(sc, 256, strategy, rng=6, light_selection="uniform")
+    z = _z(bvh, uni)
+    assert np.max(np.abs(z)) < bonferroni_z(z.size)
+    assert abs(_mean_z(bvh, uni)) < 4

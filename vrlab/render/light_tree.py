@@ -16,8 +16,10 @@ Per light, the bounds: a sphere its box and every direction (theta_o = pi, theta
 a rectangle or disk its box (rectangle: its corners; disk: centre +- bound radius) and
 its normal (theta_o = 0, theta_e = pi/2, one-sided: vrlab's area emitters emit on the
 normal's side only); other shapes (cube, cylinder, ellipsoid, mesh) the box about their
-bounding sphere and every direction; point, spot and projector lights their position and
-every direction (a spot's cone is not used: conservative).  phi is the power of
+bounding sphere and every direction; point and projector lights their position and every
+direction; spot lights their position and pbrt-v4's cone (``emission_cone``: theta_o the beam
+width, theta_e the rest of the cutoff; every direction if ``to_world`` shears or scales
+unevenly).  phi is the power of
 ``light_selection="power"`` (mean radiance x area, or the emitter's ``power``) times the
 emitter's ``sampling_weight``.
 
@@ -41,22 +43,23 @@ __all__ = ["BVHSelection"]
 
 
 def _bounds(light) -> tuple:
-    """(lo, hi, w, cos_o) of one light of a :class:`~vrlab.render.lights.LightSet`."""
+    """(lo, hi, w, cos_o, cos_e) of one light of a :class:`~vrlab.render.lights.LightSet`."""
     up = np.array([0.0, 0.0, 1.0])
     if getattr(light, "emitter", None) is not None and not hasattr(light, "shape"):    # point, spot, projector
         pos = np.asarray(light.emitter.position, float)
-        return pos, pos, up, -1.0
+        cone = light.emitter.emission_cone()
+        return (pos, pos, up, -1.0, 0.0) if cone is None else (pos, pos, *cone)
     if light.sphere is not None:
         c, r = np.asarray(light.sphere[0], float), float(light.sphere[1])
-        return c - r, c + r, up, -1.0
+        return c - r, c + r, up, -1.0, 0.0
     shape = light.shape
     if light.planar and hasattr(shape, "corners"):
         pts = shape.corners()
-        return pts.min(0), pts.max(0), light.surface.normal(pts[:1])[0], 1.0
+        return pts.min(0), pts.max(0), light.surface.normal(pts[:1])[0], 1.0, 0.0
     c, r = np.asarray(shape.center, float), float(shape.bound_radius)
     if light.planar and hasattr(light.surface, "unit_normal"):
-        return c - r, c + r, np.asarray(light.surface.unit_normal, float), 1.0
-    return c - r, c + r, up, -1.0
+        return c - r, c + r, np.asarray(light.surface.unit_normal, float), 1.0, 0.0
+    return c - r, c + r, up, -1.0, 0.0
 
 
 def _triangle_bounds(light) -> tuple:
@@ -98,23 +101,23 @@ class BVHSelection:
             if split[i]:
                 lo, hi, w, cos_o, area = _triangle_bounds(lights[i])
                 phi = np.maximum(weights[i] * max(lights[i].radiance.mean(), 0.0) * area, 0.0)
-                rows.append((lo, hi, w, cos_o, phi))
+                rows.append((lo, hi, w, cos_o, phi, np.zeros(len(lo))))
                 lights_of.append(np.full(len(lo), i))
                 tris_of.append(np.arange(len(lo)))
             else:
-                lo, hi, w, cos_o = _bounds(lights[i])
+                lo, hi, w, cos_o, cos_e = _bounds(lights[i])
                 rows.append((lo[None], hi[None], np.asarray(w, float)[None], np.array([cos_o], float),
-                             np.array([phi_light[i]])))
+                             np.array([phi_light[i]]), np.array([cos_e], float)))
                 lights_of.append(np.array([i]))
                 tris_of.append(np.array([-1]))
         cat = lambda k, shape: (np.concatenate([r[k] for r in rows]) if rows   # noqa: E731
                                 else np.zeros(shape))
         lo, hi, w = cat(0, (0, 3)), cat(1, (0, 3)), cat(2, (0, 3))
-        cos_o, phi = cat(3, (0,)), cat(4, (0,))
+        cos_o, phi, cos_e = cat(3, (0,)), cat(4, (0,)), cat(5, (0,))
         #: the light and triangle (-1: the whole light) of each entry (leaf) of the tree
         self.entry_light = np.concatenate(lights_of).astype(np.int64) if rows else np.zeros(0, np.int64)
         self.entry_triangle = np.concatenate(tris_of).astype(np.int64) if rows else np.zeros(0, np.int64)
-        self.tree = LightBVH(lo, hi, w, cos_o, np.zeros(len(lo)), phi)
+        self.tree = LightBVH(lo, hi, w, cos_o, cos_e, phi)
         self.p_inf = self.tree.infinite_probability(len(self.infinite))
         #: each light's first entry (-1: a light at infinity)
         self.first_entry = np.full(L, -1)

@@ -61,3 +61,9 @@ class Emitter(Element):
     def type(self) -> str:
         """The Mitsuba plugin name."""
         return self.plugin_name
+
+    def emission_cone(self) -> tuple | None:
+        """``(w, cos_theta_o, cos_theta_e)``: pbrt-v4's orientation bounds of the directions a
+        light at a point emits into (w the axis; it emits nowhere beyond theta_o + theta_e from
+        w; the light BVH reads them), or None: every direction (the default)."""
+        return None

@@ -77,6 +77,18 @@ class SpotLight(DeltaPositionLight):
             out = out * self.texture.eval(SurfacePoints(uv))
         return out
 
+    def emission_cone(self) -> tuple | None:
+        """pbrt-v4's spot bounds: the axis w = to_world (0, 0, 1), theta_o = beam_width, theta_e =
+        cutoff - beam_width (+1e-6 rad against rounding: the light BVH must never give 0 where
+        the falloff is positive).  None (every direction) when to_world is not a rotation times
+        a uniform scale: the world-space cone is then not circular."""
+        m = self.to_world[:3, :3]
+        gram = m.T @ m
+        if not np.allclose(gram, gram[0, 0] * np.eye(3), rtol=1e-9, atol=1e-12 * gram[0, 0]):
+            return None
+        w = m[:, 2] / np.linalg.norm(m[:, 2])
+        return w, float(np.cos(self._beam)), float(np.cos(min(self._cut - self._beam + 1e-6, np.pi)))
+
     def power(self, radius: float) -> float:
         # the cone's solid angle out to the middle of the ramp
         half = 0.5 * (self._cut + self._beam)
