@@ -48,10 +48,16 @@ def test_many_lights_bvh_is_unbiased_against_uniform(strategy):
 @pytest.mark.parametrize("strategy", ["light", "mis-power"])
 @pytest.mark.parametrize("extra", ["", ENV], ids=["rectangles", "rectangles+environment"])
 def test_rectangle_lights_bvh_is_unbiased_against_uniform(strategy, extra):
-    sc = scene(FLOOR + RECTS + SPHERE_LIGHT.replace('value="0.3"', 'value="0.1"') + extra,
+    _assert_bvh_agrees_with_uniform(RECTS + extra, strategy, 256, seeds=(3, 4))
+
+
+def _assert_bvh_agrees_with_uniform(lights_xml: str, strategy: str, spp: int, seeds: tuple) -> None:
+    """The floor lit by ``lights_xml`` and a small sphere light, seen from above: bvh and
+    uniform selection agree per pixel (Bonferroni) and in the image mean."""
+    sc = scene(FLOOR + lights_xml + SPHERE_LIGHT.replace('value="0.3"', 'value="0.1"'),
                origin="0, 2.5, 0.01", fov=70, width=10, height=8)
-    bvh = render_pair(sc, 256, strategy, rng=3, light_selection="bvh")
-    uni = render_pair(sc, 256, strategy, rng=4, light_selection="uniform")
+    bvh = render_pair(sc, spp, strategy, rng=seeds[0], light_selection="bvh")
+    uni = render_pair(sc, 256, strategy, rng=seeds[1], light_selection="uniform")
     z = _z(bvh, uni)
     assert np.max(np.abs(z)) < bonferroni_z(z.size)
     assert abs(_mean_z(bvh, uni)) < 4
@@ -169,10 +175,4 @@ def test_a_sheared_spot_bounds_every_direction():
 
 @pytest.mark.parametrize("strategy", ["light", "mis-power"])
 def test_spot_lights_bvh_is_unbiased_against_uniform(strategy):
-    sc = scene(FLOOR + SPOTS + SPHERE_LIGHT.replace('value="0.3"', 'value="0.1"'),
-               origin="0, 2.5, 0.01", fov=70, width=10, height=8)
-    bvh = render_pair(sc, 128, strategy, rng=5, light_selection="bvh")
-    uni = render_pair(sc, 256, strategy, rng=6, light_selection="uniform")
-    z = _z(bvh, uni)
-    assert np.max(np.abs(z)) < bonferroni_z(z.size)
-    assert abs(_mean_z(bvh, uni)) < 4
+    _assert_bvh_agrees_with_uniform(SPOTS, strategy, 128, seeds=(5, 6))
