@@ -1,5 +1,5 @@
-"""Ray intersection against primitive count: vrlab's NumPy BVH (``vrlab.render.accel``), its
-all-pairs kernels, Embree through ``embreex`` (``vrlab.render.embree``: what large triangle
+"""Ray intersection against primitive count: vrlab's NumPy BVH (``vrlab.render.accel.scene_bvh``), its
+all-pairs kernels, Embree through ``embreex`` (``vrlab.render.accel.embree``: what large triangle
 scenes use where it is installed) and Mitsuba 3 side by side, from 10 to 10^6 primitives
 (issue 24).
 
@@ -29,9 +29,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from vrlab.render.accel import Accel  # noqa: E402
-from vrlab.render.embree import embree_available  # noqa: E402
-from vrlab.render.groups import Planar, Quadrics, unit  # noqa: E402
+from vrlab.render.accel.scene_bvh import Accel  # noqa: E402
+from vrlab.render.accel.embree import embree_available  # noqa: E402
+from vrlab.render.accel.groups import Planar, Quadrics, unit  # noqa: E402
 
 
 def sphere_mesh(P: int) -> np.ndarray:

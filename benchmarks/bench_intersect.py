@@ -20,8 +20,8 @@ try:
 except ImportError:  # run from a checkout without installing
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from vrlab.render import builtin_scene_path, load_scene, render
-from vrlab.render.geometry import SceneGeometry
-from vrlab.render.groups import unit_sphere_hit
+from vrlab.render.accel.geometry import SceneGeometry
+from vrlab.render.accel.groups import unit_sphere_hit
 
 SCENES = ("furnace", "veach_mis", "cornell_box", "many_lights", "box_ellipsoid")
 

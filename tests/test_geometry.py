@@ -1,4 +1,4 @@
-"""SceneGeometry.intersect against a plain per-primitive reference (vrlab.render.geometry, bvh)."""
+"""SceneGeometry.intersect against a plain per-primitive reference (vrlab.render.accel.geometry, bvh)."""
 from __future__ import annotations
 
 import warnings
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from vrlab.render import load_scene
-from vrlab.render.bvh import BVH
-from vrlab.render.geometry import SceneGeometry
+from vrlab.render.accel.bvh import BVH
+from vrlab.render.accel.geometry import SceneGeometry
 
 
 def _scene(shapes: str, tmp_path=None):
@@ -224,7 +224,7 @@ def test_one_bvh_over_every_kind_matches_reference(tmp_path, backend):
     reference, and ``occluded`` equals closest t < t_max (any hit).  With ``"embree"`` the
     planar primitives are Embree's: float32 decisions, so 99.5 % of the rays must agree (the
     rays include grazing ones and ones starting 1e-4 off a surface)."""
-    from vrlab.render.embree import embree_available
+    from vrlab.render.accel.embree import embree_available
 
     if backend == "embree" and not embree_available():
         pytest.skip("embreex is not installed on this platform (the NumPy BVH traces everything)")
@@ -326,7 +326,7 @@ def test_sphere_groups_dense_and_culled_match_reference(n_spheres):
     """Spheres only: the float32 all-pairs path (<= DENSE_QUADRICS, world-space sphere
     kernel) and the culled float64 path (more) against the reference; small far spheres
     and rays from inside included."""
-    from vrlab.render.groups import DENSE_QUADRICS
+    from vrlab.render.accel.groups import DENSE_QUADRICS
     rng = np.random.default_rng(11)
     c = rng.uniform(-3, 3, (n_spheres, 3))
     r = rng.uniform(0.01, 0.5, n_spheres)
@@ -485,7 +485,7 @@ def test_embree_geometry_pickles_and_backend_is_checked(tmp_path):
     hits; an unknown backend is refused naming ``backend``."""
     import pickle
 
-    from vrlab.render.embree import embree_available
+    from vrlab.render.accel.embree import embree_available
 
     rng = np.random.default_rng(3)
     tri = rng.uniform(-0.2, 0.2, (400, 3, 3)) + rng.uniform(-2, 2, (400, 1, 3))

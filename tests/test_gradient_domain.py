@@ -9,7 +9,7 @@ import pytest
 
 from test_render import CENTRE_TOL, FLOOR, L_E, RECT_LIGHT, RHO, bonferroni_z, exact_image, polygon_irradiance, scene
 from vrlab.render import PixelIntegrand, render_gradient_domain, screened_poisson
-from vrlab.render.geometry import SceneGeometry
+from vrlab.render.accel.geometry import SceneGeometry
 
 SC = scene(FLOOR + RECT_LIGHT, fov=20, width=10, height=8)     # a smooth irradiance gradient across the image
 EXACT = exact_image("rectangle", SC)

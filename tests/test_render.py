@@ -8,7 +8,7 @@ from scipy import stats
 from vrlab.render import Scene, load_scene
 from conftest import render_pair
 from vrlab.render.presets import PRESETS as STRATEGIES
-from vrlab.render.geometry import SceneGeometry
+from vrlab.render.accel.geometry import SceneGeometry
 
 RHO = (0.2, 0.5, 0.8)           # floor reflectance (per channel)
 L_E = 3.0                       # light radiance

@@ -18,7 +18,7 @@ from vrlab.render.direct import DirectLighting
 from vrlab.render.integrators import DirectIntegrator, PathIntegrator
 from vrlab.render.sensors import HDRFilm, IndependentSampler, PerspectiveCamera
 from vrlab.render.shapes import Mesh, Rectangle, Sphere
-from vrlab.render.geometry import SceneGeometry
+from vrlab.render.accel.geometry import SceneGeometry
 from vrlab.render.image import load_image, rel_mse, save_image, srgb_encode
 from vrlab.render.lights import LightSet
 

@@ -88,7 +88,7 @@ def test_cos_integrals_match_quadrature():
     z = u[:, 0]
     r = np.sqrt(1 - z * z)
     w = np.stack([r * np.cos(2 * np.pi * u[:, 1]), z, r * np.sin(2 * np.pi * u[:, 1])], -1)
-    from vrlab.render.geometry import SceneGeometry
+    from vrlab.render.accel.geometry import SceneGeometry
     geo = SceneGeometry(sc)
     for i in range(2):
         hits = geo.intersect(np.broadcast_to(p[i] + [0, 1e-9, 0], w.shape), w)

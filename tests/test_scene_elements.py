@@ -263,7 +263,7 @@ def test_surface_coordinates_match_mitsuba(shape):
     xml = scene_xml(shape)
     ours = load_scene(xml)
     theirs = mi.load_string(xml)
-    from vrlab.render.geometry import SceneGeometry
+    from vrlab.render.accel.geometry import SceneGeometry
 
     rng = np.random.default_rng(3)
     o = rng.normal(size=(400, 3)) * 3

@@ -34,7 +34,7 @@ import numpy as np
 
 from .. import checks
 from .._vec import dot, scale, side
-from .geometry import Hits, SceneGeometry
+from .accel.geometry import Hits, SceneGeometry
 from .lights import LIGHT_SELECTIONS, LightSet
 from .scene import Scene
 

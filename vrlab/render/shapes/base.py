@@ -4,7 +4,7 @@ A shape (Mitsuba's ``<shape type=...>``) owns its parameters, its ``to_world`` (
 world, Mitsuba's conventions: :mod:`vrlab.render.transforms`), its BSDF and optional area
 emitter, and its behaviour:
 
-* ``parts()``: what the ray tracer (:class:`vrlab.render.geometry.SceneGeometry`)
+* ``parts()``: what the ray tracer (:class:`vrlab.render.accel.geometry.SceneGeometry`)
   intersects, as primitive parts: :class:`Parallelograms`, :class:`Triangles` (a mesh;
   ``box`` marks the six faces of a parallelepiped for the slab test), :class:`Quadric`
   (an ellipsoid ``|M^-1 (x - c)| = 1``), :class:`DiskPart`, or :class:`CustomPart` (the

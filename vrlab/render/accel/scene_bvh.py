@@ -1,4 +1,4 @@
-"""One acceleration structure over every primitive of a scene: a :class:`~vrlab.render.bvh.BVH`
+"""One acceleration structure over every primitive of a scene: a :class:`~vrlab.render.accel.bvh.BVH`
 whose leaves hold planar primitives (parallelograms, triangles), quadrics (spheres,
 ellipsoids) and disks alike.
 
@@ -33,7 +33,7 @@ class Accel:
     """A BVH over the primitives of ``planar`` (a list of :class:`Planar` groups),
     ``quadrics`` (a :class:`Quadrics` or None) and ``disks`` (``(shape, center, M^-1,
     normal)`` tuples); see the module docstring.  ``backend``: ``"numpy"`` (every kind in the
-    NumPy BVH), ``"embree"`` (planar primitives through Embree, :mod:`vrlab.render.embree`;
+    NumPy BVH), ``"embree"`` (planar primitives through Embree, :mod:`vrlab.render.accel.embree`;
     the others in the NumPy BVH) or ``"auto"`` (Embree where ``embreex`` imports)."""
 
     def __init__(self, planar: list[Planar], quadrics: Quadrics | None, disks: Disks | None, backend: str = "auto"):

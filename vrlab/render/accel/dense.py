@@ -7,7 +7,7 @@ contiguous row, and in float32 (about 2.5x the float64 element rate on the 2-cor
 machine).  Rays come as rows: origins ``O`` (``(4, N)`` with a row of ones for planes,
 ``(3, N)`` for quadrics) and directions ``D (3, N)``.  Each kernel returns the
 smallest float32 ``t > t_min`` per ray (inf on a miss) and the index of the primitive;
-:class:`~vrlab.render.geometry.SceneGeometry` recomputes t in float64 for the winner.
+:class:`~vrlab.render.accel.geometry.SceneGeometry` recomputes t in float64 for the winner.
 
 * planes ``x = v0 + s e1 + u e2``: with the unit normal n and the dual basis a1, a2 of
   (e1, e2), ``t = (n.v0 - n.o) / n.d``, ``s = a1.o - a1.v0 + t a1.d``, ``u`` likewise
@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._vec import scale
+from ..._vec import scale
 
 __all__ = ["ELEMS", "DensePlanar", "box_rows", "closest_boxes", "closest_planes", "closest_quadrics", "plane_rows"]
 
@@ -228,7 +228,7 @@ def closest_boxes(wo: np.ndarray, wd: np.ndarray, O: np.ndarray, D: np.ndarray,
 
 
 class DensePlanar:
-    """float32 all-pairs test of a planar group (:class:`~vrlab.render.groups.Planar`):
+    """float32 all-pairs test of a planar group (:class:`~vrlab.render.accel.groups.Planar`):
     plane rows of its primitives, except the six faces of each box (``boxes``: a list of
     ``(face primitive indices (6,) by face code 2 k + (side > 0), M^-1, c)``), which one slab
     test replaces (a third of the rows and of the work).  ``closest`` returns ``(t, j)``

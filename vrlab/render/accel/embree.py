@@ -1,6 +1,6 @@
 """Planar primitives traced by Intel Embree (through the ``embreex`` package), where installed.
 
-The scene's BVH (:mod:`vrlab.render.accel`) hands its planar groups (parallelograms,
+The scene's BVH (:mod:`vrlab.render.accel.scene_bvh`) hands its planar groups (parallelograms,
 triangles) to Embree when ``embreex`` imports (it has wheels for x86-64 Linux, Windows and
 macOS; elsewhere the NumPy BVH traces them).  Each parallelogram ``v0 + s e1 + u e2`` is
 two triangles (v0, v0 + e1, v0 + e1 + e2) and (v0, v0 + e1 + e2, v0 + e2); Embree builds
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._vec import dot as _dot
+from ..._vec import dot as _dot
 from .groups import Planar
 
 __all__ = ["EmbreeTriangles", "embree_available"]
@@ -36,7 +36,7 @@ def embree_available() -> bool:
 
 
 class EmbreeTriangles:
-    """The planar groups ``planar`` (a list of :class:`~vrlab.render.groups.Planar`) as one
+    """The planar groups ``planar`` (a list of :class:`~vrlab.render.accel.groups.Planar`) as one
     Embree triangle mesh; triangle i is primitive ``prim[i]`` of group ``group[i]``."""
 
     def __init__(self, planar: list[Planar]):

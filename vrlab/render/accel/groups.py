@@ -1,4 +1,4 @@
-"""Primitive groups of :class:`~vrlab.render.geometry.SceneGeometry` (see its module
+"""Primitive groups of :class:`~vrlab.render.accel.geometry.SceneGeometry` (see its module
 docstring): planar primitives (parallelograms and triangles, with the slab test for
 cubes) and quadrics, each with a float32 all-pairs pass (:mod:`.dense`) and its float64
 or float32 finish, and a conservative cull for many quadrics; every group also has the exact
@@ -9,9 +9,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .._vec import dot as _dot
-from .._vec import norm, scale
-from ..distributions.quadrics import unit_sphere_hit
+from ..._vec import dot as _dot
+from ..._vec import norm, scale
+from ...distributions.quadrics import unit_sphere_hit
 from .dense import DensePlanar, closest_quadrics
 
 __all__ = ["DENSE_QUADRICS", "Disks", "Planar", "Quadrics", "parallelograms", "unit", "unit_sphere_hit"]

@@ -23,7 +23,7 @@ meshes (cube, obj), outward for closed shapes, and reversed by ``flip_normals``.
 
 Scenes whose all-pairs cost is small (planar primitives + disks + quadrics / 4 at most
 ``DENSE_COST`` = 256: every built-in scene) are tested *all pairs*: planar primitives and up
-to 16 quadrics in float32 (:mod:`vrlab.render.dense`: one contiguous row of rays per
+to 16 quadrics in float32 (:mod:`vrlab.render.accel.dense`: one contiguous row of rays per
 primitive, about 2.5x NumPy's float64 rate), which picks the closest primitive of each ray;
 the six faces of a cube are tested together, by the slab test in the cube's frame (Kay &
 Kajiya 1986: a third of the work), and the face is found for the winners only.  Then t, the
@@ -36,7 +36,7 @@ rays within float32 rounding of an edge or of a second surface may pick either. 
 with thin matrix products ``[d, d.o] @ W`` (the discriminant of each bounding sphere, with a
 tolerance that only admits extra pairs) followed by the stable quadratic roots of the
 candidate pairs, in float64.  Larger scenes put every primitive (planar, quadric, disk) into
-one BVH (:mod:`vrlab.render.accel`, :mod:`vrlab.render.bvh`: binned SAH, depth-first
+one BVH (:mod:`vrlab.render.accel.scene_bvh`, :mod:`vrlab.render.accel.bvh`: binned SAH, depth-first
 traversal per ray, any-hit shadow queries through :meth:`SceneGeometry.occluded`), with
 exact float64 decisions; cost per ray grows with the logarithm of the primitive count
 (measured in ``benchmarks/bench_accel.py``: the crossover with all pairs is near 300
@@ -44,7 +44,7 @@ triangles or 2 000 spheres).  Among equal ``t`` (coincident surfaces; in the flo
 t equal to about 1e-5 relative) the first group (parallelograms, triangles, quadrics,
 disks) and then the lowest primitive wins (a parallelogram before a cube face).  Loops run
 over primitive groups, blocks and tree steps, never over single rays.  The primitive groups
-live in :mod:`vrlab.render.groups`.
+live in :mod:`vrlab.render.accel.groups`.
 
 Checked: ``scene`` is a ``Scene`` and ``only`` distinct shape indices in range;
 ``intersect``/``distance`` check the ray arrays' shapes (``(N, 3)`` or broadcastable
@@ -58,12 +58,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import checks
-from .._vec import scale
-from .accel import BACKENDS, Accel
+from ... import checks
+from ..._vec import scale
+from ..scene import Scene
+from ..shapes.base import CustomPart, DiskPart, Parallelograms, Quadric, Triangles
 from .groups import Disks, Planar, Quadrics, parallelograms, unit
-from .scene import Scene
-from .shapes.base import CustomPart, DiskPart, Parallelograms, Quadric, Triangles
+from .scene_bvh import BACKENDS, Accel
 
 __all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "Hits", "SceneGeometry"]
 
@@ -107,7 +107,7 @@ class SceneGeometry:
     ``track_prim=False``: hits report primitive 0 (no mesh needs its triangle index);
     ``unmerged``: shapes whose triangles are never paired into parallelograms (their hits
     report the exact triangle: the light BVH's per-triangle mesh lights); ``backend``: how a
-    large scene's BVH traces planar primitives (:data:`~vrlab.render.accel.BACKENDS`:
+    large scene's BVH traces planar primitives (:data:`~vrlab.render.accel.scene_bvh.BACKENDS`:
     ``"auto"`` Embree where ``embreex`` is installed, else NumPy)."""
 
     def __init__(self, scene: Scene, only: Sequence[int] | None = None, track_prim: bool = True,
@@ -181,7 +181,7 @@ class SceneGeometry:
         self.quadrics = Quadrics(quad) if quad else None
         self.disks = Disks(disk) if disk else None
         self.custom = custom
-        #: the BVH over every primitive (:mod:`vrlab.render.accel`) of scenes whose all-pairs
+        #: the BVH over every primitive (:mod:`vrlab.render.accel.scene_bvh`) of scenes whose all-pairs
         #: cost exceeds ``DENSE_COST``; None: the all-pairs kernels
         self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks, backend)
         pts = np.vstack(pts)
