@@ -270,6 +270,20 @@ def test_power_light_selection_and_errors():
         render_pair(sc, 0, "light")
 
 
+def test_power_selection_weighs_area_and_point_lights_by_their_flux():
+    """Flux: pi L A for a one-sided area emitter (pbrt-v4's DiffuseAreaLight::Phi), 4 pi I for a
+    point light.  RECT_LIGHT (0.8 x 0.6) with radiance 2 and a point light of intensity
+    2 x 0.48 / 4 carry the same flux, so power selection picks each with probability 1/2
+    (mean radiance x area alone, without pi, gave the point light pi / (1 + pi))."""
+    from vrlab.render.direct import DirectLighting
+
+    point = '<emitter type="point"><point name="position" value="0, 1, 0"/><rgb name="intensity" value="0.24"/></emitter>'
+    rect = RECT_LIGHT.replace(f'value="{L_E}"', 'value="2"')
+    lights = DirectLighting(scene(FLOOR + rect + point), "power").lights
+    np.testing.assert_allclose([light.power for light in lights.lights], [np.pi * 2 * 0.48, 4 * np.pi * 0.24])
+    np.testing.assert_allclose(lights.selection_pmf(np.zeros((2, 3)), np.array([0, 1])), [0.5, 0.5])
+
+
 def test_render_exported():
     import vrlab.render as r
     from vrlab.render.film import render

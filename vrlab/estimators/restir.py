@@ -221,9 +221,8 @@ class ReSTIR(Estimator):
             x0 = np.asarray(dist.sample(np.full((1, int(dist.dim_u)), 0.5)), dtype=float)
             return tuple(np.shape(integrand(x0))[:-1])
         except (ValueError, TypeError, AttributeError) as exc:
-            raise ValueError(f"integrand: ReSTIR reads its pixel grid from the values at one point of the domain "
-                             f"and could not ({exc}); it needs a batched integrand (the renderer runs "
-                             "spatial_outputs)") from None
+            raise ValueError(f"integrand: ReSTIR reads its pixel grid (the batch shape of f) from the values at one "
+                             f"point of the domain, and evaluating f there failed: {exc}") from None
 
     def view(self, integrand) -> PixelView:
         return PixelView(integrand, self.target_for(integrand), self.pixel_shape(integrand),

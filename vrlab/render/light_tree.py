@@ -19,13 +19,12 @@ normal's side only); other shapes (cube, cylinder, ellipsoid, mesh) the box abou
 bounding sphere and every direction; point and projector lights their position and every
 direction; spot lights their position and pbrt-v4's cone (``emission_cone``: theta_o the beam
 width, theta_e the rest of the cutoff; every direction if ``to_world`` shears or scales
-unevenly).  phi is the power of
-``light_selection="power"`` (mean radiance x area, or the emitter's ``power``) times the
-emitter's ``sampling_weight``.
+unevenly).  phi is the power of ``light_selection="power"`` (the flux pi x mean radiance x
+area, or the emitter's ``power``) times the emitter's ``sampling_weight``.
 
 **Emissive triangle meshes** (``obj``, ``ply``, ``serialized``, ``mesh`` without vertex
 normals; ``split`` lights) are not one leaf but one leaf per triangle: its box, its winding
-normal as the cone axis (theta_o = 0, theta_e = pi/2, one-sided), phi = mean radiance x A_t x
+normal as the cone axis (theta_o = 0, theta_e = pi/2, one-sided), phi = pi x mean radiance x A_t x
 sampling_weight (zero-area triangles: phi = 0, never chosen).  The leaves are *entries*
 e = 0..E-1: each unsplit bounded light has one, split light j has ``first_entry[j] + t`` for
 its triangles t = 0..F_j-1 (``entry_light``, ``entry_triangle``; -1 for whole lights).  So
@@ -86,7 +85,7 @@ def _triangle_bounds(light) -> tuple:
 class BVHSelection:
     """P(j, t | p, n) over the lights of a light set (see the module docstring): ``lights``
     the set's lights, ``weights (L,)`` their ``sampling_weight``, ``power (L,)`` their powers
-    (mean radiance x area or the emitter's power), ``split (L,)`` bool: one leaf per triangle."""
+    (pi x mean radiance x area or the emitter's power), ``split (L,)`` bool: one leaf per triangle."""
 
     def __init__(self, lights: list, weights: np.ndarray, power: np.ndarray, split: np.ndarray | None = None):
         L = len(lights)
@@ -100,7 +99,7 @@ class BVHSelection:
         for i in self.bounded:                       # a loop over lights; triangles are arrays
             if split[i]:
                 lo, hi, w, cos_o, area = _triangle_bounds(lights[i])
-                phi = np.maximum(weights[i] * max(lights[i].radiance.mean(), 0.0) * area, 0.0)
+                phi = np.maximum(weights[i] * np.pi * max(lights[i].radiance.mean(), 0.0) * area, 0.0)
                 rows.append((lo, hi, w, cos_o, phi, np.zeros(len(lo))))
                 lights_of.append(np.full(len(lo), i))
                 tris_of.append(np.arange(len(lo)))

@@ -4,9 +4,9 @@
   (``SphereCone``), other shapes by area (their ``surface()`` distribution), converted
   to solid angle over every hit (``SolidAngleFromArea``: p_w = sum_k p_A d_k^2 /
   |cos theta_k|).
-* :class:`LightSet`: all lights plus the light-selection table (uniform, or by power =
-  mean radiance x area through an ``AliasTable``), or, with ``"bvh"``, pbrt-v4's light BVH:
-  P_j depends on the shading point and its normal (:mod:`vrlab.render.light_tree`); there an
+* :class:`LightSet`: all lights plus the light-selection table (uniform, or by power = the
+  flux, pi x mean radiance x area for emitting shapes, through an ``AliasTable``), or, with
+  ``"bvh"``, pbrt-v4's light BVH: P_j depends on the shading point and its normal (:mod:`vrlab.render.light_tree`); there an
   emissive triangle mesh is *split*: each triangle is a leaf, (j, t) ~ P(j, t | p, n), w is
   sampled towards triangle t and the density is P(j, t | p, n) p_t(w) for the mesh's first
   triangle t along w (see :meth:`LightSet.sample` for why that convention, not the sum over
@@ -59,6 +59,7 @@ class Light:
         self.planar = False
         if self.sphere is not None:
             self.area = 4 * np.pi * self.sphere[1] ** 2
+            self.power = self._flux()
             return
         self.surface = shape.surface()
         if self.surface is None:
@@ -73,6 +74,13 @@ class Light:
         # one hit per direction: whether the light faces the point is a function of w
         self.planar = getattr(self.surface, "max_hits", 2) == 1
         self.area = self.surface.area
+        self.power = self._flux()
+
+    def _flux(self) -> float:
+        """The power (flux) of a one-sided Lambertian emitter, pi x mean radiance x area (pbrt-v4's
+        ``DiffuseAreaLight::Phi``): on the same scale as a point light's 4 pi I, so that power
+        selection weighs area and non-area lights alike."""
+        return float(np.pi * max(self.radiance.mean(), 0.0) * self.area)
 
     def sample(self, ref: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
         """``(w, pdf, front, y)``: directions ``(m, 3)`` from ``ref (m, 3)``, their solid-angle
@@ -230,8 +238,7 @@ class LightSet:
         #: lights, and split meshes: a point on one triangle)
         self.simple = all(l.sphere is not None or l.planar or s for l, s in zip(self.lights, self.split))
         weights = np.array(weights, float)
-        power = np.array([l.power if isinstance(l, EmitterLight) else max(l.radiance.mean(), 0.0) * l.area
-                          for l in self.lights])
+        power = np.array([l.power for l in self.lights])
         if selection == "power" and power.sum() > 0:     # every emitter black: nothing to weigh, uniform
             weights = weights * power
         if not weights.sum() > 0:
