@@ -40,7 +40,7 @@ def test_recipes_build_estimator_and_points():
 def test_list_recipes_and_applicable():
     patterns = {r["recipe"] for r in lab.list_recipes()}
     for p in ("mc", "is:<technique>", "mis-balance[:<a+b>]", "mis-max[:<a+b>]", "onesample[:<a+b>]", "antithetic",
-              "cv", "stratified", "jittered", "lhs", "rqmc-sobol[:<R>]", "rqmc-halton[:<R>]", "ris:<m>"):
+              "cv[:<a+b>]", "stratified", "jittered", "lhs", "rqmc-sobol[:<R>]", "rqmc-halton[:<R>]", "ris:<m>"):
         assert p in patterns
     ok = lab.applicable(get("exp"))
     assert {"mc", "is:uniform", "is:linear", "jittered", "lhs"} <= set(ok)
@@ -90,6 +90,32 @@ def test_cv_recipe_uses_known_control():
         lab.build("cv", Integrand(lambda x: x[..., 0], [(0, 1)], 0.5, "exp"))
     given = Integrand(lambda x: x[..., 0] ** 2, [(0, 1)], 1 / 3, "x2", theory={"cv:control": (lambda x: x[..., 0], 0.5)})
     assert lab.build("cv", given)[0].control_integral == 0.5
+
+
+def test_cv_recipe_uses_the_integrands_named_controls():
+    """``Integrand(controls={name: (h, int h)})``: ``cv`` takes them all, ``cv:a`` the one named,
+    and the estimate stays unbiased; a wrong integral for the control biases it (z-test fails)."""
+    pytest.importorskip("vrlab.estimators.control")
+    a = 1e-2
+    peak = lambda x: 1 / (a + (x[..., 0] - 0.5) ** 2)                      # noqa: E731
+    peak_int = 2 / np.sqrt(a) * np.arctan(0.5 / np.sqrt(a))
+
+    def integrand(peak_integral):
+        return Integrand(lambda x: peak(x) + 3 * x[..., 0], [(0, 1)], peak_int + 1.5, "peak+ramp",
+                         controls={"peak": (peak, peak_integral), "ramp": (lambda x: x[..., 0], 0.5)})
+
+    good = integrand(peak_int)
+    both, one = lab.build("cv", good)[0], lab.build("cv:peak", good)[0]
+    assert both.control == ["peak", "ramp"] and one.control == "peak"
+    for est in (both, one):                     # f = peak + 3 ramp: with both controls, exact
+        e = est.estimate(good, 20_000, rng=3)
+        assert abs(e.value - good.exact) < 4 * e.stderr + 1e-12 * good.exact
+    assert one.estimate(good, 20_000, rng=3).stderr < 0.1 * lab.build("mc", good)[0].estimate(good, 20_000, rng=3).stderr
+    bad = integrand(1.05 * peak_int)                                        # the control's integral off by 5 %
+    e = lab.build("cv:peak", bad)[0].estimate(bad, 20_000, rng=3)
+    assert abs(e.value - bad.exact) > 4 * e.stderr
+    with pytest.raises(ValueError, match="has no control 'nope'; it has 'peak', 'ramp'"):
+        lab.build("cv:nope", good)
 
 
 def test_mis_recipes():

@@ -33,8 +33,9 @@ recipe                 estimator                                                
 ``onesample[:<a+b>]``  ``OneSampleMIS(techniques)`` (Veach 1997, 9.2.4)                     lab
 ``defensive[:<a+b>]``  ``DefensiveMixture``: techniques mixed with uniform, as controls     lab
 ``antithetic``         ``Antithetic()``: pairs u, 1 - u                                     lab
-``cv``                 ``ControlVariate(h, int h)`` with a known control; render: light     both
-                       sampling with the closed-form Lambertian control, alpha = 1
+``cv[:<a+b>]``         ``ControlVariate(h, int h)``: the integrand's named controls (all,   both
+                       or a+b), else a known one; render: light sampling with the
+                       closed-form Lambertian control, alpha = 1
 ``stratified``         ``Stratified()``: strata of the domain                               lab
 ``jittered``, ``lhs``  ``MonteCarlo()`` on jittered / Latin hypercube points                lab
 ``rqmc-sobol[:<R>]``   ``RQMC(MonteCarlo(), replicates=R)`` on scrambled Sobol' (Halton)    lab
@@ -282,17 +283,30 @@ register_recipe("antithetic", "Antithetic(): pairs f(x(u)), f(x(1 - u)) (Hammers
 
 
 def _cv(integrand, arg):
+    """The integrand's named controls (``integrand.controls``: all of them, or those of ``arg``
+    "a+b"); without named controls the known one of ``integrands.controls.control_for``
+    (``theory["cv:control"]`` or the catalogue's)."""
     from ..integrands.controls import control_for
 
+    cv = _cls("control", "ControlVariate", "cv")
+    named = dict(getattr(integrand, "controls", {}) or {})
+    if arg or (named and "cv:control" not in (getattr(integrand, "theory", {}) or {})):
+        chosen = [c for c in arg.split("+") if c] if arg else list(named)
+        unknown = [c for c in chosen if c not in named]
+        if unknown:
+            raise ValueError(f"cv: integrand {integrand.name!r} has no control {', '.join(map(repr, unknown))}; "
+                             f"it has {_names(named)}")
+        return cv(chosen[0] if len(chosen) == 1 else chosen), None
     h, H, _ = control_for(integrand)
-    return _cls("control", "ControlVariate", "cv")(h, H), None
+    return cv(h, H), None
 
 
 def _cv_preset(emitter_samples, bsdf_samples, ris_candidates):
     return _cls("control", "ControlVariate", "cv")("lambertian", alpha=1.0, distribution="light"), emitter_samples
 
 
-register_recipe("cv", "ControlVariate(h, int h): a known control (exp: h = x, int h = 1/2)", "control", lab=_cv,
+register_recipe("cv", "ControlVariate(h, int h): the integrand's named controls (all, or those of <a+b>), else a "
+                "known control (exp: h = x, int h = 1/2)", "control", lab=_cv, arg="<a+b>",
                 render=_cv_preset, render_help="light sampling with a closed-form Lambertian control variate",
                 needs="light", uses=("emitter_samples", "light_selection"))
 

@@ -61,8 +61,9 @@ def control_for(integrand) -> tuple[Callable, float, str]:
         ref = CATALOGUE[name]() if name in CATALOGUE else None
         if ref is None or (integrand.exact is not None and np.isclose(ref.exact, integrand.exact)):
             return CONTROLS[name]
-    raise ValueError(f"cv: no control variate known for integrand {name!r}; put (h, integral of h) in "
-                     "integrand.theory['cv:control'] (known for: " + ", ".join(CONTROLS) + ")")
+    raise ValueError(f"cv: no control variate known for integrand {name!r}; name one in its controls "
+                     "({name: (h, integral of h)}) or put (h, integral of h) in integrand.theory['cv:control'] "
+                     "(known for: " + ", ".join(CONTROLS) + ")")
 
 
 #: Catalogue integrands with discontinuities (lower convergence rates of stratified/QMC points).
