@@ -20,7 +20,7 @@ from vrlab.render.sensors import HDRFilm, IndependentSampler, PerspectiveCamera
 from vrlab.render.shapes import Mesh, Rectangle, Sphere
 from vrlab.render.accel.geometry import SceneGeometry
 from vrlab.render.image import load_image, rel_mse, save_image, srgb_encode
-from vrlab.render.lights import LightSet
+from vrlab.render.light_set import LightSet
 
 NAN, INF = float("nan"), float("inf")
 

@@ -11,7 +11,7 @@ from conftest import render_pair
 from vrlab.render.direct import DirectLighting
 from vrlab.render.film import TILE_PIXELS
 from vrlab.render.pixels import PixelIntegrand
-from vrlab.render.lights import LightSet
+from vrlab.render.light_set import LightSet
 
 
 def _z(a, b):

@@ -338,7 +338,7 @@ def test_a_delta_light_has_no_bsdf_density():
 
 
 def test_sampling_weight_and_power_selection():
-    from vrlab.render.lights import LightSet
+    from vrlab.render.light_set import LightSet
 
     sc = load_scene(scene_xml(LIGHT + DELTA.replace('<rgb name="intensity" value="3"/>',
                                                     '<rgb name="intensity" value="3"/><float name="sampling_weight" '
@@ -346,7 +346,9 @@ def test_sampling_weight_and_power_selection():
     lights = LightSet(sc.shapes, "uniform", sc.free_emitters, radius=5.0)
     np.testing.assert_allclose(lights.selection.pmf(np.arange(3)), [1 / 4, 2 / 4, 1 / 4])
     power = LightSet(sc.shapes, "power", sc.free_emitters, radius=5.0)
-    w = np.array([4 * 4 * np.pi * 0.3 ** 2, 2 * 4 * np.pi * 3, np.pi * 25 * 1.0])
+    # flux: pi x radiance x area for the sphere light, 4 pi I for the point light (times its
+    # sampling_weight 2), pi r^2 E for the directional light
+    w = np.array([np.pi * 4 * 4 * np.pi * 0.3 ** 2, 2 * 4 * np.pi * 3, np.pi * 25 * 1.0])
     np.testing.assert_allclose(power.selection.pmf(np.arange(3)), w / w.sum())
     with pytest.raises(SceneError, match="sampling_weight"):
         load_scene(scene_xml(LIGHT + DELTA.replace('<rgb name="intensity" value="3"/>',

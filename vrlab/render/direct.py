@@ -2,7 +2,7 @@
 
 :class:`DirectLighting` holds what every shading point needs (Mitsuba 3's ``direct``
 integrator, one bounce): the scene's geometry, one BSDF model per group of shapes with the
-same material, the lights (:class:`~vrlab.render.lights.LightSet`, selection ``"uniform"``,
+same material, the lights (:class:`~vrlab.render.light_set.LightSet`, selection ``"uniform"``,
 ``"power"`` or ``"bvh"``) and the two kinds of rays leaving a surface.  It holds no estimator: the
 integral over directions at shading points is :class:`~vrlab.render.shading.ShadingIntegrand`,
 and the estimator objects of :mod:`vrlab.estimators` act on it (:mod:`vrlab.render.pixels`).
@@ -35,7 +35,7 @@ import numpy as np
 from .. import checks
 from .._vec import dot, scale, side
 from .accel.geometry import Hits, SceneGeometry
-from .lights import LIGHT_SELECTIONS, LightSet
+from .light_set import LIGHT_SELECTIONS, LightSet
 from .scene import Scene
 
 __all__ = ["DirectLighting"]

@@ -42,7 +42,7 @@ __all__ = ["BVHSelection"]
 
 
 def _bounds(light) -> tuple:
-    """(lo, hi, w, cos_o, cos_e) of one light of a :class:`~vrlab.render.lights.LightSet`."""
+    """(lo, hi, w, cos_o, cos_e) of one light of a :class:`~vrlab.render.light_set.LightSet`."""
     up = np.array([0.0, 0.0, 1.0])
     if getattr(light, "emitter", None) is not None and not hasattr(light, "shape"):    # point, spot, projector
         pos = np.asarray(light.emitter.position, float)
