@@ -114,15 +114,8 @@ def test_settings_are_built_once_as_one_object(tmp_path):
     assert s.sampling()["points"] == "sobol" and s.output.name == "x.npy"
 
 
-RENDER_NOT_MINE = {"scene.py", "loader.py", "scene_checks.py", "geometry.py", "groups.py", "dense.py",
-                   "lights.py", "bsdfs.py", "shading.py", "direct.py", "camera.py", "obj.py", "bvh.py", "builtin.py",
-                   "transforms.py"}
-
-
 def test_modules_of_about_400_lines_at_most():
-    long = {str(p.relative_to(PKG)): n for p in PKG.rglob("*.py")
-            if not (p.parent.name == "render" and p.name in RENDER_NOT_MINE)
-            and (n := len(p.read_text().splitlines())) > 400}
+    long = {str(p.relative_to(PKG)): n for p in PKG.rglob("*.py") if (n := len(p.read_text().splitlines())) > 400}
     assert not long, long
 
 

@@ -73,7 +73,6 @@ renderer (``spatial = True``, :mod:`vrlab.render.reuse`) runs the same ``run`` o
 from __future__ import annotations
 
 import copy
-import itertools
 from typing import Any
 
 import numpy as np
@@ -89,18 +88,15 @@ MIS_MODES = ("pairwise", "balance", "1/M")
 
 def grid_offsets(shape: tuple, radius: float) -> np.ndarray:
     """Integer offsets o (L, len(shape)) with 0 < |o| <= radius that do not wrap onto the pixel
-    itself on a periodic grid of ``shape`` (row-major order).  Enumerating (2r+1)^d offsets,
-    r = floor(radius), is refused above ``limits.MAX_OFFSETS``, naming the radius."""
-    shape = tuple(int(s) for s in shape)
-    r = int(np.floor(radius))
-    if not shape:
-        return np.zeros((0, 0), int)
+    itself on a periodic grid of ``shape`` (row-major order); at most ``limits.MAX_OFFSETS``
+    candidates (2r+1)^d, r = floor(radius), else a ValueError naming the radius."""
+    shape, r = tuple(int(s) for s in shape), int(np.floor(radius))
     if (2 * r + 1) ** len(shape) > limits.MAX_OFFSETS:
-        raise ValueError(f"radius: {radius:g} on a {len(shape)}-d pixel grid enumerates (2r+1)^{len(shape)} = "
-                         f"{(2 * r + 1) ** len(shape):.3g} neighbour offsets, more than {limits.MAX_OFFSETS}; "
-                         "use a smaller radius")
-    o = np.array(list(itertools.product(range(-r, r + 1), repeat=len(shape))), int).reshape(-1, len(shape))
-    keep = (np.sum(o * o, -1) <= radius * radius) & np.any(o % np.array(shape) != 0, -1)
+        raise ValueError(f"radius: {radius:g} on a {len(shape)}-d pixel grid enumerates "
+                         f"{(2 * r + 1) ** len(shape):.3g} neighbour offsets, more than limits.MAX_OFFSETS = "
+                         f"{limits.MAX_OFFSETS}")
+    o = np.indices((2 * r + 1,) * len(shape)).reshape(len(shape), -1).T - r if shape else np.zeros((0, 0), int)
+    keep = (np.sum(o * o, -1) <= radius * radius) & np.any(o % np.array(shape, int) != 0, -1)
     return o[keep]
 
 

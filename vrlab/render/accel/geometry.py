@@ -62,7 +62,8 @@ from ... import checks
 from ..._vec import scale
 from ..scene import Scene
 from ..shapes.base import CustomPart, DiskPart, Parallelograms, Quadric, Triangles
-from .groups import Disks, Planar, Quadrics, parallelograms, unit
+from .disks import Disks
+from .groups import Planar, Quadrics, parallelograms, unit
 from .scene_bvh import BACKENDS, Accel
 
 __all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "Hits", "SceneGeometry"]

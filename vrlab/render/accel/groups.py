@@ -2,7 +2,8 @@
 docstring): planar primitives (parallelograms and triangles, with the slab test for
 cubes) and quadrics, each with a float32 all-pairs pass (:mod:`.dense`) and its float64
 or float32 finish, and a conservative cull for many quadrics; every group also has the exact
-float64 test of (ray, primitive) pairs that the scene's BVH (:mod:`.accel`) calls."""
+float64 test of (ray, primitive) pairs that the scene's BVH (:mod:`.scene_bvh`) calls.  Disks
+are :mod:`.disks`."""
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -14,7 +15,7 @@ from ..._vec import norm, scale
 from ...distributions.quadrics import unit_sphere_hit
 from .dense import DensePlanar, closest_quadrics
 
-__all__ = ["DENSE_QUADRICS", "Disks", "Planar", "Quadrics", "parallelograms", "unit", "unit_sphere_hit"]
+__all__ = ["DENSE_QUADRICS", "Planar", "Quadrics", "affine_boxes", "parallelograms", "unit", "unit_sphere_hit"]
 
 # (ray, primitive) pairs per culling block: cache sized, and small enough (N k P <= 2^18
 # for an (N, k) @ (k, P) product) that OpenBLAS stays single-threaded (much faster here)
@@ -224,7 +225,7 @@ class Quadrics:
     # -- the pair interface (see ``Planar``) -------------------------------------------------
     def boxes(self) -> tuple[np.ndarray, np.ndarray]:
         """Exact boxes of the ellipsoids: c_i +- sqrt(sum_j M_ij^2)."""
-        return _affine_boxes(self.c, np.linalg.inv(self.minv))
+        return affine_boxes(self.c, np.linalg.inv(self.minv))
 
     def exact(self, o, d, t_min, i, j):
         """Exact t (inf on a miss) of the pairs ``(ray i, quadric j)``: the stable roots in the
@@ -319,58 +320,7 @@ class Quadrics:
         self._fold(o, d, t_min, i, j, self.exact(o, d, t_min, i, j), t, shape, normal, prim)
 
 
-class Disks:
-    """Disks ``c + M (s, 0)``, |s| <= 1 (``(shape, center, M^-1, normal)`` tuples), with their
-    shape index and unit normal; hit where the ray meets z = 0 of the disk frame M^-1 (x - c)
-    inside the unit circle."""
-
-    def __init__(self, disks: list):
-        self.shape = np.array([k for k, _, _, _ in disks], np.int64)
-        self.c = np.array([c for _, c, _, _ in disks], float).reshape(-1, 3)
-        self.minv = np.array([m for _, _, m, _ in disks], float).reshape(-1, 3, 3)
-        self.n = np.array([n for _, _, _, n in disks], float).reshape(-1, 3)
-
-    def __len__(self) -> int:
-        return len(self.shape)
-
-    @staticmethod
-    def _hit(ol: np.ndarray, dl: np.ndarray, t_min: float) -> np.ndarray:
-        """t of rays in disk frames (inf on a miss)."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = -ol[:, 2] / dl[:, 2]
-            x, y = ol[:, 0] + t * dl[:, 0], ol[:, 1] + t * dl[:, 1]
-            ok = np.isfinite(t) & (t > t_min) & (x * x + y * y <= 1.0)
-        return np.where(ok, t, np.inf)
-
-    def closest(self, o, d, t_min, t, shape, normal, prim=None) -> None:
-        """Fold every ray's hits with every disk into the closest hits (all pairs, in place)."""
-        for k in range(len(self)):
-            tt = self._hit((o - self.c[k]) @ self.minv[k].T, d @ self.minv[k].T, t_min)
-            better = tt < t
-            t[better] = tt[better]
-            shape[better] = self.shape[k]
-            normal[better] = self.n[k]
-            if prim is not None:
-                prim[better] = 0
-
-    # -- the pair interface (see ``Planar``) -------------------------------------------------
-    def boxes(self) -> tuple[np.ndarray, np.ndarray]:
-        """Exact boxes of the disks: c_i +- sqrt(M_i0^2 + M_i1^2)."""
-        return _affine_boxes(self.c, np.linalg.inv(self.minv)[:, :, :2])
-
-    def exact(self, o, d, t_min, i, j):
-        minv = self.minv[j]
-        return self._hit(np.einsum("kab,kb->ka", minv, o[i] - self.c[j]), np.einsum("kab,kb->ka", minv, d[i]),
-                         t_min)
-
-    def normals(self, o, d, rows, j, t) -> np.ndarray:
-        return self.n[j]
-
-    def prims(self, j) -> np.ndarray:
-        return np.zeros(len(j), np.int64)
-
-
-def _affine_boxes(c: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def affine_boxes(c: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Boxes of c + M s over the unit ball of s (M ``(P, 3, k)``): c +- the row norms of M."""
     half = np.sqrt(np.sum(m * m, -1))
     return c - half, c + half

@@ -21,7 +21,8 @@ from __future__ import annotations
 import numpy as np
 
 from .bvh import BVH
-from .groups import Disks, Planar, Quadrics
+from .disks import Disks
+from .groups import Planar, Quadrics
 
 __all__ = ["Accel", "BACKENDS"]
 

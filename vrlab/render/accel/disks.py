@@ -1,0 +1,61 @@
+"""Disks as a primitive group of :class:`~vrlab.render.accel.geometry.SceneGeometry`: every ray
+against every disk in float64 while they are few, and the pair interface (``boxes``, ``exact``,
+``normals``, ``prims``; see :class:`~vrlab.render.accel.groups.Planar`) for the scene's BVH."""
+from __future__ import annotations
+
+import numpy as np
+
+from .groups import affine_boxes
+
+__all__ = ["Disks"]
+
+
+class Disks:
+    """Disks ``c + M (s, 0)``, |s| <= 1 (``(shape, center, M^-1, normal)`` tuples), with their
+    shape index and unit normal; hit where the ray meets z = 0 of the disk frame M^-1 (x - c)
+    inside the unit circle."""
+
+    def __init__(self, disks: list):
+        self.shape = np.array([k for k, _, _, _ in disks], np.int64)
+        self.c = np.array([c for _, c, _, _ in disks], float).reshape(-1, 3)
+        self.minv = np.array([m for _, _, m, _ in disks], float).reshape(-1, 3, 3)
+        self.n = np.array([n for _, _, _, n in disks], float).reshape(-1, 3)
+
+    def __len__(self) -> int:
+        return len(self.shape)
+
+    @staticmethod
+    def _hit(ol: np.ndarray, dl: np.ndarray, t_min: float) -> np.ndarray:
+        """t of rays in disk frames (inf on a miss)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = -ol[:, 2] / dl[:, 2]
+            x, y = ol[:, 0] + t * dl[:, 0], ol[:, 1] + t * dl[:, 1]
+            ok = np.isfinite(t) & (t > t_min) & (x * x + y * y <= 1.0)
+        return np.where(ok, t, np.inf)
+
+    def closest(self, o, d, t_min, t, shape, normal, prim=None) -> None:
+        """Fold every ray's hits with every disk into the closest hits (all pairs, in place)."""
+        for k in range(len(self)):
+            tt = self._hit((o - self.c[k]) @ self.minv[k].T, d @ self.minv[k].T, t_min)
+            better = tt < t
+            t[better] = tt[better]
+            shape[better] = self.shape[k]
+            normal[better] = self.n[k]
+            if prim is not None:
+                prim[better] = 0
+
+    # -- the pair interface (see ``Planar``) -------------------------------------------------
+    def boxes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Exact boxes of the disks: c_i +- sqrt(M_i0^2 + M_i1^2)."""
+        return affine_boxes(self.c, np.linalg.inv(self.minv)[:, :, :2])
+
+    def exact(self, o, d, t_min, i, j):
+        minv = self.minv[j]
+        return self._hit(np.einsum("kab,kb->ka", minv, o[i] - self.c[j]), np.einsum("kab,kb->ka", minv, d[i]),
+                         t_min)
+
+    def normals(self, o, d, rows, j, t) -> np.ndarray:
+        return self.n[j]
+
+    def prims(self, j) -> np.ndarray:
+        return np.zeros(len(j), np.int64)
