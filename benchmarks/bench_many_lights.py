@@ -51,7 +51,8 @@ SELECTIONS = ("uniform", "power", "bvh")
 def methods(m: int, meshes: bool = False):
     """(label, strategy, light_selection, options) of every vrlab run: light, mis-power and RIS
     with each selection, and ReSTIR (M candidates, 5 neighbours within 3 pixels, one pass) with
-    each of its reuse weights on bvh candidates, and pairwise on power candidates."""
+    each of its reuse weights on bvh candidates, pairwise on power candidates, and the best
+    setting of ``bench_restir_settings.py`` (4 candidates, 5 neighbours within 2 pixels)."""
     from vrlab.estimators import ReSTIR
 
     out = []
@@ -62,6 +63,8 @@ def methods(m: int, meshes: bool = False):
     restir = [("pairwise", "bvh"), ("balance", "bvh"), ("1/M", "bvh")] + ([] if meshes else [("pairwise", "power")])
     for mis, sel in restir:     # mesh lights give their sampled point only triangle by triangle (bvh)
         out.append((f"restir {mis} {sel} M={m}", ReSTIR(candidates=m, neighbours=5, radius=3, mis=mis), sel, {}))
+    # the best setting of bench_restir_settings.py's sweep on the triangle field
+    out.append(("restir pairwise bvh M=4 k=5 r=2", ReSTIR(candidates=4, neighbours=5, radius=2), "bvh", {}))
     return out
 
 
