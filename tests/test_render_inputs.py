@@ -514,6 +514,20 @@ def test_power_selection_with_black_emitters_renders_black(strategy):
     np.testing.assert_array_equal(ref, 0.0)
 
 
+@pytest.mark.parametrize("selection", ["uniform", "bvh"])
+def test_every_preset_renders_a_scene_without_emitters_black(selection):
+    """No emitter at all: every preset gives a black image (RIS evaluated f at an empty
+    reservoir's placeholder point, light 0, and failed with an IndexError when there was none)."""
+    from vrlab.render import PRESETS
+
+    text = xml().replace('<emitter type="area"><rgb name="radiance" value="2"/></emitter>', "")
+    sc = load_scene(text)
+    assert not sc.emitters
+    for strategy in PRESETS:
+        img = render(sc, 3, strategy, light_selection=selection, rng=0).value
+        np.testing.assert_array_equal(img, 0.0, err_msg=strategy)
+
+
 def test_power_selection_with_one_black_emitter():
     text = xml().replace('<shape type="rectangle">', '<shape type="rectangle"><transform name="to_world">'
                          '<translate z="-9"/></transform><emitter type="area"><rgb name="radiance" '

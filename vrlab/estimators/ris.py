@@ -233,8 +233,11 @@ class RIS(Estimator):
         def split(a, tail=()):  # (..., n m, *tail) -> (..., n, m, *tail)
             return a.reshape(a.shape[: a.ndim - 1 - len(tail)] + (n, m) + tail)
 
-        empty = Reservoir.empty((), x.shape[-1])
-        return empty.update(split(x, (x.shape[-1],)), split(w), u[..., m * d:], split(t))
+        xs = split(x, (x.shape[-1],))
+        # nothing seen yet (W = 0); y starts at the first candidate, a point of the domain, so
+        # that f can be evaluated at y even where every weight is 0 (e.g. a scene without lights)
+        empty = Reservoir(xs[..., 0, :], 0.0, 0.0, 0.0)
+        return empty.update(xs, split(w), u[..., m * d:], split(t))
 
     def unit_values(self, integrand, u):
         res = self.reservoirs(u, integrand)
