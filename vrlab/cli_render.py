@@ -57,8 +57,9 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                            "The standard errors assume independent (default: independent)")
     rend.add_argument("--light-selection", choices=["uniform", "power", "bvh"], metavar="NAME",
                       help="how strategies that sample a light pick it. uniform: each light alike; power: by "
-                           "emitted power (mean radiance x area), from an alias table; bvh: pbrt-v4's light BVH, "
-                           "by power, distance and orientation from each shading point (default: uniform)")
+                           "emitted power (pi x mean radiance x area; a point light 4 pi I), from an alias table; "
+                           "bvh: pbrt-v4's light BVH, by power, distance and orientation from each shading point "
+                           "(default: uniform)")
     rend.add_argument("--seed", default="0", help="root seed of every random number, 0 .. 2**128-1: the same seed "
                                                   "gives the same image for any --workers (default: %(default)s)")
     rend.add_argument("--emitter-samples", help=f"light samples per shading point, 0 .. {SAMPLES_MAX} "
