@@ -44,6 +44,10 @@ CASES = {
     "exponential-truncated": (D.Exponential(2.0, upper=1.5), IntervalChart(0, 1.5), (30,)),
     "truncated-normal": (D.TruncatedNormal(0.3, 0.1, 0.0, 1.0), IntervalChart(0, 1), (40,)),
     "truncated-normal-tail": (D.TruncatedNormal(0.0, 1.0, 2.0, 3.0), IntervalChart(2, 3), (30,)),
+    # 8 and 30 sigma out: 1 - Phi rounds away there, the mirrored left tail does not
+    "truncated-normal-8-sigma": (D.TruncatedNormal(0.0, 1.0, 8.0, 8.5), IntervalChart(8, 8.5), (30,)),
+    "truncated-normal-left-30-sigma": (D.TruncatedNormal(1.0, 2.0, -61.0, -60.9), IntervalChart(-61, -60.9),
+                                       (30,)),
     "product-normal-x-linear": (D.Product([D.TruncatedNormal(0.5, 0.2, 0, 1), D.LinearInterval(0, 1, 1, 3)]),
                                 BoxChart([(0, 1), (0, 1)]), (16, 16)),
     "piecewise-1d": (D.PiecewiseConstant1D([1, 0, 3, 2, 0.5], (0, 2)), IntervalChart(0, 2), (50,)),
