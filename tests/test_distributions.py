@@ -60,6 +60,9 @@ CASES = {
     "disk-concentric": (D.Disk(2.0, (1, -1)), DiskChart(2.0, (1, -1)), (16, 24)),
     "disk-polar": (D.Disk(0.5, method="polar"), DiskChart(0.5), (16, 24)),
     "triangle": (D.Triangle((0, 0), (2, 0), (0.5, 1.5)), TriangleChart((0, 0), (2, 0), (0.5, 1.5)), (16, 16)),
+    # a sliver (height 1e-6): the chart's barycentrics must not square the condition number
+    "triangle-sliver": (D.Triangle((0, 0), (1, 0), (0.5, 1e-6)), TriangleChart((0, 0), (1, 0), (0.5, 1e-6)),
+                        (16, 16)),
     "uniform-sphere": (D.UniformSphere(), SphereChart(), (20, 30)),
     "uniform-hemisphere": (D.UniformHemisphere(), HemisphereChart(), (20, 30)),
     "cosine-inversion": (D.CosineHemisphere("inversion"), HemisphereChart(), (20, 30)),

@@ -138,8 +138,11 @@ class TriangleChart(Chart):
     """Triangle (a, b, c) with barycentrics (s, t (1 - s)): x = c + s (a - c) + t (1 - s) (b - c).
 
     A "collapsed square" (not the sqrt warp the sampler uses); area element 2 A (1 - s).
-    ``to_param`` solves the 2x2 Gram system elementwise (no BLAS, so no rounding that
-    depends on the CPU's BLAS kernel).  At vertex a the square collapses and t is
+    ``to_param`` finds the barycentrics by cross products with the normal n = (a - c) x (b - c)
+    (b0 = ((x - c) x (b - c)) . n / |n|^2, b1 = ((a - c) x (x - c)) . n / |n|^2; a 2D triangle
+    in the plane z = 0), elementwise: no BLAS, so no rounding that depends on the CPU's BLAS
+    kernel, and no Gram matrix, whose squared condition number misplaced points of thin
+    triangles (height 1e-6: bins off by ~1e-4).  At vertex a the square collapses and t is
     undefined: within ``VERTEX_TOL`` of it (1 - s <= VERTEX_TOL), where rounding of order
     1e-16 in the barycentrics makes t = b1 / (1 - s) meaningless, t is clipped to [0, 1].
     ``a, b, c``: finite 2D or 3D points of one dimension, not collinear (``ValueError``).
@@ -155,20 +158,20 @@ class TriangleChart(Chart):
         self.dim_x = self.v.shape[1]
         e = np.stack([self.v[0] - self.v[2], self.v[1] - self.v[2]])
         self.e = e
-        self._gram = (float(e[0] @ e[0]), float(e[0] @ e[1]), float(e[1] @ e[1]))
-        g00, g01, g11 = self._gram
-        self._det = g00 * g11 - g01 * g01
-        if not self._det > DEGENERATE**2 * g00 * g11:
+        e3 = np.pad(e, ((0, 0), (0, 3 - self.dim_x)))                  # 2D: the plane z = 0
+        self._n = np.cross(e3[0], e3[1])
+        self._n2 = float(self._n @ self._n)
+        if not self._n2 > DEGENERATE**2 * float(e3[0] @ e3[0]) * float(e3[1] @ e3[1]):
             raise ValueError("a, b, c: the triangle is degenerate (zero area: coincident or collinear vertices)")
-        self.area = 0.5 * float(np.sqrt(self._det))
+        self.area = 0.5 * float(np.sqrt(self._n2))
 
     def to_param(self, x):
         d = _points(x, self.dim_x) - self.v[2]
-        r0 = sum(d[..., k] * self.e[0, k] for k in range(self.dim_x))
-        r1 = sum(d[..., k] * self.e[1, k] for k in range(self.dim_x))
-        g00, g01, g11 = self._gram
-        b0 = (g11 * r0 - g01 * r1) / self._det
-        b1 = (g00 * r1 - g01 * r0) / self._det
+        if self.dim_x == 2:
+            d = np.concatenate([d, np.zeros(d.shape[:-1] + (1,))], -1)
+        e0, e1 = np.pad(self.e, ((0, 0), (0, 3 - self.dim_x)))
+        b0 = np.sum(np.cross(d, e1) * self._n, -1) / self._n2
+        b1 = np.sum(np.cross(e0, d) * self._n, -1) / self._n2
         rest = 1.0 - b0
         t = b1 / np.where(rest > 0, rest, 1.0)
         t = np.where(rest > self.VERTEX_TOL, t, np.clip(np.where(rest > 0, t, 0.0), 0.0, 1.0))
