@@ -57,6 +57,23 @@ def test_one_relmse():
                                                                        / (ref[1, 2] ** 2 + 0.01))))
 
 
+@pytest.mark.parametrize("kw, exc, names", [
+    (dict(img=np.zeros((2, 2, 3)), ref=np.zeros((2, 3, 3))), ValueError, ["img", "ref"]),
+    (dict(img=np.full((2, 2, 3), np.nan), ref=np.zeros((2, 2, 3))), ValueError, ["img"]),
+    (dict(img=np.zeros((2, 2, 3)), ref=np.full((2, 2, 3), np.inf)), ValueError, ["ref"]),
+    (dict(img=np.zeros((0, 3)), ref=np.zeros((0, 3))), ValueError, ["img", "ref"]),
+    (dict(img="img", ref=np.zeros(3)), TypeError, ["img"]),
+    (dict(img=np.zeros((2, 2, 3)), ref=np.zeros((2, 2, 3)), ref_err=np.zeros((2, 2))), ValueError, ["ref_err"]),
+    (dict(img=np.zeros((2, 2, 3)), ref=np.zeros((2, 2, 3)), mask=np.zeros((2, 2), bool)), ValueError, ["mask"]),
+    (dict(img=np.zeros((2, 2, 3)), ref=np.zeros((2, 2, 3)), mask=np.ones((3, 2), bool)), ValueError, ["mask"]),
+    (dict(img=np.zeros((2, 2, 3)), ref=np.zeros((2, 2, 3)), mask=np.ones((2, 2), int)), ValueError, ["mask"]),
+])
+def test_relmse_refuses_bad_images_naming_them(raises_naming, kw, exc, names):
+    """No silent NaN, empty mean or numpy broadcasting message: the argument is named."""
+    with raises_naming(exc, *names):
+        rel_mse(**kw)
+
+
 def test_no_other_copy_of_the_relmse_formula():
     pattern = re.compile(r"\*\*\s*2\s*\+\s*(0\.01|1e-2|EPS)\)|ref\s*\*\s*ref\s*\+\s*0\.01")
     bad = []

@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from . import checks
+
 __all__ = ["REL_MSE_EPS", "image_mean", "rel_mse", "relative_squared_error"]
 
 #: eps of the relative MSE's denominator ref^2 + eps
@@ -29,13 +31,24 @@ def rel_mse(img: Any, ref: Any, *, ref_err: Any = None, mask: Any = None, axis: 
     ``mask`` (over the leading axes; default all).  ``ref_err``: the reference's standard error,
     whose variance is subtracted from the squared error (independent reference noise).  A float
     when reduced over all axes, else an array."""
-    img, ref = np.asarray(img, dtype=np.float64), np.asarray(ref, dtype=np.float64)
+    img, ref = checks.finite_array(img, "img"), checks.finite_array(ref, "ref")
+    if img.shape != ref.shape or img.size == 0:
+        raise ValueError(f"img, ref: expected two non-empty arrays of one shape, got {img.shape} and {ref.shape}")
     d2 = (img - ref) ** 2
     if ref_err is not None:
-        d2 = d2 - np.asarray(ref_err, dtype=np.float64) ** 2
+        err = checks.finite_array(ref_err, "ref_err")
+        if err.shape != ref.shape:
+            raise ValueError(f"ref_err: expected the shape of ref, {ref.shape}, got {err.shape}")
+        d2 = d2 - err ** 2
     r = relative_squared_error(d2, ref)
     if mask is not None:
-        r = r[np.asarray(mask)]
+        m = np.asarray(mask)
+        if m.dtype != bool or m.shape != img.shape[:m.ndim] or m.ndim == 0:
+            raise ValueError(f"mask: expected a boolean array of the leading shape of img {img.shape}, got shape "
+                             f"{m.shape} and dtype {m.dtype}")
+        if not m.any():
+            raise ValueError("mask: selects no pixel; the mean of nothing is undefined")
+        r = r[m]
     out = np.mean(r, axis=axis)
     return float(out) if np.ndim(out) == 0 else out
 
