@@ -142,6 +142,18 @@ def test_samples_in_domain(name):
         np.testing.assert_allclose(np.linalg.norm(x, axis=-1), 1.0, atol=1e-12)
 
 
+@pytest.mark.parametrize("name", NAMES)
+def test_uniforms_outside_the_unit_interval_are_refused(raises_naming, name):
+    """NaN, negative or above-1 uniforms: a ValueError naming u, never silent NaN or points
+    off the domain (1 itself is allowed: warps extend continuously to it)."""
+    dist = CASES[name][0]
+    for bad in (np.nan, -1e-9, 1.5):
+        u = np.full((3, dist.dim_u), 0.5)
+        u[1, -1] = bad
+        with raises_naming(ValueError, "u"):
+            dist.sample(u)
+
+
 # Beckmann's visible normals are sampled by 3 Newton steps (Mitsuba 3's), whose residual in u
 # reaches 3e-6; invert is the closed-form CDF (with more steps the round trip is exact, see
 # tests/test_microfacet.py)

@@ -79,11 +79,18 @@ def finite_points(x: Any, k: int, name: str) -> np.ndarray:
 
 
 def as_uniforms(u: Any, dim_u: int) -> np.ndarray:
-    """Check that ``u`` has shape ``(..., dim_u)`` (values are not range-checked: hot path;
-    float32 is kept, see :func:`as_float`)."""
+    """Check that ``u`` has shape ``(..., dim_u)`` and values in [0, 1] (NaN refused: two
+    reductions, min and max, which propagate NaN).  The closed interval: warps extend
+    continuously to u = 1, where float32 rounding of uniforms below 1 lands (the renderer's
+    rays are float32) and where the corners of the unit square map to a shape's corners.
+    float32 is kept, see :func:`as_float`."""
     u = as_float(u, "u")
     if u.ndim == 0 or u.shape[-1] != dim_u:
         raise ValueError(f"u: expected uniforms of shape (..., {dim_u}), got {u.shape}")
+    if u.size and not (u.min() >= 0 and u.max() <= 1):
+        bad = ~((u >= 0) & (u <= 1))
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"u: uniforms must lie in [0, 1], but entry {where} is {float(u[where])}")
     return u
 
 
