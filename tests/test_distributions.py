@@ -154,6 +154,18 @@ def test_uniforms_outside_the_unit_interval_are_refused(raises_naming, name):
             dist.sample(u)
 
 
+@pytest.mark.parametrize("name", NAMES)
+def test_non_finite_points_are_refused(name):
+    """A NaN or infinite point given to pdf: a ValueError naming the points (x, or w for
+    directions), not a silent NaN (GGX's pdf returned NaN)."""
+    dist = CASES[name][0]
+    x = dist.sample(np.full((2, dist.dim_u), 0.5))
+    for bad in (np.nan, np.inf):
+        x[1, 0] = bad
+        with pytest.raises(ValueError, match=r"^(x|w|m): points must be finite"):
+            dist.pdf(x)
+
+
 # Beckmann's visible normals are sampled by 3 Newton steps (Mitsuba 3's), whose residual in u
 # reaches 3e-6; invert is the closed-form CDF (with more steps the round trip is exact, see
 # tests/test_microfacet.py)

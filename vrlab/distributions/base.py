@@ -59,12 +59,17 @@ def as_float(x: Any, name: str = "x") -> np.ndarray:
     raise TypeError(f"{name} must be an array of real numbers, got {_describe(x)}")
 
 
-def as_points(x: Any, k: int, name: str = "x") -> np.ndarray:
+def as_points(x: Any, k: int, name: str = "x", *, finite: bool = True) -> np.ndarray:
     """Check that ``x`` holds points of a ``k``-dimensional domain: shape ``(..., k)``
-    (float64, or float32 kept: see :func:`as_float`); values are not checked."""
+    (float64, or float32 kept: see :func:`as_float`), every entry finite unless ``finite=False``
+    (two reductions, which propagate NaN; a point off the domain is legal and has density 0)."""
     x = as_float(x, name)
     if x.ndim == 0 or x.shape[-1] != k:
         raise ValueError(f"{name}: expected shape (..., {k}), got {x.shape}")
+    if finite and x.size and not (np.isfinite(x.min()) and np.isfinite(x.max())):
+        bad = ~np.isfinite(x)
+        where = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(f"{name}: points must be finite, but entry {where} is {float(x[where])}")
     return x
 
 

@@ -298,7 +298,7 @@ class FilterWindow(Distribution):
         if not isinstance(filt, ReconstructionFilter):
             raise TypeError(f"filt must be a ReconstructionFilter, got {checks.describe(filt)}")
         self.filter = filt
-        self.lo, self.hi = as_points(lo, 2, "lo"), as_points(hi, 2, "hi")
+        self.lo, self.hi = as_points(lo, 2, "lo", finite=False), as_points(hi, 2, "hi", finite=False)
         for a, name in ((self.lo, "lo"), (self.hi, "hi")):
             if np.isnan(a).any():
                 raise ValueError(f"{name}: must not contain NaN")
