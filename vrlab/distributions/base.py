@@ -17,7 +17,7 @@ O(1) test) but not its values: they are the hot path, called in inner loops, so
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -69,20 +69,23 @@ def as_points(x: Any, k: int, name: str = "x", *, finite: bool = True) -> np.nda
     if x.ndim == 0 or x.shape[-1] != k:
         raise ValueError(f"{name}: expected shape (..., {k}), got {x.shape}")
     if finite and x.dtype != np.float32 and x.size and not (np.isfinite(x.min()) and np.isfinite(x.max())):
-        bad = ~np.isfinite(x)
-        where = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise ValueError(f"{name}: points must be finite, but entry {where} is {float(x[where])}")
+        _refuse(f"{name}: points must be finite", x, ~np.isfinite(x))
     return x
 
 
 def finite_points(x: Any, k: int, name: str) -> np.ndarray:
-    """:func:`as_points` whose every entry is finite (for constructor arguments)."""
-    x = as_points(x, k, name)
+    """:func:`as_points` whose every entry is finite, float32 too (for constructor arguments)."""
+    x = as_points(x, k, name, finite=False)
     bad = ~np.isfinite(x)
     if bad.any():
-        where = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise ValueError(f"{name} must be finite, but entry {where} is {x[where]}")
+        _refuse(f"{name} must be finite", x, bad)
     return x
+
+
+def _refuse(what: str, x: np.ndarray, bad: np.ndarray) -> NoReturn:
+    """ValueError ``what``, naming the first entry of ``x`` where ``bad`` holds."""
+    where = tuple(int(i) for i in np.argwhere(bad)[0])
+    raise ValueError(f"{what}, but entry {where} is {float(x[where])}")
 
 
 def as_uniforms(u: Any, dim_u: int) -> np.ndarray:
@@ -96,9 +99,7 @@ def as_uniforms(u: Any, dim_u: int) -> np.ndarray:
     if u.ndim == 0 or u.shape[-1] != dim_u:
         raise ValueError(f"u: expected uniforms of shape (..., {dim_u}), got {u.shape}")
     if u.dtype != np.float32 and u.size and not (u.min() >= 0 and u.max() <= 1):
-        bad = ~((u >= 0) & (u <= 1))
-        where = tuple(int(i) for i in np.argwhere(bad)[0])
-        raise ValueError(f"u: uniforms must lie in [0, 1], but entry {where} is {float(u[where])}")
+        _refuse("u: uniforms must lie in [0, 1]", u, ~((u >= 0) & (u <= 1)))
     return u
 
 

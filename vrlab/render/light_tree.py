@@ -37,6 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..distributions import LightBVH
+from .lights import lambertian_flux
 
 __all__ = ["BVHSelection"]
 
@@ -99,7 +100,7 @@ class BVHSelection:
         for i in self.bounded:                       # a loop over lights; triangles are arrays
             if split[i]:
                 lo, hi, w, cos_o, area = _triangle_bounds(lights[i])
-                phi = np.maximum(weights[i] * np.pi * max(lights[i].radiance.mean(), 0.0) * area, 0.0)
+                phi = weights[i] * lambertian_flux(lights[i].radiance, area)
                 rows.append((lo, hi, w, cos_o, phi, np.zeros(len(lo))))
                 lights_of.append(np.full(len(lo), i))
                 tris_of.append(np.arange(len(lo)))

@@ -19,12 +19,19 @@ from ..distributions.base import uniforms32
 from ..distributions.surfaces import Surface
 from .shapes import Shape
 
-__all__ = ["EmitterLight", "Light", "luminance"]
+__all__ = ["EmitterLight", "Light", "lambertian_flux", "luminance"]
 
 _LUMA = np.array([0.2126, 0.7152, 0.0722])   # Rec. 709 luminance weights
 
 LIGHT_SELECTIONS = ("uniform", "power", "bvh")
 _LUMA = np.array([0.2126, 0.7152, 0.0722])   # Rec. 709 luminance weights
+
+
+def lambertian_flux(radiance: np.ndarray, area):
+    """The power (flux) of a one-sided Lambertian emitter, pi x mean radiance x area (pbrt-v4's
+    ``DiffuseAreaLight::Phi``; ``area`` a number or an array of triangle areas): on the scale
+    of a point light's 4 pi I, so that power selection weighs area and non-area lights alike."""
+    return np.pi * max(float(np.mean(radiance)), 0.0) * area
 
 
 def luminance(rgb: np.ndarray) -> np.ndarray:
@@ -48,7 +55,7 @@ class Light:
         self.planar = False
         if self.sphere is not None:
             self.area = 4 * np.pi * self.sphere[1] ** 2
-            self.power = self._flux()
+            self.power = float(lambertian_flux(self.radiance, self.area))
             return
         self.surface = shape.surface()
         if self.surface is None:
@@ -63,13 +70,7 @@ class Light:
         # one hit per direction: whether the light faces the point is a function of w
         self.planar = getattr(self.surface, "max_hits", 2) == 1
         self.area = self.surface.area
-        self.power = self._flux()
-
-    def _flux(self) -> float:
-        """The power (flux) of a one-sided Lambertian emitter, pi x mean radiance x area (pbrt-v4's
-        ``DiffuseAreaLight::Phi``): on the same scale as a point light's 4 pi I, so that power
-        selection weighs area and non-area lights alike."""
-        return float(np.pi * max(self.radiance.mean(), 0.0) * self.area)
+        self.power = float(lambertian_flux(self.radiance, self.area))
 
     def sample(self, ref: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
         """``(w, pdf, front, y)``: directions ``(m, 3)`` from ``ref (m, 3)``, their solid-angle

@@ -158,7 +158,7 @@ class TriangleChart(Chart):
         self.dim_x = self.v.shape[1]
         e = np.stack([self.v[0] - self.v[2], self.v[1] - self.v[2]])
         self.e = e
-        e3 = np.pad(e, ((0, 0), (0, 3 - self.dim_x)))                  # 2D: the plane z = 0
+        self._e3 = e3 = np.pad(e, ((0, 0), (0, 3 - self.dim_x)))       # 2D: the plane z = 0
         self._n = np.cross(e3[0], e3[1])
         self._n2 = float(self._n @ self._n)
         if not self._n2 > DEGENERATE**2 * float(e3[0] @ e3[0]) * float(e3[1] @ e3[1]):
@@ -169,9 +169,8 @@ class TriangleChart(Chart):
         d = _points(x, self.dim_x) - self.v[2]
         if self.dim_x == 2:
             d = np.concatenate([d, np.zeros(d.shape[:-1] + (1,))], -1)
-        e0, e1 = np.pad(self.e, ((0, 0), (0, 3 - self.dim_x)))
-        b0 = np.sum(np.cross(d, e1) * self._n, -1) / self._n2
-        b1 = np.sum(np.cross(e0, d) * self._n, -1) / self._n2
+        b0 = np.sum(np.cross(d, self._e3[1]) * self._n, -1) / self._n2
+        b1 = np.sum(np.cross(self._e3[0], d) * self._n, -1) / self._n2
         rest = 1.0 - b0
         t = b1 / np.where(rest > 0, rest, 1.0)
         t = np.where(rest > self.VERTEX_TOL, t, np.clip(np.where(rest > 0, t, 0.0), 0.0, 1.0))

@@ -147,7 +147,7 @@ class Planar:
         if prim is not None:
             prim[rows] = np.take(self.local, j)
 
-    # -- the pair interface of the scene's BVH (:mod:`.accel`), shared by every group ----------
+    # -- the pair interface of the scene's BVH (:mod:`.scene_bvh`), shared by every group ------
     def boxes(self) -> tuple[np.ndarray, np.ndarray]:
         """Bounding boxes ``(lo, hi)`` of the primitives: the boxes of their corners."""
         corners = [self.v0, self.v0 + self.e1, self.v0 + self.e2] + ([self.v0 + self.e1 + self.e2] if self.para
