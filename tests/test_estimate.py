@@ -174,3 +174,52 @@ def test_image_mean_and_its_standard_error():
     assert np.allclose(m, v.reshape(-1, 3).mean(0)) and np.allclose(s, np.sqrt(8 * 4.0) / 8)
     with pytest.raises(ValueError, match="value, stderr"):
         image_mean(v, e[0])
+
+
+# -- sample values whose variance float64 cannot carry: refused, never a silent inf or 0 ----------
+@pytest.mark.parametrize("scale", [1e200, 1e-200, 1e-160])
+def test_samples_whose_squares_leave_float64_are_refused(raises_naming, scale):
+    """1e200: squared deviations overflow (the stderr was inf); 1e-200 and 1e-160: they
+    underflow and the variance and stderr were silently 0."""
+    v = scale * np.random.default_rng(3).random(1000)
+    with raises_naming(ValueError, "values", "rescale"):
+        Moments().add(v)
+
+
+@pytest.mark.parametrize("scale", [1e140, 1e-140])
+def test_extreme_but_representable_samples_keep_their_variance(scale):
+    v = scale * np.random.default_rng(4).random(1000)
+    mom = _chunked(v, 64)
+    assert mom.variance / scale**2 == pytest.approx(np.var(v / scale, ddof=1), rel=1e-9)
+
+
+def test_equal_tiny_samples_have_variance_zero_and_float32_is_not_checked():
+    assert Moments().add(np.full(50, 1e-200)).variance == 0.0
+    mom = Moments().add(np.float32(1e-30) * np.arange(8, dtype=np.float32))   # squares 1e-60: fine in float64
+    assert mom.variance > 0
+
+
+@pytest.mark.parametrize("a, b", [(0.0, 1e160), (1e-200, 2e-200)])
+def test_merges_that_overflow_or_underflow_are_refused(raises_naming, a, b):
+    """Two blocks of equal samples each (zero spread) whose means differ by 1e160 (the
+    merged squares overflow) or by 1e-200 (they underflow to a variance of 0)."""
+    mom = Moments().add(np.full(10, a))
+    with raises_naming(ValueError, "values"):
+        mom.add(np.full(10, b))
+
+
+@pytest.mark.parametrize("recipe", ["mc", "stratified", "mis-optimal", "cv", "rqmc-sobol", "antithetic"])
+@pytest.mark.parametrize("scale", [1e200, 1e-200])
+def test_estimators_refuse_an_integrand_beyond_float64s_variance(raises_naming, recipe, scale):
+    """Every accumulator (Moments, the CoMoments of regression estimators, Stratified's
+    per-stratum variances) refuses instead of returning an inf or 0 error bar."""
+    from vrlab import Integrand
+    from vrlab.integrands import get
+    from vrlab.lab.registry import build
+
+    g = get("exp")
+    scaled = Integrand(lambda x: scale * g.f(x), g.domain, exact=scale * g.exact, name="exp-scaled",
+                       techniques=g.techniques, controls={"x": (lambda x: x[..., 0], 0.5)})
+    est, points = build(recipe, scaled)
+    with raises_naming(ValueError, "values", "rescale"):
+        est.estimate(scaled, 4096, rng=1, points=points)

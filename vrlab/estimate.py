@@ -20,6 +20,52 @@ import numpy as np
 
 from . import checks
 
+# Sample values whose variance float64 cannot carry are refused (the helpers below): squared
+# deviations that overflow (deviations beyond about 1e154 / sqrt(n)), or a variance below
+# LOW_VARIANCE (9e-302) while the samples are not all equal (deviations below about 1e-150), where
+# squares fall out of float64's normal range and the variance and stderr would silently be 0.
+LOW_VARIANCE = 2.0 ** -1000
+
+
+def unrepresentable(what: str) -> ValueError:
+    """The error for samples whose variance float64 cannot carry (``what`` says why)."""
+    return ValueError(f"values: {what}, so their variance and standard error cannot be computed in float64; "
+                      "rescale the integrand (multiply f by a power of 10 and the estimate by its inverse)")
+
+
+def check_spread(values: np.ndarray, axis: int, mean: np.ndarray, m2: np.ndarray) -> None:
+    """Refuse (``ValueError`` naming the values) finite samples ``values`` (float64, along
+    ``axis``) whose ``mean`` or sum of squared deviations ``m2`` overflowed, or whose variance
+    lies below :data:`LOW_VARIANCE` although they are not all equal (see the module note).
+    Non-finite samples are left to the callers' own checks."""
+    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(m2))):
+        if np.all(np.isfinite(values)):
+            what = "squared deviations" if np.all(np.isfinite(mean)) else "sum"
+            raise unrepresentable(f"samples up to {np.max(np.abs(values)):.3g} in magnitude: their "
+                                  f"{what} overflow float64")
+        return
+    m = values.shape[axis]
+    low = np.asarray(m2) < LOW_VARIANCE * max(m - 1, 1)
+    if m > 1 and np.any(low):
+        rows = np.moveaxis(values, axis, -1)[low]
+        spread = np.max(rows, -1) - np.min(rows, -1)
+        if np.any(spread > 0):
+            raise unrepresentable(f"samples that differ by at most {np.max(spread):.3g}: the squares of "
+                                  "their deviations underflow float64")
+
+
+def check_merged(m2: np.ndarray, parts_finite: bool, delta: np.ndarray, n: int) -> None:
+    """Refuse a merged sum of squared deviations ``m2`` of ``n`` samples that overflowed
+    (its parts were finite) or whose variance fell below :data:`LOW_VARIANCE` while the
+    parts' means differ by ``delta`` (their squared difference underflowed)."""
+    if parts_finite and not np.all(np.isfinite(m2)):
+        raise unrepresentable("blocks of samples whose squared deviations overflow float64 when merged")
+    low = np.asarray(m2) < LOW_VARIANCE * max(n - 1, 1)
+    gap = np.broadcast_to(np.abs(np.asarray(delta, dtype=float)), low.shape)
+    if np.any(low & (gap != 0)):
+        raise unrepresentable(f"blocks of samples whose means differ by about {np.max(gap[low]):.3g}: the "
+                              "squares of such differences underflow float64")
+
 
 class Moments:
     """Running count, mean and sum of squared deviations along the last axis (batched)."""
@@ -32,14 +78,19 @@ class Moments:
     def add(self, values: np.ndarray, axis: int = -1) -> "Moments":
         """Merge a block of samples ``values (*batch, m)``, or with the samples along
         ``axis`` (no transposed copy, e.g. the renderer's ``(pixels, spp, 3)``)."""
+        single = getattr(values, "dtype", None) == np.float32
         v = np.asarray(values, dtype=float)
         m = v.shape[axis]
         if m == 0:
             return self
-        mean_b = v.mean(axis=axis)
-        dev = v - np.expand_dims(mean_b, axis)
-        dev *= dev
-        return self.merge_stats(m, mean_b, dev.sum(axis=axis))
+        with np.errstate(over="ignore", under="ignore"):
+            mean_b = v.mean(axis=axis)
+            dev = v - np.expand_dims(mean_b, axis)
+            dev *= dev
+            m2_b = dev.sum(axis=axis)
+        if not single:      # float32 samples' squares cannot leave float64's range
+            check_spread(v, axis, mean_b, m2_b)
+        return self.merge_stats(m, mean_b, m2_b)
 
     def merge_stats(self, n_b: int, mean_b, m2_b) -> "Moments":
         if self.count == 0:
@@ -47,8 +98,11 @@ class Moments:
             return self
         n = self.count + n_b
         delta = mean_b - self.mean
+        with np.errstate(over="ignore", under="ignore"):
+            m2 = self.m2 + m2_b + delta * delta * (self.count * n_b / n)
+        check_merged(m2, bool(np.all(np.isfinite(self.m2)) and np.all(np.isfinite(m2_b))), delta, n)
         self.mean = self.mean + delta * (n_b / n)
-        self.m2 = self.m2 + m2_b + delta * delta * (self.count * n_b / n)
+        self.m2 = m2
         self.count = n
         return self
 

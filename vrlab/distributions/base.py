@@ -11,9 +11,11 @@ The protocol is duck-typed: estimators only need ``dim_u``, ``sample`` and
 
 Checks: constructors check every argument (``TypeError`` for a wrong kind,
 ``ValueError`` for a bad value; the message names the argument).  ``sample(u)``,
-``pdf(x)`` and ``invert(x)`` check the kind and the shape of their array (a cheap,
-O(1) test) but not its values: they are the hot path, called in inner loops, so
-``u`` outside [0, 1) or non-finite points give unspecified (possibly NaN) results.
+``pdf(x)`` and ``invert(x)`` check the kind and the shape of their array, and its
+values with two reductions (min and max, which propagate NaN): ``u`` must lie in
+[0, 1] (:func:`as_uniforms`), points must be finite (:func:`as_points`); the error
+names the argument and its first bad entry.  float32 arrays, the renderer's own
+vectors on its hot path, are not re-checked.
 """
 from __future__ import annotations
 

@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from ..estimate import check_merged, check_spread
+
 __all__ = ["CoMoments", "regression_estimate"]
 
 
@@ -29,35 +31,37 @@ class CoMoments:
         self.comoment: np.ndarray | None = None
 
     def add(self, values: np.ndarray) -> "CoMoments":
+        single = getattr(values, "dtype", None) == np.float32
         v = np.asarray(values, dtype=float)
         m = v.shape[-2]
         if m == 0:
             return self
-        mean_b = v.mean(axis=-2)
-        dev = v - mean_b[..., None, :]
-        com_b = np.swapaxes(dev, -1, -2) @ dev
-        if self.count == 0:
-            self.count, self.mean, self.comoment = m, mean_b, com_b
-            return self
-        n = self.count + m
-        delta = mean_b - self.mean
-        self.comoment = self.comoment + com_b + (delta[..., :, None] * delta[..., None, :]) * (self.count * m / n)
-        self.mean = self.mean + delta * (m / n)
-        self.count = n
-        return self
+        with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+            mean_b = v.mean(axis=-2)
+            dev = v - mean_b[..., None, :]
+            com_b = np.swapaxes(dev, -1, -2) @ dev
+        if not single:      # float32 samples' squares cannot leave float64's range
+            check_spread(v, -2, mean_b, np.diagonal(com_b, 0, -2, -1))
+        return self._fold(m, mean_b, com_b)
 
     def merge(self, other: "CoMoments") -> "CoMoments":
         """Fold the co-moments of another, disjoint set of units into these (Chan et al.)."""
         if other.count == 0:
             return self
+        return self._fold(other.count, other.mean, other.comoment)
+
+    def _fold(self, m: int, mean_b: np.ndarray, com_b: np.ndarray) -> "CoMoments":
         if self.count == 0:
-            self.count, self.mean, self.comoment = other.count, other.mean, other.comoment
+            self.count, self.mean, self.comoment = m, mean_b, com_b
             return self
-        n = self.count + other.count
-        delta = other.mean - self.mean
-        self.comoment = (self.comoment + other.comoment
-                         + (delta[..., :, None] * delta[..., None, :]) * (self.count * other.count / n))
-        self.mean = self.mean + delta * (other.count / n)
+        n = self.count + m
+        delta = mean_b - self.mean
+        with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+            com = self.comoment + com_b + (delta[..., :, None] * delta[..., None, :]) * (self.count * m / n)
+        check_merged(np.diagonal(com, 0, -2, -1), bool(np.all(np.isfinite(self.comoment)) and np.all(np.isfinite(com_b))),
+                     delta, n)
+        self.comoment = com
+        self.mean = self.mean + delta * (m / n)
         self.count = n
         return self
 

@@ -40,7 +40,7 @@ import numpy as np
 
 from .. import checks
 from .._rng import RNGLike, as_generator
-from ..estimate import Estimate
+from ..estimate import LOW_VARIANCE, Estimate, unrepresentable
 from ..points.base import ONE_MINUS_EPS, check_int
 from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, point_engine, resolve_distribution
 from .importance import MonteCarlo
@@ -80,6 +80,23 @@ def allocate(total: int, weights: np.ndarray, minimum: int = 2) -> np.ndarray:
         order = np.argsort(-(ideal - n_h), kind="stable")
         n_h[order[:left]] += 1
     return n_h + minimum
+
+
+def _check_strata(y: np.ndarray, offsets: np.ndarray, mu: np.ndarray, var: np.ndarray) -> None:
+    """Refuse per-stratum samples ``y`` whose means or variances float64 cannot carry
+    (see :func:`vrlab.estimate.check_spread`): overflow, or a variance below
+    ``LOW_VARIANCE`` in a stratum whose samples are not all equal."""
+    if not (np.all(np.isfinite(mu)) and np.all(np.isfinite(var))):
+        if np.all(np.isfinite(y)):
+            raise unrepresentable(f"samples up to {np.max(np.abs(y)):.3g} in magnitude: their squares or sums "
+                                  "overflow float64")
+        return
+    low = var < LOW_VARIANCE
+    if y.dtype != np.float32 and np.any(low):
+        spread = np.maximum.reduceat(y, offsets, axis=-1) - np.minimum.reduceat(y, offsets, axis=-1)
+        if np.any(spread[low] > 0):
+            raise unrepresentable(f"samples that differ by at most {np.max(spread[low]):.3g} within a stratum: "
+                                  "the squares of their deviations underflow float64")
 
 
 class Stratified(Estimator):
@@ -169,10 +186,13 @@ class Stratified(Estimator):
             u = np.minimum((corner + np.asarray(engine.random(cell.size), float)) / np.asarray(grid), ONE_MINUS_EPS)
             y = self.unit_values(integrand, u)
             offsets = np.concatenate([[0], np.cumsum(c)[:-1]])
-            mu = np.add.reduceat(y, offsets, axis=-1) / c
-            dev = y - np.repeat(mu, c, axis=-1)
+            with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+                mu = np.add.reduceat(y, offsets, axis=-1) / c
+                dev = y - np.repeat(mu, c, axis=-1)
+                var = np.add.reduceat(dev * dev, offsets, axis=-1) / (c - 1)
+            _check_strata(y, offsets, mu, var)
             means.append(mu)
-            variances.append(np.add.reduceat(dev * dev, offsets, axis=-1) / (c - 1))
+            variances.append(var)
             h0 = h1
         return np.concatenate(means, -1), np.concatenate(variances, -1)
 
