@@ -169,3 +169,18 @@ def file_path(value: Any, name: str, suffixes: Iterable[str], *, write: bool = T
         if not path.parent.is_dir():
             raise ValueError(f"{name}: the folder {str(path.parent)!r} does not exist (create it first)")
     return path
+
+
+def one_value_per_point(out: np.ndarray, x: np.ndarray, who: str) -> None:
+    """``ValueError`` naming ``who`` unless ``out`` holds one value per point of ``x (..., k)``:
+    shape ``x.shape[:-1]``, optionally with leading batch axes (an integrand's or a density's
+    values)."""
+    want = x.shape[:-1]
+    try:
+        fits = np.broadcast_shapes(out.shape, want) == out.shape
+    except ValueError:
+        fits = False
+    if out.ndim < len(want) or (want and out.shape[-1] != want[-1]) or not fits:
+        what = "one scalar" if out.ndim == 0 else f"shape {out.shape}"
+        raise ValueError(f"{who}: returned {what} for points of shape {x.shape}; it must return one value per "
+                         f"point, shape {want} (optionally with leading batch axes)")

@@ -105,6 +105,45 @@ def as_uniforms(u: Any, dim_u: int) -> np.ndarray:
     return u
 
 
+def checked_pdf(dist: Any, x: Any, name: str = "distribution") -> np.ndarray:
+    """``dist.pdf(x)``, checked for any duck-typed distribution: real numbers, one per point
+    (shape ``x.shape[:-1]``, leading batch axes allowed), finite and >= 0.  ``ValueError`` /
+    ``TypeError`` name ``name`` and the first bad point.  A float32 array (the renderer's
+    own densities, on its hot path) is returned unchecked."""
+    p = dist.pdf(x)
+    if isinstance(p, np.ndarray) and p.dtype == np.float32:
+        return p
+    who = f"{name}: pdf"
+    a = np.asarray(p)
+    if a.dtype.kind not in _NUMERIC:
+        raise TypeError(f"{who} must return real numbers, got {a.dtype} values")
+    a = a.astype(np.float64, copy=False)
+    x = np.asarray(x)
+    checks.one_value_per_point(a, x, who)
+    if a.size and not (np.min(a) >= 0 and np.max(a) < np.inf):          # NaN fails too
+        bad = ~((a >= 0) & (a < np.inf))
+        idx = tuple(int(i) for i in np.argwhere(bad)[0])
+        xi = x[idx[a.ndim - (x.ndim - 1):]] if x.ndim > 1 else x
+        raise ValueError(f"{who} returned {a[idx]} at x = {np.round(np.asarray(xi, float), 6).tolist()} "
+                         f"({int(bad.sum())} such value(s)); a density must be finite and >= 0")
+    return a
+
+
+def checked_sample(dist: Any, u: np.ndarray, name: str = "distribution") -> np.ndarray:
+    """``dist.sample(u)`` for uniforms ``u (..., dim_u)``, checked for any duck-typed
+    distribution: real points of shape ``u.shape[:-1] + (k,)``, optionally with leading batch
+    axes (per-pixel frames) (``ValueError`` / ``TypeError`` naming ``name``); float32 is kept
+    (see :func:`as_float`)."""
+    x = np.asarray(dist.sample(u))
+    if x.dtype.kind not in _NUMERIC:
+        raise TypeError(f"{name}: sample must return real points, got {x.dtype} values")
+    lead = np.shape(u)[:-1]
+    if x.ndim < len(lead) + 1 or x.shape[x.ndim - 1 - len(lead):-1] != lead:
+        raise ValueError(f"{name}: sample returned shape {x.shape} for uniforms of shape {np.shape(u)}; it must "
+                         f"return one point per row of uniforms, shape {np.shape(u)[:-1] + ('k',)}")
+    return x if x.dtype == np.float32 else x.astype(np.float64, copy=False)
+
+
 def check_broadcast(x: np.ndarray, name: str, shape: tuple, other: str) -> np.ndarray:
     """``x`` if its leading shape ``x.shape[:-1]`` broadcasts with ``shape`` (the leading
     shape of ``other``, e.g. per-pixel axes or reference points), else ``ValueError``."""

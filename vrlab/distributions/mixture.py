@@ -15,7 +15,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .base import Distribution, as_uniforms, distribution_list
+from .base import Distribution, as_uniforms, checked_pdf, distribution_list
 from .tabulated import check_weights
 
 
@@ -67,7 +67,7 @@ class Mixture(Distribution):
 
     def component_pdfs(self, x) -> np.ndarray:
         """p_k(x) for every component, stacked on a last axis of size K."""
-        return np.stack([np.asarray(c.pdf(x), dtype=float) for c in self.components], -1)
+        return np.stack([checked_pdf(c, x, f"components[{k}]") for k, c in enumerate(self.components)], -1)
 
     def pdf(self, x):
         return self.component_pdfs(x) @ self.probabilities

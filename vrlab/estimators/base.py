@@ -18,6 +18,7 @@ import numpy as np
 
 from .. import checks
 from .._rng import RNGLike, as_generator
+from ..distributions.base import checked_pdf
 from ..estimate import Estimate, Moments
 from ..integrands.lookup import as_integrand
 
@@ -69,10 +70,9 @@ def uniform_blocks(points: Any, d: int, m: int, rng: RNGLike, chunk: int = DEFAU
         yield checks.uniforms_array(points, "points", d=d)
         return
     if points is None and isinstance(rng, np.random.Generator):
-        # fast path: draws from the caller's generator itself, the same numbers as the engine
-        # point_engine(None, d, rng) would give (it shares rng too), without building it (its
-        # private copy of the generator state costs ~0.5 ms per estimate).  A public
-        # Independent(d, rng=rng) would spawn a child of rng instead (SciPy's convention).
+        # fast path: draws from the caller's generator itself, the numbers point_engine(None, d,
+        # rng) would give, without building it (its private copy of the generator state costs
+        # ~0.5 ms); a public Independent(d, rng=rng) would spawn a child of rng (SciPy's habit).
         done = 0
         while done < m:
             k = min(chunk, m - done)
@@ -388,8 +388,8 @@ def support_probe(integrand, distributions, n: int = 4096, label: str = "distrib
     if f.ndim > 1:  # batched integrand: probe where any batch element is non-zero
         f = np.abs(f).reshape(-1, f.shape[-1]).max(0)
     covered = np.zeros(x.shape[:-1], bool)
-    for d in distributions:
-        p = np.asarray(d.pdf(x))
+    for k, d in enumerate(distributions):
+        p = np.asarray(checked_pdf(d, x, label if len(distributions) == 1 else f"{label}[{k}]"))
         covered |= (p.reshape(-1, p.shape[-1]).max(0) if p.ndim > 1 else p) > 0
     missed = (f != 0) & ~covered
     if missed.any():

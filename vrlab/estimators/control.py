@@ -42,6 +42,7 @@ import numpy as np
 from .. import checks
 from ..integrands.base import checked_values
 from .atoms import check_atoms
+from ..distributions.base import checked_pdf
 from .base import Estimator, check_technique, ratio, resolve_distribution, support_probe
 from .importance import MonteCarlo
 from .regression import CoMoments, regression_estimate  # noqa: F401  (CoMoments: public here too)
@@ -255,11 +256,13 @@ class ControlVariate(_Regression):
     def _columns(self, integrand, u):
         dist = resolve_distribution(self.distribution, integrand)
         x = dist.sample(u)
-        p = np.asarray(dist.pdf(x), dtype=float)
+        p = np.asarray(checked_pdf(dist, x), dtype=float)
         y = ratio(integrand(x), p)
         cols = [y]
+        xd, inside = integrand.on_domain(x)      # h is integrated over the domain too: 0 off it
         for j, (h, t) in enumerate(self.controls_for(integrand)):
-            hv = ratio(checked_values(h(x), x, f"control[{j}]"), p)
+            hv = checked_values(h(xd), xd, f"control[{j}]")
+            hv = ratio(hv if inside is None else np.where(inside, hv, 0.0), p)
             t = np.asarray(t)
             try:
                 batch = np.broadcast_shapes(y.shape, hv.shape)[:-1]     # the estimate's batch shape

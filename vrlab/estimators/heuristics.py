@@ -14,7 +14,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from .. import checks
-from ..distributions.base import as_float
+from ..distributions.base import as_float, checked_pdf
 from .base import check_technique, resolve_distribution
 
 HEURISTICS = ("balance", "power", "maximum", "cutoff", "optimal")
@@ -172,5 +172,5 @@ def _check_dims(dists: list, integrand) -> None:
 
 def _stack_pdfs(dists: list, x: np.ndarray) -> np.ndarray:
     """p_k(x) for every technique, broadcast and stacked on a last axis (..., K)."""
-    ps = np.broadcast_arrays(*[as_float(d.pdf(x)) for d in dists])
+    ps = np.broadcast_arrays(*[checked_pdf(d, x, f"distributions[{k}]") for k, d in enumerate(dists)])
     return np.stack(ps, -1)

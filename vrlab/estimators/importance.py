@@ -5,9 +5,10 @@ p* = |f| / int |f| when f has one sign (which needs the answer, I, to normalise)
 """
 from __future__ import annotations
 
+import numpy as np
 
 from .. import checks
-from ..distributions.base import as_float
+from ..distributions.base import checked_pdf
 from .atoms import check_atoms
 from .base import Estimator, check_technique, ratio, resolve_distribution, support_probe, technique_label
 
@@ -40,6 +41,9 @@ class MonteCarlo(Estimator):
     def unit_values(self, integrand, u):
         dist = resolve_distribution(self.distribution, integrand)
         x = dist.sample(u)
-        p = as_float(dist.pdf(x))      # float32 densities (the renderer's) stay float32
+        p = checked_pdf(dist, x)      # float32 densities (the renderer's) stay float32
+        if p.dtype != np.float32 and p.size >= 64 and not p.any():
+            raise ValueError(f"distribution: {technique_label(self.distribution or dist)}'s pdf is 0 at all "
+                             f"{p.size} of its own samples: its pdf does not describe its sample method")
         f = integrand(x)
         return ratio(f, p)

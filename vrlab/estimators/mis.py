@@ -41,7 +41,7 @@ import numpy as np
 
 from .. import checks
 from .._rng import RNGLike, as_generator
-from ..distributions.base import as_float
+from ..distributions.base import checked_pdf
 from ..estimate import Estimate, Moments
 from .base import (DEFAULT_CHUNK, Estimator, _plain, as_integrand, check_chunk, check_n, ratio, support_probe,
                    uniform_blocks)
@@ -181,9 +181,13 @@ class MIS(Estimator):
                 q = 0.0
                 for k, other in enumerate(dists):
                     if counts[k]:
-                        pk = as_float(other.pdf(x))
+                        pk = checked_pdf(other, x, f"distributions[{k}]")
                         q = q + pk.dtype.type(counts[k]) * pk       # float32 densities stay float32
-                v = ratio(f, q)
+                        if k == i:
+                            own = pk
+                # where p_i(x) = 0 technique i cannot have drawn x (rounding, or a pdf that does not
+                # match its sampler): the sample counts 0, as ratio() makes it for other heuristics
+                v = ratio(f, np.where(own > 0, q, 0))
             else:
                 P = _stack_pdfs(dists, x)
                 w = mis_weights(P * counts.astype(P.dtype), self.heuristic, beta=self.beta, alpha=self.alpha)

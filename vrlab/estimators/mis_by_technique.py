@@ -21,6 +21,7 @@ import numpy as np
 from .. import checks
 from .._rng import as_generator
 from ..estimate import Estimate, Moments
+from ..distributions.base import checked_pdf
 from .base import DEFAULT_CHUNK, as_integrand, check_chunk, check_n, point_engine, ratio
 from .heuristics import _stack_pdfs, mis_weights, resolve_all, split_counts
 
@@ -110,7 +111,7 @@ def _weighted(mis, integrand, dists, blocks, counts):
             q = 0.0
             for k, d in enumerate(dists):
                 if counts[k]:
-                    q = q + counts[k] * np.asarray(d.pdf(x), dtype=float)
+                    q = q + counts[k] * checked_pdf(d, x, f"distributions[{k}]")
             moments[i].add(ratio(counts[i] * integrand(x), q))
             continue
         P = _stack_pdfs(dists, x)

@@ -79,6 +79,7 @@ import numpy as np
 
 from .. import checks, limits
 from .._rng import RNGLike
+from ..distributions.base import checked_pdf, checked_sample
 from ..estimate import Estimate
 from .base import DEFAULT_CHUNK, Estimator, check_chunk, check_technique, ratio, resolve_distribution
 from .ris import ABS_TARGET, Reservoir
@@ -112,8 +113,8 @@ class PixelView:
     def candidates(self, uc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(x, p, t)``: candidates (N, B, c, k) from ``uc (N, B, c, d)``, density, targets."""
         N, B, c, d = uc.shape
-        x = np.asarray(self.source.sample(uc.reshape(N * B * c, d)), dtype=float)
-        p = np.asarray(self.source.pdf(x), dtype=float).reshape(N, B, c)
+        x = np.asarray(checked_sample(self.source, uc.reshape(N * B * c, d), "source"), dtype=float)
+        p = np.asarray(checked_pdf(self.source, x, "source"), dtype=float).reshape(N, B, c)
         x = x.reshape(N, B, c, x.shape[-1])
         return x, p, self.phat(x, np.arange(B)[:, None])
 
@@ -165,8 +166,7 @@ class ReSTIR(Estimator):
     """
 
     evals_per_unit = 1
-    #: the renderer runs it on every pixel of a block at once (spatial reuse)
-    spatial = True
+    spatial = True      #: the renderer runs it on every pixel of a block at once (spatial reuse)
 
     def __init__(self, candidates: int = 32, neighbours: int = 5, radius: float = 3.0, passes: int = 1,
                  mis: str = "pairwise", *, source: Any = None, target: Any = None, shift: Any = None):

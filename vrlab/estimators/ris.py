@@ -33,7 +33,9 @@ import numpy as np
 
 from .. import checks
 from .._rng import RNGLike
+from ..distributions.base import checked_pdf, checked_sample
 from ..estimate import Estimate
+from ..integrands.base import checked_values
 from .atoms import check_atoms
 from .base import DEFAULT_CHUNK, Estimator, check_chunk, check_technique, ratio, resolve_distribution, support_probe
 
@@ -223,11 +225,11 @@ class RIS(Estimator):
             raise ValueError(f"u: expected shape (..., n, {m * (d + 1)}), got {u.shape}")
         lead, n = u.shape[:-2], u.shape[-2]
         cand = u[..., : m * d].reshape(lead + (n * m, d))      # candidates on the sample axis
-        x = np.asarray(source.sample(cand))
-        p = np.asarray(source.pdf(x), dtype=float)
-        t = np.asarray(target(x), dtype=float)
-        if np.any(t < 0) or np.any(np.isnan(t)):
-            raise ValueError("target: the unnormalised target density must be >= 0 and not NaN")
+        x = checked_sample(source, cand, "source")
+        p = np.asarray(checked_pdf(source, x, "source"), dtype=float)
+        t = checked_values(target(x), x, "target")
+        if np.any(t < 0):
+            raise ValueError("target: the unnormalised target density must be >= 0")
         w = ratio(t, p)
 
         def split(a, tail=()):  # (..., n m, *tail) -> (..., n, m, *tail)
@@ -267,6 +269,6 @@ class _Support:
         raise TypeError("this object only evaluates the unnormalised target density; sample with RIS")
 
     def pdf(self, x):
-        p = np.asarray(self.source.pdf(x), dtype=float)
-        t = np.asarray(self.target(x), dtype=float)
+        p = np.asarray(checked_pdf(self.source, x, "source"), dtype=float)
+        t = checked_values(self.target(x), x, "target")
         return np.where(p > 0, t, 0.0)

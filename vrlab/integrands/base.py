@@ -104,15 +104,59 @@ class Integrand:
                 raise TypeError(f"targets[{key!r}]: expected a callable (points -> unnormalised density)")
         self.atoms, self.atom_points, self.atom_weights = _atoms(atoms, self.bounds)
 
+    def on_domain(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """``(x', inside)``: points ``x (..., dim)`` (checked: that shape, no NaN) with those
+        outside the domain replaced by a point of it (the nearest on a box, the mirror image
+        below the hemisphere's equator, the radial projection outside the disk), and the mask
+        of the points inside; ``inside`` is None when every point is (one min and max per
+        coordinate).  A box keeps points within 1e-12 (relative) of its faces: rounding."""
+        x = np.asarray(x)
+        if x.ndim == 0 or x.shape[-1] != self.dim:
+            raise ValueError(f"points: integrand {self.name!r} has a {self.dim}-dimensional domain, got points of "
+                             f"shape {x.shape} (a distribution's sample must return shape (..., {self.dim}))")
+        if x.size == 0 or (self.bounds is None and self.domain not in ("hemisphere", "disk")):
+            return x, None
+        flat = x.reshape(-1, self.dim)
+        if self.bounds is not None:
+            lo, hi = self.bounds[:, 0], self.bounds[:, 1]
+            slack = 1e-12 * np.maximum(1.0, np.maximum(np.abs(lo), np.abs(hi)))
+            lo, hi = lo - slack, hi + slack
+            if np.all(flat.min(0) >= lo) and np.all(flat.max(0) <= hi):
+                return x, None
+            inside = np.all((x >= lo) & (x <= hi), -1)
+            stand_in = np.clip(x, self.bounds[:, 0], self.bounds[:, 1])
+        elif self.domain == "hemisphere":
+            if flat[:, 2].min() >= 0:
+                return x, None
+            inside = x[..., 2] >= 0
+            stand_in = x * np.array([1.0, 1.0, -1.0], x.dtype)
+        else:                                                             # the unit disk
+            r2 = np.sum(x * x, -1)
+            if r2.max() <= 1 + 1e-12:
+                return x, None
+            inside = r2 <= 1 + 1e-12
+            stand_in = x / np.sqrt(np.maximum(r2, 1.0))[..., None]
+        if np.isnan(x).any():
+            raise ValueError(f"points: NaN among the points at which integrand {self.name!r} is evaluated "
+                             "(a distribution's sample returned NaN)")
+        return np.where(inside[..., None], x, stand_in.astype(x.dtype, copy=False)), inside
+
+    def _domain_values(self, x: np.ndarray) -> np.ndarray:
+        """f on the domain, 0 off it (the integral is over the domain), checked."""
+        x, inside = self.on_domain(x)
+        out = checked_values(self.f(x), x, f"integrand {self.name!r}")
+        return out if inside is None else np.where(inside, out, 0).astype(out.dtype, copy=False)
+
     def continuous(self, x: np.ndarray) -> np.ndarray:
         """f(x) without the point masses (checked as ``__call__``): the part integrated dx."""
-        x = np.asarray(x)
-        return checked_values(self.f(x), x, f"integrand {self.name!r}")
+        return self._domain_values(x)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        """f(x), checked: real, finite, one value per point (leading batch axes allowed)."""
+        """f(x), checked: real, finite, one value per point (leading batch axes allowed); 0 at
+        points outside the domain (a technique whose support is wider than the domain, such as
+        an exponential on a box or the sphere on the hemisphere, samples them)."""
         x = np.asarray(x)
-        out = checked_values(self.f(x), x, f"integrand {self.name!r}")
+        out = self._domain_values(x)
         if not self.atoms:
             return out
         eq = x[..., 0][..., None] == self.atom_points[:, 0]       # an atom: its weight (density w.r.t. mu)
@@ -184,28 +228,19 @@ def _named(table: dict, name: Any, arg: str, missing: str):
     return table[name]
 
 
-def _broadcast(a: tuple, b: tuple) -> tuple | None:
-    try:
-        return np.broadcast_shapes(a, b)
-    except ValueError:
-        return None
-
-
 def checked_values(values: Any, x: np.ndarray, who: str) -> np.ndarray:
     """``values`` of a function at points ``x (..., k)`` as a float array, checked: real,
     finite, shape ``x.shape[:-1]`` (leading batch axes allowed).  ``ValueError`` names
     ``who`` and the first bad point; ``TypeError`` for values that are not real numbers."""
     try:
         out = np.asarray(values)
+        if out.dtype.kind == "c":            # casting would drop the imaginary part silently
+            raise TypeError(f"got complex values (dtype {out.dtype})")
         if out.dtype != np.float32:          # float32 (the renderer's) stays float32
             out = np.asarray(out, dtype=float)
     except (TypeError, ValueError) as exc:
         raise TypeError(f"{who}: must return real numbers ({exc})") from None
-    want = x.shape[:-1]
-    if out.ndim < len(want) or (want and out.shape[-1] != want[-1]) or _broadcast(out.shape, want) != out.shape:
-        what = "one scalar" if out.ndim == 0 else f"shape {out.shape}"
-        raise ValueError(f"{who}: returned {what} for points of shape {x.shape}; it must return one value per "
-                         f"point, shape {want} (optionally with leading batch axes)")
+    checks.one_value_per_point(out, x, who)
     # fast path, one reduction: a finite sum means every value is finite (a NaN or inf makes
     # the sum non-finite; so can an overflow of finite values, which the exact test clears)
     if out.size == 0 or np.isfinite(np.add.reduce(out, axis=None)):
@@ -213,7 +248,8 @@ def checked_values(values: Any, x: np.ndarray, who: str) -> np.ndarray:
     bad = ~np.isfinite(out)
     if bad.any():
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
-        xi = x[idx[out.ndim - len(want):]] if want else x
+        want = x.ndim - 1
+        xi = x[idx[out.ndim - want:]] if want else x
         raise ValueError(f"{who}: returned {out[idx]} at x = {np.round(xi, 6).tolist()} "
                          f"({int(bad.sum())} non-finite value(s)); values must be finite")
     return out
