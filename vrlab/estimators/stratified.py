@@ -82,10 +82,10 @@ def allocate(total: int, weights: np.ndarray, minimum: int = 2) -> np.ndarray:
     return n_h + minimum
 
 
-def _check_strata(y: np.ndarray, offsets: np.ndarray, mu: np.ndarray, var: np.ndarray) -> None:
-    """Refuse per-stratum samples ``y`` whose means or variances float64 cannot carry
-    (see :func:`vrlab.estimate.check_spread`): overflow, or a variance below
-    ``LOW_VARIANCE`` in a stratum whose samples are not all equal."""
+def _check_strata(y: np.ndarray, offsets: np.ndarray, counts: np.ndarray, mu: np.ndarray, var: np.ndarray) -> None:
+    """Refuse per-stratum samples ``y`` (``counts`` per stratum from ``offsets``) whose means or
+    variances float64 cannot carry (see :func:`vrlab.estimate.check_spread`): overflow, or a
+    variance below ``LOW_VARIANCE`` in a stratum whose samples are not all equal."""
     if not (np.all(np.isfinite(mu)) and np.all(np.isfinite(var))):
         if np.all(np.isfinite(y)):
             raise unrepresentable(f"samples up to {np.max(np.abs(y)):.3g} in magnitude: their squares or sums "
@@ -93,10 +93,13 @@ def _check_strata(y: np.ndarray, offsets: np.ndarray, mu: np.ndarray, var: np.nd
         return
     low = var < LOW_VARIANCE
     if y.dtype != np.float32 and np.any(low):
-        spread = np.maximum.reduceat(y, offsets, axis=-1) - np.minimum.reduceat(y, offsets, axis=-1)
-        if np.any(spread[low] > 0):
-            raise unrepresentable(f"samples that differ by at most {np.max(spread[low]):.3g} within a stratum: "
-                                  "the squares of their deviations underflow float64")
+        # a stratum of equal values (all 0 where f vanishes) is fine; otherwise one of tiny values
+        # (|y| < ~1e-130: above that, values this close are equal in float64) lost its variance
+        small = np.add.reduceat(np.abs(y), offsets, axis=-1)
+        bad = low & (small > 0) & (small < 1e-130 * counts)
+        if np.any(bad):
+            raise unrepresentable(f"samples as small as {np.max(small[bad]):.3g} (a stratum's sum) that are not all "
+                                  "equal: the squares of their deviations underflow float64")
 
 
 class Stratified(Estimator):
@@ -190,7 +193,7 @@ class Stratified(Estimator):
                 mu = np.add.reduceat(y, offsets, axis=-1) / c
                 dev = y - np.repeat(mu, c, axis=-1)
                 var = np.add.reduceat(dev * dev, offsets, axis=-1) / (c - 1)
-            _check_strata(y, offsets, mu, var)
+            _check_strata(y, offsets, c, mu, var)
             means.append(mu)
             variances.append(var)
             h0 = h1

@@ -121,7 +121,7 @@ class Integrand:
             lo, hi = self.bounds[:, 0], self.bounds[:, 1]
             slack = 1e-12 * np.maximum(1.0, np.maximum(np.abs(lo), np.abs(hi)))
             lo, hi = lo - slack, hi + slack
-            if np.all(flat.min(0) >= lo) and np.all(flat.max(0) <= hi):
+            if _within(flat, lo, hi):
                 return x, None
             inside = np.all((x >= lo) & (x <= hi), -1)
             stand_in = np.clip(x, self.bounds[:, 0], self.bounds[:, 1])
@@ -226,6 +226,15 @@ def _named(table: dict, name: Any, arg: str, missing: str):
         have = ", ".join(repr(k) for k in table) or "none"
         raise ValueError(f"{arg}: {missing} named {name!r}; it has: {have}")
     return table[name]
+
+
+def _within(flat: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
+    """Every row of ``flat (n, k)`` in the box [lo, hi] (False with a NaN): one min and max of
+    the whole array when the box is a cube, else per column (numpy's axis-0 reductions of an
+    (n, 2) array run 150x slower than these contiguous ones)."""
+    if np.all(lo == lo[0]) and np.all(hi == hi[0]):
+        return bool(flat.min() >= lo[0] and flat.max() <= hi[0])
+    return all(flat[:, k].min() >= lo[k] and flat[:, k].max() <= hi[k] for k in range(flat.shape[1]))
 
 
 def checked_values(values: Any, x: np.ndarray, who: str) -> np.ndarray:
