@@ -19,7 +19,7 @@ W, H = 16, 12
 
 def scene(body: str, *, sensor: str = "", film: str = '<rfilter type="box"/>', camera: str = "perspective",
           integrator: str = '<integrator type="direct"/>', lights: bool = True) -> str:
-    view = ('<float name="fov" value="50"/>' if camera == "perspective" and "fov" not in sensor
+    view = ('<float name="fov" value="50"/>' if camera in ("perspective", "thinlens") and "fov" not in sensor
             and "focal_length" not in sensor else "")
     look = '<transform name="to_world"><lookat origin="0.3, 2.2, 3.4" target="0, 0.3, 0" up="0, 1, 0"/></transform>'
     if camera == "orthographic":
@@ -88,6 +88,9 @@ SENSORS = {
     "principal point": dict(sensor='<float name="principal_point_offset_x" value="0.1"/>'
                                    '<float name="principal_point_offset_y" value="-0.05"/>'),
     "orthographic": dict(camera="orthographic"),
+    # depth of field: the plane of focus through the sphere lights' depth, the floor's edges blurred
+    "thinlens": dict(camera="thinlens", sensor='<float name="aperture_radius" value="0.15"/>'
+                                              '<float name="focus_distance" value="3.3"/>'),
     "crop": dict(film='<integer name="crop_offset_x" value="3"/><integer name="crop_offset_y" value="2"/>'
                       '<integer name="crop_width" value="9"/><integer name="crop_height" value="7"/>'
                       '<rfilter type="box"/>'),
@@ -153,6 +156,19 @@ def test_wrong_elements_fail_the_criterion():
                         '<rgb name="reflectance" value="0.525"/>')
     with pytest.raises(AssertionError):
         assert_agrees_with_mitsuba(flat, reference=(mean, var, spp))
+
+
+def test_a_wrong_lens_fails_the_criterion():
+    """Depth of field matters at this budget: against Mitsuba's thinlens reference, the pinhole
+    (aperture 0) and a lens focused 20 % nearer both fail."""
+    right = scene(SHAPES["cube"], **SENSORS["thinlens"])
+    spp = 4 * max(1, sample_budget() // (W * H))
+    reference = mitsuba_reference(right, spp) + (spp,)
+    for wrong in (right.replace('name="aperture_radius" value="0.15"', 'name="aperture_radius" value="0"'),
+                  right.replace('name="focus_distance" value="3.3"', 'name="focus_distance" value="2.64"')):
+        assert wrong != right
+        with pytest.raises(AssertionError):
+            assert_agrees_with_mitsuba(wrong, reference=reference)
 
 
 # ----------------------------------------------------------------------------- textures

@@ -202,6 +202,42 @@ def test_camera_rays_match_mitsuba(sensor, crop, kind):
         np.testing.assert_allclose(o[0], np.array(ray.o), atol=2e-6 * (1 + np.abs(o).max()))
 
 
+@pytest.mark.parametrize("lens", [
+    '<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="3"/>',
+    '<float name="aperture_radius" value="0.25"/>',                        # focus at far_clip, as Mitsuba
+    '<float name="aperture_radius" value="0.05"/><float name="focus_distance" value="1.5"/>'
+    '<float name="fov" value="30"/><string name="fov_axis" value="y"/><float name="near_clip" value="0.3"/>',
+])
+def test_thinlens_rays_match_mitsuba(lens):
+    """Mitsuba's ``sample_ray`` at random film and aperture samples: the concentric aperture
+    map, the plane of focus, the near plane (origins and directions within float32 rounding)."""
+    fov = "" if "fov" in lens else '<float name="fov" value="40"/>'
+    xml = scene_xml(sensor=f'<sensor type="thinlens">{fov}{lens}<transform name="to_world"><lookat origin="1, 2, 5" '
+                           'target="0, 0.5, 0" up="0, 1, 0"/></transform><film type="hdrfilm"><integer name="width" '
+                           'value="20"/><integer name="height" value="15"/><rfilter type="box"/></film></sensor>')
+    ours, theirs = load_scene(xml).sensor, mi.load_string(xml).sensors()[0]
+    assert ours.camera_dims == 4
+    rng = np.random.default_rng(6)
+    pos, ap = rng.random((60, 2)), rng.random((60, 2))
+    o, d = ours.rays(pos * [20, 15], np.float64, ap)
+    for k in range(len(pos)):
+        ray, weight = theirs.sample_ray(0.0, 0.5, mi.Point2f(*pos[k]), mi.Point2f(*ap[k]))
+        np.testing.assert_allclose(d[k], np.array(ray.d), atol=2e-6)
+        np.testing.assert_allclose(o[k], np.array(ray.o), atol=2e-6)
+        assert np.allclose(np.array(weight), 1.0)
+
+
+@pytest.mark.parametrize("lens, words", [
+    ('', "aperture_radius"),
+    ('<float name="aperture_radius" value="-0.1"/>', "aperture_radius"),
+    ('<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="0"/>', "focus_distance"),
+])
+def test_thinlens_refuses_a_bad_lens(lens, words):
+    xml = scene_xml(sensor=f'<sensor type="thinlens"><float name="fov" value="40"/>{lens}</sensor>')
+    with pytest.raises((SceneError, ValueError), match=words):
+        load_scene(xml)
+
+
 def test_samplers_map_to_point_sets():
     for plugin, points in [("independent", None), ("stratified", "stratified"), ("multijitter", "stratified"),
                            ("orthogonal", "lhs"), ("ldsampler", "sobol")]:

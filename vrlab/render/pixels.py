@@ -93,7 +93,9 @@ class PixelIntegrand:
             #: columns of the estimator's unit outputs (what a block with nothing to shade is made of)
             self.columns = self._output_columns()
         self._check_reach(probe.used)
-        self.dim = 2 + self.units * self.unit_dim
+        #: uniforms of the camera sample (sub-pixel offset, then a lens's), before the units'
+        self.camera_dims = int(self.lighting.camera.camera_dims)
+        self.dim = self.camera_dims + self.units * self.unit_dim
         evals = int(self.estimator.evals_per_unit)
         #: rays (and RIS candidates) per pixel sample: the memory of a block is about this x 4 x 12 bytes
         self.work_per_sample = 1 + self.units * (evals + int(self.estimator.candidates_per_unit)) + self.dim // 4
@@ -164,7 +166,7 @@ class PixelIntegrand:
         R = len(d)                                     # camera rays: P x S
         counts = np.bincount(group + 1, minlength=len(lit.bsdfs) + 1)[1:]
         u2 = u.reshape(P * S, self.dim)
-        ue = u2[:, 2:]                                   # a view (whole rows are gathered below: 5x faster)
+        ue = u2[:, self.camera_dims:]                    # a view (whole rows are gathered below: 5x faster)
         out = None
         n_shading = lit.shading_normals(hits)                           # None: the geometric ones
         for g in np.flatnonzero(counts):
@@ -176,7 +178,7 @@ class PixelIntegrand:
             else:
                 rows = np.flatnonzero(group == g)
                 p, n, wo, ug = (np.take(a, rows, axis=0) for a in (hits.p, hits.n, d, u2))
-                ug = ug[:, 2:]
+                ug = ug[:, self.camera_dims:]
                 wo = np.negative(wo, out=wo)
                 if n_shading is not None:
                     ns = np.take(n_shading, rows, axis=0)
@@ -202,7 +204,7 @@ class PixelIntegrand:
         ``(P S, 3)``, the emitted radiance seen ``(P S, 3)`` and each hit's BSDF group (-1:
         nothing to shade)."""
         lit = self.lighting
-        o, d = lit.camera.pixel_rays(pixels[:, None, :], u[..., :2], np.float32)
+        o, d = lit.camera.pixel_rays(pixels[:, None, :], u[..., :self.camera_dims], np.float32)
         o, d = o.reshape(-1, 3), d.reshape(-1, 3)
         # hide_emitters: camera rays pass through emitting shapes (Mitsuba 3.9 draws what lies
         # behind them), so they meet the other shapes only

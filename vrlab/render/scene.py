@@ -17,7 +17,7 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
   larger depths refused), ``moment`` around any of them;
 * sensors: ``perspective`` (``fov``/``focal_length`` (default 50 mm), ``fov_axis``,
   ``principal_point_offset_x/y``, ``near_clip``, ``far_clip``, ``to_world``),
-  ``orthographic``; film ``hdrfilm`` (``width``, ``height``, ``crop_*``,
+  ``thinlens`` (the same with ``aperture_radius``, ``focus_distance``), ``orthographic``; film ``hdrfilm`` (``width``, ``height``, ``crop_*``,
   ``pixel_format`` rgb/rgba, ``file_format``, ``component_format``); rfilters ``box``,
   ``tent``, ``gaussian`` (the default); samplers ``independent``, ``stratified``,
   ``multijitter``, ``orthogonal``, ``ldsampler`` (``sample_count``, ``seed``; mapped to

@@ -1,4 +1,4 @@
-"""Sensor elements (``perspective``, ``orthographic``) with their films (``hdrfilm``),
+"""Sensor elements (``perspective``, ``thinlens``, ``orthographic``) with their films (``hdrfilm``),
 reconstruction filters (``box``, ``tent``, ``gaussian``) and samplers (``independent``,
 ``stratified``, ``multijitter``, ``orthogonal``, ``ldsampler``); bases in :mod:`.base`.
 Names are imported from their modules on first use."""

@@ -79,6 +79,8 @@ class Sensor(Element):
     implement ``local_rays(s)`` for normalised film positions ``s (..., 2)``."""
 
     kind = "sensor"
+    #: uniforms a camera sample takes: 2 for the sub-pixel offset, more for a lens (thinlens: 4)
+    camera_dims = 2
 
     def __init__(self, *, to_world: Any = None, film: Any = None, sampler: Any = None,
                  near_clip: float = 1e-2, far_clip: float = 1e4, id: str | None = None):
@@ -173,8 +175,11 @@ class Sensor(Element):
         """Rays through image pixels ``(..., 2)`` = ``(row, column)`` at sub-pixel uniforms
         ``u (..., 2)`` (``u[..., 0]`` along the row, i.e. x), warped to offsets by the film's
         filter (the box filter: offsets u - 1/2, uniform in the pixel; wider filters cut at
-        the film's edge)."""
+        the film's edge).  A lens's uniforms follow (``u[..., 2:camera_dims]``; without
+        them its rays leave from the lens centre)."""
         pixels = np.asarray(pixels)
+        lens = u[..., 2:self.camera_dims] if self.camera_dims > 2 and np.shape(u)[-1] >= self.camera_dims else None
+        u = u[..., :2]
         f = self.film
         if f.rfilter.radius > 0.5:
             # the image-plane samples stay on the (crop) film, so an edge pixel's filter is cut
@@ -186,7 +191,7 @@ class Sensor(Element):
             delta = f.rfilter.sample_offsets(np.asarray(u, np.float64))
         film = np.stack([pixels[..., 1] + (f.crop_offset_x + 0.5) + delta[..., 0],
                          pixels[..., 0] + (f.crop_offset_y + 0.5) + delta[..., 1]], -1)
-        return self.rays(film, dtype)
+        return self.rays(film, dtype) if lens is None else self.rays(film, dtype, lens)
 
     def pixel_centers(self) -> tuple[np.ndarray, np.ndarray]:
         """Rays ``(H, W, 3)`` through the pixel centres."""

@@ -78,11 +78,16 @@ class PerspectiveCamera(Sensor):
 
     @classmethod
     def from_props(cls, p) -> "PerspectiveCamera":
+        return cls(**cls.view(p), **cls.common(p))
+
+    @staticmethod
+    def view(p) -> dict:
+        """The field-of-view parameters of a perspective sensor in a scene file."""
         fov = p.float("fov", None) if p.has("fov") else None
         focal = p.string("focal_length", None) if p.has("focal_length") else None
-        return cls(fov=fov, fov_axis=p.string("fov_axis", "x", FOV_AXES), focal_length=focal,
-                   principal_point_offset_x=p.float("principal_point_offset_x", 0.0),
-                   principal_point_offset_y=p.float("principal_point_offset_y", 0.0), **cls.common(p))
+        return dict(fov=fov, fov_axis=p.string("fov_axis", "x", FOV_AXES), focal_length=focal,
+                    principal_point_offset_x=p.float("principal_point_offset_x", 0.0),
+                    principal_point_offset_y=p.float("principal_point_offset_y", 0.0))
 
     def validate(self) -> None:
         super().validate()
