@@ -343,6 +343,40 @@ def test_sphere_groups_dense_and_culled_match_reference(n_spheres):
     assert np.mean(h.shape >= 0) > 0.3
 
 
+def test_culled_ellipsoids_and_grazing_rays_match_reference():
+    """More than DENSE_QUADRICS quadrics, rotated and stretched ellipsoids among spheres, go
+    through the culling product (one matrix product of 11 ray and 11 bounding-sphere features,
+    the discriminant expanded): its rounding must not drop a pair.  Rays aimed at points just
+    inside and just outside the spheres' silhouettes (1e-7 of the radius) from far away test
+    the slack; the exact test decides them."""
+    rng = np.random.default_rng(12)
+    n = 30
+    c = rng.uniform(-40, 40, (n, 3))
+    r = rng.uniform(0.05, 2.0, n)
+    shapes = []
+    for k in range(n):
+        if k % 3:
+            shapes.append(f'<shape type="sphere"><point name="center" x="{c[k, 0]}" y="{c[k, 1]}" z="{c[k, 2]}"/>'
+                          f'<float name="radius" value="{r[k]}"/></shape>')
+        else:
+            shapes.append(f'<shape type="ellipsoid"><point name="center" x="{c[k, 0]}" y="{c[k, 1]}" '
+                          f'z="{c[k, 2]}"/><vector name="radii" x="{r[k]}" y="{0.3 * r[k]}" z="{1.5 * r[k]}"/>'
+                          f'<transform name="to_world"><rotate x="1" y="2" z="0.5" angle="{17 * k}"/></transform>'
+                          '</shape>')
+    sc = _scene("".join(shapes))
+    geo = SceneGeometry(sc)
+    assert not geo.quadrics.use_dense
+    o = rng.normal(size=(4000, 3)) * 300
+    k = rng.integers(n, size=4000)
+    aim = rng.normal(size=(4000, 3))
+    side = np.cross(aim, c[k] - o)
+    side /= np.linalg.norm(side, axis=-1, keepdims=True)
+    rim = r[k] * (1 + rng.choice([-1e-7, 1e-7, 0.5, -0.5], size=4000))     # grazing, inside, outside
+    d = c[k] + side * rim[:, None] - o
+    h = _check(sc, o, d, 0.0)
+    assert 0.2 < np.mean(h.shape >= 0) < 0.8
+
+
 def test_near_ties_pick_the_lowest_primitive():
     """Two coincident rectangles: the float32 pass packs the primitive index into the low
     bits of t, so the earlier shape wins; the float64 t is exact."""
