@@ -234,3 +234,25 @@ def test_pixels_with_nothing_to_shade_keep_the_estimators_columns():
     for est in (MIS(["light", "bsdf"], heuristic="optimal"), DefensiveMixture(["light", "bsdf"]), "mis-power"):
         img = render(sc, 4, est, rng=0)
         assert np.allclose(img.value, [0.3, 0.5, 0.7]), est
+
+
+class _NaNOutputs(MonteCarlo):
+    """A user's estimator whose unit values turn NaN (e.g. 0/0 in its own weights)."""
+
+    def unit_values(self, integrand, u):
+        return np.full_like(super().unit_values(integrand, u), np.nan)
+
+
+class _ComplexOutputs(MonteCarlo):
+    def unit_values(self, integrand, u):
+        return super().unit_values(integrand, u) + 0j
+
+
+@pytest.mark.parametrize("cls, exc, words", [(_NaNOutputs, ValueError, "non-finite"),
+                                             (_ComplexOutputs, TypeError, "real numbers")])
+def test_a_users_estimator_with_nan_or_complex_outputs_is_refused(raises_naming, cls, exc, words):
+    """Before: a NaN image without a word, and complex values cast to real with a warning."""
+    from vrlab.render import builtin_scene_path, load_scene
+
+    with raises_naming(exc, "estimator", words):
+        render(load_scene(builtin_scene_path("cornell_box")), 2, cls("light"), rng=0, width=8, height=6)

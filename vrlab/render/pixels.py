@@ -31,7 +31,7 @@ from .direct import DirectLighting
 from .presets import preset
 from .scene import Scene
 from .scene_checks import MAX_SAMPLES
-from .shading import ShadingIntegrand
+from .shading import ShadingIntegrand, checked_outputs
 
 __all__ = ["PixelFunction", "PixelIntegrand", "as_estimator"]
 
@@ -184,7 +184,7 @@ class PixelIntegrand:
                     ns = np.take(n_shading, rows, axis=0)
             sh = self.shading(g, p, n, wo, ns, lit.bsdf_values(g, hits, rows), lit.tangents(g, hits, rows))
             ug = ug.reshape(len(ug), self.units, self.unit_dim)
-            vals = np.asarray(self.estimator.unit_outputs(sh, ug))
+            vals = checked_outputs(self.estimator.unit_outputs(sh, ug), self.estimator, len(ug))
             vals = np.broadcast_to(vals, (3,) + vals.shape[-3:])
             vals = vals[..., 0, :] if self.units == 1 else vals.mean(-2)                # (3, rows, c)
             if out is None:

@@ -45,7 +45,7 @@ import numpy as np
 
 from .._vec import dot
 from .lights import EmitterLight
-from .shading import ShadingIntegrand
+from .shading import ShadingIntegrand, checked_outputs
 from .techniques import F32
 
 __all__ = ["BlockPixels", "check_spatial", "spatial_outputs"]
@@ -88,7 +88,8 @@ def spatial_outputs(integrand, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
         ua = u[:, a: a + step]
         hits, d, le, group = integrand.camera(pixels, ua)
         view = BlockPixels(integrand, pixels, hits, d, group, ua.shape[1])
-        vals = np.asarray(est.spatial_outputs(view, np.moveaxis(ua[..., integrand.camera_dims:], 1, 0)))  # (3, s, P, c)
+        vals = checked_outputs(est.spatial_outputs(view, np.moveaxis(ua[..., integrand.camera_dims:], 1, 0)), est,
+                               None)                                                               # (3, s, P, c)
         vals = np.array(np.moveaxis(vals, 1, 2), dtype=np.result_type(vals, np.float32))  # (3, P, s, c)
         parts.append(est.add_emitted(vals, le.T.reshape(3, P, -1)))
     return parts[0] if len(parts) == 1 else np.concatenate(parts, 2)

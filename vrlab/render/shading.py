@@ -50,6 +50,26 @@ from .lights import luminance
 from .techniques import F32, NO_SAMPLE, _Directional, _LightTechnique, _Lobe
 
 
+def checked_outputs(vals, estimator, rows: int | None) -> np.ndarray:
+    """An estimator's unit outputs at ``rows`` shading points (``(..., rows, units, columns)``;
+    None: a spatial estimator's own layout) as a real array, all finite (one reduction; a user's
+    estimator is duck-typed): ``TypeError`` / ``ValueError`` naming the ``estimator`` instead of
+    a complex value cast to real or a NaN in the image."""
+    a = np.asarray(vals)
+    label = getattr(estimator, "label", type(estimator).__name__)
+    if a.dtype.kind not in "biuf":
+        raise TypeError(f"estimator: {label} returned {a.dtype} unit outputs; they must be real numbers")
+    if rows is not None and (a.ndim < 3 or a.shape[-3] != rows):
+        raise ValueError(f"estimator: {label} returned unit outputs of shape {a.shape} for {rows} shading points; "
+                         "expected (..., points, units, columns)")
+    if a.size and not np.isfinite(np.add.reduce(a, axis=None)):
+        bad = ~np.isfinite(a)
+        if bad.any():
+            raise ValueError(f"estimator: {label} returned {int(bad.sum())} non-finite unit output(s) "
+                             f"(first: {a[tuple(np.argwhere(bad)[0])]}) of {a.size}")
+    return a
+
+
 class _Rows:
     """What is known about the rows (samples) of one point array: directions, lights, rays."""
 
