@@ -184,3 +184,13 @@ def one_value_per_point(out: np.ndarray, x: np.ndarray, who: str) -> None:
         what = "one scalar" if out.ndim == 0 else f"shape {out.shape}"
         raise ValueError(f"{who}: returned {what} for points of shape {x.shape}; it must return one value per "
                          f"point, shape {want} (optionally with leading batch axes)")
+
+
+def first_bad_point(values: np.ndarray, x: np.ndarray, bad: np.ndarray) -> tuple[float, list]:
+    """``(value, point)`` of the first entry of ``values`` (one per point of ``x (..., k)``,
+    leading batch axes allowed) where ``bad`` holds: for the error messages of value checks."""
+    idx = tuple(int(i) for i in np.argwhere(bad)[0])
+    lead = x.ndim - 1
+    xi = x[idx[values.ndim - lead:]] if lead else x
+    return values[idx], np.round(np.asarray(xi, float), 6).tolist()
+

@@ -33,16 +33,25 @@ def unrepresentable(what: str) -> ValueError:
                       "rescale the integrand (multiply f by a power of 10 and the estimate by its inverse)")
 
 
+def moments_finite(values: np.ndarray, mean: np.ndarray, m2: np.ndarray) -> bool:
+    """True when the moments ``mean`` and ``m2`` of ``values`` are finite; False when the
+    values themselves are not (left to the callers' own checks); an overflow of finite values
+    is refused."""
+    if np.all(np.isfinite(mean)) and np.all(np.isfinite(m2)):
+        return True
+    if np.all(np.isfinite(values)):
+        what = "squared deviations" if np.all(np.isfinite(mean)) else "sum"
+        raise unrepresentable(f"samples up to {np.max(np.abs(values)):.3g} in magnitude: their {what} overflow "
+                              "float64")
+    return False
+
+
 def check_spread(values: np.ndarray, axis: int, mean: np.ndarray, m2: np.ndarray) -> None:
     """Refuse (``ValueError`` naming the values) finite samples ``values`` (float64, along
     ``axis``) whose ``mean`` or sum of squared deviations ``m2`` overflowed, or whose variance
     lies below :data:`LOW_VARIANCE` although they are not all equal (see the module note).
     Non-finite samples are left to the callers' own checks."""
-    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(m2))):
-        if np.all(np.isfinite(values)):
-            what = "squared deviations" if np.all(np.isfinite(mean)) else "sum"
-            raise unrepresentable(f"samples up to {np.max(np.abs(values)):.3g} in magnitude: their "
-                                  f"{what} overflow float64")
+    if not moments_finite(values, mean, m2):
         return
     m = values.shape[axis]
     low = np.asarray(m2) < LOW_VARIANCE * max(m - 1, 1)
@@ -54,11 +63,11 @@ def check_spread(values: np.ndarray, axis: int, mean: np.ndarray, m2: np.ndarray
                                   "their deviations underflow float64")
 
 
-def check_merged(m2: np.ndarray, parts_finite: bool, delta: np.ndarray, n: int) -> None:
+def check_merged(m2: np.ndarray, parts: tuple, delta: np.ndarray, n: int) -> None:
     """Refuse a merged sum of squared deviations ``m2`` of ``n`` samples that overflowed
-    (its parts were finite) or whose variance fell below :data:`LOW_VARIANCE` while the
-    parts' means differ by ``delta`` (their squared difference underflowed)."""
-    if parts_finite and not np.all(np.isfinite(m2)):
+    (the two ``parts``' sums were finite) or whose variance fell below :data:`LOW_VARIANCE`
+    while the parts' means differ by ``delta`` (their squared difference underflowed)."""
+    if all(np.all(np.isfinite(q)) for q in parts) and not np.all(np.isfinite(m2)):
         raise unrepresentable("blocks of samples whose squared deviations overflow float64 when merged")
     low = np.asarray(m2) < LOW_VARIANCE * max(n - 1, 1)
     gap = np.broadcast_to(np.abs(np.asarray(delta, dtype=float)), low.shape)
@@ -100,7 +109,7 @@ class Moments:
         delta = mean_b - self.mean
         with np.errstate(over="ignore", under="ignore"):
             m2 = self.m2 + m2_b + delta * delta * (self.count * n_b / n)
-        check_merged(m2, bool(np.all(np.isfinite(self.m2)) and np.all(np.isfinite(m2_b))), delta, n)
+        check_merged(m2, (self.m2, m2_b), delta, n)
         self.mean = self.mean + delta * (n_b / n)
         self.m2 = m2
         self.count = n

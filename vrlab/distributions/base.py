@@ -122,10 +122,9 @@ def checked_pdf(dist: Any, x: Any, name: str = "distribution") -> np.ndarray:
     checks.one_value_per_point(a, x, who)
     if a.size and not (np.min(a) >= 0 and np.max(a) < np.inf):          # NaN fails too
         bad = ~((a >= 0) & (a < np.inf))
-        idx = tuple(int(i) for i in np.argwhere(bad)[0])
-        xi = x[idx[a.ndim - (x.ndim - 1):]] if x.ndim > 1 else x
-        raise ValueError(f"{who} returned {a[idx]} at x = {np.round(np.asarray(xi, float), 6).tolist()} "
-                         f"({int(bad.sum())} such value(s)); a density must be finite and >= 0")
+        value, point = checks.first_bad_point(a, x, bad)
+        raise ValueError(f"{who} returned {value} at x = {point} ({int(bad.sum())} such value(s)); a density "
+                         "must be finite and >= 0")
     return a
 
 

@@ -389,7 +389,7 @@ def support_probe(integrand, distributions, n: int = 4096, label: str = "distrib
         f = np.abs(f).reshape(-1, f.shape[-1]).max(0)
     covered = np.zeros(x.shape[:-1], bool)
     for k, d in enumerate(distributions):
-        p = np.asarray(checked_pdf(d, x, label if len(distributions) == 1 else f"{label}[{k}]"))
+        p = checked_pdf(d, x, label if len(distributions) == 1 else f"{label}[{k}]")
         covered |= (p.reshape(-1, p.shape[-1]).max(0) if p.ndim > 1 else p) > 0
     missed = (f != 0) & ~covered
     if missed.any():

@@ -58,8 +58,7 @@ class CoMoments:
         delta = mean_b - self.mean
         with np.errstate(over="ignore", under="ignore", invalid="ignore"):
             com = self.comoment + com_b + (delta[..., :, None] * delta[..., None, :]) * (self.count * m / n)
-        check_merged(np.diagonal(com, 0, -2, -1), bool(np.all(np.isfinite(self.comoment)) and np.all(np.isfinite(com_b))),
-                     delta, n)
+        check_merged(np.diagonal(com, 0, -2, -1), (self.comoment, com_b), delta, n)
         self.comoment = com
         self.mean = self.mean + delta * (m / n)
         self.count = n

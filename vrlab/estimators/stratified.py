@@ -40,7 +40,7 @@ import numpy as np
 
 from .. import checks
 from .._rng import RNGLike, as_generator
-from ..estimate import LOW_VARIANCE, Estimate, unrepresentable
+from ..estimate import LOW_VARIANCE, Estimate, moments_finite, unrepresentable
 from ..points.base import ONE_MINUS_EPS, check_int
 from .base import DEFAULT_CHUNK, Estimator, as_integrand, check_chunk, check_n, point_engine, resolve_distribution
 from .importance import MonteCarlo
@@ -86,10 +86,7 @@ def _check_strata(y: np.ndarray, offsets: np.ndarray, counts: np.ndarray, mu: np
     """Refuse per-stratum samples ``y`` (``counts`` per stratum from ``offsets``) whose means or
     variances float64 cannot carry (see :func:`vrlab.estimate.check_spread`): overflow, or a
     variance below ``LOW_VARIANCE`` in a stratum whose samples are not all equal."""
-    if not (np.all(np.isfinite(mu)) and np.all(np.isfinite(var))):
-        if np.all(np.isfinite(y)):
-            raise unrepresentable(f"samples up to {np.max(np.abs(y)):.3g} in magnitude: their squares or sums "
-                                  "overflow float64")
+    if not moments_finite(y, mu, var):
         return
     low = var < LOW_VARIANCE
     if y.dtype != np.float32 and np.any(low):

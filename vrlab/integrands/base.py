@@ -256,9 +256,7 @@ def checked_values(values: Any, x: np.ndarray, who: str) -> np.ndarray:
         return out
     bad = ~np.isfinite(out)
     if bad.any():
-        idx = tuple(int(i) for i in np.argwhere(bad)[0])
-        want = x.ndim - 1
-        xi = x[idx[out.ndim - want:]] if want else x
-        raise ValueError(f"{who}: returned {out[idx]} at x = {np.round(xi, 6).tolist()} "
-                         f"({int(bad.sum())} non-finite value(s)); values must be finite")
+        value, point = checks.first_bad_point(out, x, bad)
+        raise ValueError(f"{who}: returned {value} at x = {point} ({int(bad.sum())} non-finite value(s)); "
+                         "values must be finite")
     return out
