@@ -147,15 +147,17 @@ def test_integrand_helpers_bad_integrand(raises_naming, fn, bad, exc):
     (("x", "s", "importance"), {"arg": 3}, TypeError, "arg"),
     (("x", "s", "importance"), {"arg_required": "yes"}, TypeError, "arg_required"),
     (("x", "s", "importance"), {"arg_required": True}, ValueError, "arg_required"),
+    (("x", "s", "importance"), {"bias": "small"}, ValueError, "bias"),
+    (("x", "s", "importance"), {"bias": None}, TypeError, "bias"),
 ])
 def test_register_bad_arguments(raises_naming, args, kw, exc, name):
     with raises_naming(exc, name):
-        lab.register(*args, **kw)
+        lab.register(*args, **{"bias": "unbiased", **kw})
 
 
 def test_register_needs_a_callable_builder(raises_naming):
     with raises_naming(TypeError, "register"):
-        lab.register("never-added", "s", "importance")(42)
+        lab.register("never-added", "s", "importance", bias="unbiased")(42)
     assert "never-added" not in registry.RECIPES
 
 

@@ -49,7 +49,7 @@ def _render(emitter_samples, bsdf_samples, ris_candidates):
 def test_a_new_estimator_is_one_class_plus_one_registration(restore_registry, capsys):
     from vrlab.cli import main
 
-    register_recipe("halfway", "Halfway(): a user's recipe", "importance", lab=_lab, render=_render,
+    register_recipe("halfway", "Halfway(): a user's recipe", "importance", bias="unbiased", lab=_lab, render=_render,
                     render_help="a user's own strategy", needs="bsdf")
     assert "halfway" in PRESETS and "halfway" in recipes("lab")           # the views follow
     est, units = preset("halfway")
@@ -69,9 +69,10 @@ def test_a_new_estimator_is_one_class_plus_one_registration(restore_registry, ca
     ({"name": "a b"}, ValueError, "base"), ({"summary": 3}, TypeError, "summary"),
     ({"lab": None, "render": None}, TypeError, "register"), ({"render": 42}, TypeError, "register"),
     ({"needs": "both"}, ValueError, "needs"), ({"render_help": 1}, TypeError, "render_help"),
+    ({"bias": "low"}, ValueError, "bias"), ({"bias": 0}, TypeError, "bias"),
 ])
 def test_register_recipe_checks_its_arguments(restore_registry, raises_naming, kw, exc, name):
-    args = {"name": "x", "summary": "s", "module": "importance", "lab": _lab, **kw}
+    args = {"name": "x", "summary": "s", "module": "importance", "bias": "unbiased", "lab": _lab, **kw}
     with raises_naming(exc, name):
         register_recipe(args.pop("name"), args.pop("summary"), args.pop("module"), **args)
     assert "x" not in recipes()
@@ -84,6 +85,12 @@ def test_recipes_returns_a_copy():
 
 
 def test_user_estimator_class_plus_registration_passes_the_common_checks(restore_registry):
-    register_recipe("user-mis", "LightBSDFMIS(): a user's MIS", "importance",
+    register_recipe("user-mis", "LightBSDFMIS(): a user's MIS", "importance", bias="unbiased",
                     render=lambda n_l, n_b, m: (user_estimators.LightBSDFMIS(), 1))
     assert check_estimator(preset("user-mis")[0])["render"] == "ok"
+
+
+def test_a_recipe_must_state_its_bias(restore_registry):
+    with pytest.raises(TypeError, match="bias"):
+        register_recipe("nobias", "s", "importance", lab=_lab)
+    assert all(r.bias in ("unbiased", "consistent", "biased") for r in recipes().values())

@@ -58,7 +58,7 @@ import numpy as np
 from .. import limits
 from ._recipe_tools import _cls, _names, _positive_int, _probed, _techniques, ris_source_target  # noqa: F401
 
-__all__ = ["Recipe", "check_recipe_names", "recipes", "register_recipe", "MAX_RECIPE_ARG", "RQMC_REPLICATES", "RIS_DEFAULT_M",
+__all__ = ["Recipe", "check_recipe_names", "recipes", "register_recipe", "MAX_RECIPE_ARG", "RQMC_REPLICATES", "RIS_DEFAULT_M", "BIAS", "check_bias",
            "DEFENSIVE_ALPHA"]
 
 LabBuilder = Callable[[Any, "str | None"], tuple]
@@ -80,12 +80,14 @@ class Recipe:
     ``vrlab.estimators``), the lab builder ``lab(integrand, arg) -> (estimator, points)`` or
     None, whether it takes ``:arg`` (``arg`` = metavar, ``arg_required``), the render builder
     ``render(emitter_samples, bsdf_samples, ris_candidates) -> (estimator, units)`` or None,
-    its ``render_help`` (the ``--strategy`` menu) and ``needs``: the sample kind a render
-    preset cannot do without (``"bsdf"``, ``"light"`` or None)."""
+    its ``render_help`` (the ``--strategy`` menu), ``needs``: the sample kind a render
+    preset cannot do without (``"bsdf"``, ``"light"`` or None), and ``bias``: what the
+    estimator it builds promises at every sample count it accepts (:data:`BIAS`)."""
 
     name: str
     summary: str
     module: str
+    bias: str = "unbiased"
     lab: LabBuilder | None = None
     arg: str | None = None
     arg_required: bool = False
@@ -95,6 +97,12 @@ class Recipe:
     #: the render settings the preset reads (``emitter_samples``, ``bsdf_samples``,
     #: ``ris_candidates``, ``light_selection``): a CLI warns about a flag no strategy in use reads
     uses: frozenset = frozenset(("emitter_samples", "bsdf_samples", "ris_candidates", "light_selection"))
+
+    @property
+    def bias_note(self) -> str:
+        """``bias`` with its meaning, for help texts: "unbiased" / "consistent (bias -> 0 as
+        n grows)" / "biased"."""
+        return BIAS[self.bias]
 
     @property
     def base(self) -> str:          # the lab's historical name for ``name``
@@ -122,6 +130,14 @@ class Recipe:
 
 _REGISTRY: dict[str, Recipe] = {}
 
+#: The bias statuses a recipe states, with their meaning.
+#: ``unbiased``: E[estimate] = integral at every n (spp) the estimator accepts;
+#: ``consistent``: biased at finite n, the bias vanishing as n grows (error bars then
+#: measure the spread only); ``biased``: a bias that does not vanish with n.
+BIAS = {"unbiased": "unbiased at every sample count",
+        "consistent": "consistent: biased at finite n, the bias -> 0 as n grows",
+        "biased": "biased: the bias does not vanish as n grows"}
+
 
 def recipes(where: str | None = None) -> dict[str, Recipe]:
     """``{name: Recipe}`` of every registered recipe (a copy, in registration order);
@@ -131,15 +147,18 @@ def recipes(where: str | None = None) -> dict[str, Recipe]:
     return {k: r for k, r in _REGISTRY.items() if where is None or getattr(r, where) is not None}
 
 
-def register_recipe(name: str, summary: str, module: str, *, lab: LabBuilder | None = None, arg: str | None = None,
-                    arg_required: bool = False, render: RenderBuilder | None = None, render_help: str | None = None,
-                    needs: str | None = None, uses: Any = None) -> Recipe:
+def register_recipe(name: str, summary: str, module: str, *, bias: str, lab: LabBuilder | None = None,
+                    arg: str | None = None, arg_required: bool = False, render: RenderBuilder | None = None,
+                    render_help: str | None = None, needs: str | None = None, uses: Any = None) -> Recipe:
     """Add (or replace) recipe ``name``; returns it.  ``name``: non-empty, without ':', ',' or
-    spaces; ``summary``, ``module``: strings; ``lab``/``render``: callables (at least one);
+    spaces; ``summary``, ``module``: strings; ``bias`` (required): ``"unbiased"``,
+    ``"consistent"`` or ``"biased"``, what the estimator promises at every sample count it
+    accepts (:data:`BIAS`); ``lab``/``render``: callables (at least one);
     ``arg``: None or a metavar string (required if ``arg_required``); ``needs``: None,
     ``"bsdf"`` or ``"light"``; ``uses``: the render settings the preset reads (default all of
     ``emitter_samples``, ``bsdf_samples``, ``ris_candidates``, ``light_selection``)."""
     check_recipe_names(name, summary, module, arg, arg_required)
+    check_bias(bias)
     for key, fn in (("lab", lab), ("render", render)):
         if fn is not None and not callable(fn):
             raise TypeError(f"register({name!r}): the {key} builder must be callable, got {type(fn).__name__}")
@@ -153,11 +172,20 @@ def register_recipe(name: str, summary: str, module: str, *, lab: LabBuilder | N
     uses = every if uses is None else frozenset(uses)
     if not uses <= every:
         raise ValueError(f"uses: only {', '.join(sorted(every))}, got {sorted(uses)}")
-    recipe = Recipe(name, summary, module, lab, arg, bool(arg_required), render,
+    recipe = Recipe(name, summary, module, bias, lab, arg, bool(arg_required), render,
                     render_help if render_help is not None else (summary if render is not None else None), needs,
                     uses)
     _REGISTRY[name] = recipe
     return recipe
+
+
+def check_bias(bias: Any) -> str:
+    """``bias``: one of :data:`BIAS`'s keys (``TypeError``/``ValueError`` naming ``bias``)."""
+    if not isinstance(bias, str):
+        raise TypeError(f"bias: expected one of {', '.join(map(repr, BIAS))}, got {type(bias).__name__}")
+    if bias not in BIAS:
+        raise ValueError(f"bias: expected one of {', '.join(map(repr, BIAS))}, got {bias!r}")
+    return bias
 
 
 def check_recipe_names(name: Any, summary: Any, module: Any, arg: Any = None, arg_required: Any = False) -> None:
@@ -187,7 +215,7 @@ for _name, _help, _needs in (("uniform", "directions uniform on the hemisphere",
                              ("cosine", "directions ~ cos/pi", "bsdf"),
                              ("bsdf", "directions from the BSDF lobe", "bsdf"),
                              ("light", "a point on a light, see --light-selection", "light")):
-    register_recipe(_name, f'MonteCarlo("{_name}"): {_help}', "importance", render=_technique_preset(_name),
+    register_recipe(_name, f'MonteCarlo("{_name}"): {_help}', "importance", bias="unbiased", render=_technique_preset(_name),
                     render_help=_help, needs=_needs,
                     uses=("emitter_samples", "light_selection") if _name == "light" else ("bsdf_samples",))
 
@@ -197,7 +225,7 @@ def _mc(integrand, arg):
     return _cls("importance", "MonteCarlo", "mc")(), None
 
 
-register_recipe("mc", "MonteCarlo(): uniform sampling on the domain", "importance", lab=_mc)
+register_recipe("mc", "MonteCarlo(): uniform sampling on the domain", "importance", bias="unbiased", lab=_mc)
 
 
 def _is(integrand, arg):
@@ -208,7 +236,7 @@ def _is(integrand, arg):
     return _probed(_cls("importance", "MonteCarlo", f"is:{arg}"), integrand, [techs[arg]], techs[arg]), None
 
 
-register_recipe("is", "MonteCarlo(techniques[t]): importance sampling with one technique", "importance", lab=_is,
+register_recipe("is", "MonteCarlo(techniques[t]): importance sampling with one technique", "importance", bias="unbiased", lab=_is,
                 arg="<technique>", arg_required=True)
 
 _SAMPLES_AND_LIGHTS = ("emitter_samples", "bsdf_samples", "light_selection")
@@ -234,7 +262,7 @@ def _mis_preset(heuristic: str) -> RenderBuilder:
 
 
 for _short, _h in _HEURISTICS.items():
-    register_recipe(f"mis-{_short}", f"MIS(techniques, heuristic={_h!r}): multi-sample MIS", "mis",
+    register_recipe(f"mis-{_short}", f"MIS(techniques, heuristic={_h!r}): multi-sample MIS", "mis", bias="unbiased",
                     lab=_mis_builder(_short, _h), arg="<a+b>",
                     render=_mis_preset(_short) if _short in _MIS_HELP else None, render_help=_MIS_HELP.get(_short),
                     uses=_SAMPLES_AND_LIGHTS)
@@ -245,7 +273,7 @@ def _mixture(emitter_samples, bsdf_samples, ris_candidates):
                                                                                           emitter_samples]), 1
 
 
-register_recipe("mixture", "OneSampleMIS([bsdf, light], probabilities=[n_b, n_l]): one-sample mixture", "onesample",
+register_recipe("mixture", "OneSampleMIS([bsdf, light], probabilities=[n_b, n_l]): one-sample mixture", "onesample", bias="unbiased",
                 render=_mixture, render_help="one sample from 1/2 BSDF + 1/2 light", uses=_SAMPLES_AND_LIGHTS)
 
 
@@ -256,7 +284,7 @@ def _onesample(integrand, arg):
 
 
 register_recipe("onesample", "OneSampleMIS(techniques): one technique picked per sample, balance weights",
-                "onesample", lab=_onesample, arg="<a+b>")
+                "onesample", bias="unbiased", lab=_onesample, arg="<a+b>")
 
 
 def _defensive(integrand, arg):
@@ -271,14 +299,14 @@ def _defensive(integrand, arg):
 
 
 register_recipe("defensive", f"DefensiveMixture(techniques, defensive={DEFENSIVE_ALPHA}): mixture with uniform, "
-                "components as controls (Owen & Zhou 2000)", "control", lab=_defensive, arg="<a+b>")
+                "components as controls (Owen & Zhou 2000)", "control", bias="unbiased", lab=_defensive, arg="<a+b>")
 
 
 def _antithetic(integrand, arg):
     return _cls("antithetic", "Antithetic", "antithetic")(), None
 
 
-register_recipe("antithetic", "Antithetic(): pairs f(x(u)), f(x(1 - u)) (Hammersley & Morton 1956)", "antithetic",
+register_recipe("antithetic", "Antithetic(): pairs f(x(u)), f(x(1 - u)) (Hammersley & Morton 1956)", "antithetic", bias="unbiased",
                 lab=_antithetic)
 
 
@@ -306,7 +334,7 @@ def _cv_preset(emitter_samples, bsdf_samples, ris_candidates):
 
 
 register_recipe("cv", "ControlVariate(h, int h): the integrand's named controls (all, or those of <a+b>), else a "
-                "known control (exp: h = x, int h = 1/2)", "control", lab=_cv, arg="<a+b>",
+                "known control (exp: h = x, int h = 1/2)", "control", bias="unbiased", lab=_cv, arg="<a+b>",
                 render=_cv_preset, render_help="light sampling with a closed-form Lambertian control variate",
                 needs="light", uses=("emitter_samples", "light_selection"))
 
@@ -315,7 +343,7 @@ def _stratified(integrand, arg):
     return _cls("stratified", "Stratified", "stratified")(), None
 
 
-register_recipe("stratified", "Stratified(): strata of the domain, proportional allocation", "stratified",
+register_recipe("stratified", "Stratified(): strata of the domain, proportional allocation", "stratified", bias="unbiased",
                 lab=_stratified)
 
 
@@ -325,9 +353,9 @@ def _on_points(name: str, points: str) -> LabBuilder:
     return build
 
 
-register_recipe("jittered", "MonteCarlo() on jittered points (points='stratified')", "importance",
+register_recipe("jittered", "MonteCarlo() on jittered points (points='stratified')", "importance", bias="unbiased",
                 lab=_on_points("jittered", "stratified"))
-register_recipe("lhs", "MonteCarlo() on Latin hypercube points (points='lhs')", "importance",
+register_recipe("lhs", "MonteCarlo() on Latin hypercube points (points='lhs')", "importance", bias="unbiased",
                 lab=_on_points("lhs", "lhs"))
 
 
@@ -351,7 +379,7 @@ def _rqmc_builder(points: str) -> LabBuilder:
 
 for _pts, _label in (("sobol", "Sobol'"), ("halton", "Halton")):
     register_recipe(f"rqmc-{_pts}", f"RQMC(MonteCarlo(), replicates=R): R scrambled {_label} sets "
-                    f"(R = {RQMC_REPLICATES})", "rqmc", lab=_rqmc_builder(_pts), arg="<R>")
+                    f"(R = {RQMC_REPLICATES})", "rqmc", bias="unbiased", lab=_rqmc_builder(_pts), arg="<R>")
 
 
 def _ris(integrand, arg):
@@ -365,7 +393,7 @@ def _ris_preset(emitter_samples, bsdf_samples, ris_candidates):
     return _cls("ris", "RIS", "ris")("light", target="unshadowed", m=ris_candidates), emitter_samples
 
 
-register_recipe("ris", "RIS(source, |f|, m): resampled importance sampling with m candidates", "ris", lab=_ris,
+register_recipe("ris", "RIS(source, |f|, m): resampled importance sampling with m candidates", "ris", bias="unbiased", lab=_ris,
                 arg="<m>", arg_required=True, render=_ris_preset,
                 render_help="resampled light candidates, see --ris-candidates", needs="light",
                 uses=("emitter_samples", "light_selection", "ris_candidates"))
@@ -377,7 +405,7 @@ def _restir_preset(emitter_samples, bsdf_samples, ris_candidates):
 
 
 register_recipe("restir", "ReSTIR(candidates=M, neighbours=5, radius=3, mis='pairwise'): per-pixel reservoirs of "
-                "light candidates with spatial reuse (Bitterli et al. 2020; Lin et al. 2022)", "restir",
+                "light candidates with spatial reuse (Bitterli et al. 2020; Lin et al. 2022)", "restir", bias="unbiased",
                 render=_restir_preset,
                 render_help="per-pixel RIS reservoirs of light candidates (--ris-candidates) with unbiased spatial "
                 "reuse (pairwise MIS) among the pixels of a tile", needs="light",

@@ -17,7 +17,7 @@ import warnings
 from collections.abc import Callable, Mapping
 from typing import Any, Iterator
 
-from ..estimators.registry import (DEFENSIVE_ALPHA, MAX_RECIPE_ARG, RIS_DEFAULT_M, RQMC_REPLICATES,  # noqa: F401
+from ..estimators.registry import (DEFENSIVE_ALPHA, check_bias, MAX_RECIPE_ARG, RIS_DEFAULT_M, RQMC_REPLICATES,  # noqa: F401
                                   Recipe, check_recipe_names, recipes, register_recipe, ris_source_target)
 from ..integrands.controls import CONTROLS, DISCONTINUOUS, control_for, is_smooth  # noqa: F401  (re-exported)
 from ._args import lab_integrand as _integrand
@@ -41,20 +41,21 @@ class _LabRecipes(Mapping):
 RECIPES: Mapping[str, Recipe] = _LabRecipes()
 
 
-def register(base: str, summary: str, module: str, *, arg: str | None = None,
+def register(base: str, summary: str, module: str, *, bias: str, arg: str | None = None,
              arg_required: bool = False) -> Callable[[Builder], Builder]:
     """Decorator adding a lab recipe ``base[:arg]`` whose builder is ``f(integrand, arg)`` to the
     registry (:func:`vrlab.estimators.register_recipe` with ``lab=f``).
 
     ``base``: a non-empty string without ':', ',' or spaces; ``summary``, ``module``: strings;
-    ``arg``: None or a string (required if ``arg_required``)."""
+    ``bias``: ``"unbiased"``, ``"consistent"`` or ``"biased"``; ``arg``: None or a string (required if ``arg_required``)."""
     check_recipe_names(base, summary, module, arg, arg_required)
+    check_bias(bias)
 
     def deco(fn: Builder) -> Builder:
         if not callable(fn):
             raise TypeError(f"register({base!r}): the builder must be callable (integrand, arg) -> "
                             f"(estimator, points), got {type(fn).__name__}")
-        register_recipe(base, summary, module, lab=fn, arg=arg, arg_required=arg_required)
+        register_recipe(base, summary, module, bias=bias, lab=fn, arg=arg, arg_required=arg_required)
         return fn
     return deco
 
