@@ -284,8 +284,8 @@ def test_bad_inputs():
     it = I.get("exp")
     with pytest.raises(ValueError, match="alpha"):       # batch-shaped alpha of the wrong size
         ControlVariate(h, 0.5, alpha=[1.0, 2.0]).estimate(it, 100, rng=0)
-    with pytest.raises(ValueError, match="n"):
-        ControlVariate([h, lambda x: x[..., 0] ** 2], [0.5, 1 / 3]).estimate(it, 3, rng=0)
+    with pytest.raises(ValueError, match="n"):      # a standard error needs two units
+        ControlVariate([h, lambda x: x[..., 0] ** 2], [0.5, 1 / 3]).estimate(it, 1, rng=0)
     with pytest.raises(ValueError, match="defensive"):
         DefensiveMixture([it.uniform()], defensive=1.5)
     with pytest.raises(ValueError, match="probabilities"):

@@ -13,13 +13,16 @@ controls).  ``alpha = 1`` (plain difference) only helps when corr(Y, H) > sigma_
 i.e. corr > 1/2 for equal variances at equal n (the lecture's corr > 3/4 also charges the
 evaluations of h, comparing with plain Monte Carlo on 2N samples).
 
-``alpha="optimal"`` fits alpha by least squares on the *same* samples (the regression
-estimator).  That introduces a bias of order O(1/n) (the fitted alpha is correlated with
-mean(H) - theta); its standard error is the intercept standard error of the regression of
-Y on H centred at theta, s^2 (1/n + d^T S_HH^{-1} d), d = mean(H) - theta, with
-s^2 = residual sum of squares / (n - 1 - K).  Batched integrands get one alpha per batch
-element.  The fitted alpha and the estimated variance factor are reported in
-``Estimate.extra`` (``"alpha"``, ``"variance_factor"``).
+``alpha="optimal"`` fits alpha by least squares, cross-fitted
+(:mod:`~vrlab.estimators.crossfit`; Avramidis & Wilson 1993): the units are split into 4
+folds by their index, and each fold is weighted by the alpha fitted on the other three.
+That alpha is independent of the fold's samples, so the estimate is unbiased at every n
+(fitting on the same samples, the classical regression estimator, is biased by O(1/n):
+the fitted alpha is correlated with mean(H) - theta).  A fold whose other folds hold fewer
+than K + 3 units uses alpha = 0.  The standard error is that of the cross-fitted residuals.
+Batched integrands get one alpha per batch element.  The fitted alpha (averaged over the
+folds) and the estimated variance factor are reported in ``Estimate.extra`` (``"alpha"``,
+``"variance_factor"``).
 
 Defensive mixture (Owen & Zhou 2000, "Safe and effective importance sampling", JASA 95;
 Hesterberg 1995 for defensive mixtures): sample from q = sum_k c_k p_k, one of the p_k
@@ -45,7 +48,8 @@ from .atoms import check_atoms
 from ..distributions.base import checked_pdf
 from .base import Estimator, check_technique, ratio, resolve_distribution, support_probe
 from .importance import MonteCarlo
-from .regression import CoMoments, regression_estimate  # noqa: F401  (CoMoments: public here too)
+from .crossfit import FoldedCoMoments, crossfit_estimate, statistics_from_state
+from .regression import CoMoments, regression_estimate  # noqa: F401  (public here too)
 
 
 def _scalar(a):
@@ -69,22 +73,24 @@ class _Regression(Estimator):
     def _n_controls(self) -> int:  # pragma: no cover - interface
         raise NotImplementedError  # abstract
 
-    def _min_units(self) -> int:
-        return self._n_controls() + 2 if isinstance(self._alpha(), str) else 2
-
     @property
     def min_units(self) -> int:
-        """Sample units a fold needs: K + 2 to fit K coefficients with a residual variance
-        (1 with a fixed alpha: the fold is then a mean of unit values)."""
-        return self._min_units() if isinstance(self._alpha(), str) and self._n_controls() else 1
+        """Sample units one fold needs: 1 (2 for a standard error, as any average).  Fitted
+        coefficients are cross-fitted (:mod:`~vrlab.estimators.crossfit`): with too few
+        units for a fit a fold uses alpha = 0, so every n stays unbiased."""
+        return 1
+
+    def _fitted(self) -> bool:
+        return isinstance(self._alpha(), str) and self._n_controls() > 0
 
     def unit_outputs(self, integrand, u: np.ndarray) -> np.ndarray:
         """Columns ``(*batch, m, 1 + K)``: Y = f/p and the centred controls h_j/p - theta_j."""
         return self._columns(integrand, u)
 
     def accumulate(self, outputs: np.ndarray):
-        """With a fitted alpha: the :class:`CoMoments` of the columns (mergeable); with a
-        fixed one, the moments of the unit values Y - alpha^T (H - theta)."""
+        """With a fitted alpha: the :class:`~vrlab.estimators.crossfit.FoldedCoMoments` of the
+        columns (mergeable, per fold); with a fixed one, the moments of the unit values
+        Y - alpha^T (H - theta)."""
         outputs = np.asarray(outputs)
         a = self._alpha()
         if not isinstance(a, str) or outputs.shape[-1] == 1:
@@ -97,21 +103,25 @@ class _Regression(Estimator):
                                      f"(*batch, K) = {want}") from None
                 outputs = (outputs[..., 0] - np.sum(a[..., None, :] * outputs[..., 1:], -1))[..., None]
             return super().accumulate(outputs)
-        return CoMoments().add(outputs)
+        return FoldedCoMoments().add(outputs)
+
+    def _crossfit(self, stats) -> dict:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return crossfit_estimate(stats, self._n_controls(), 0.0)
 
     def summarize(self, stats) -> tuple[np.ndarray, np.ndarray]:
-        """The regression estimate and its standard error (a fixed alpha: mean and sqrt(s^2 / m))."""
-        if not isinstance(stats, CoMoments):
+        """The cross-fitted regression estimate and its standard error (a fixed alpha: mean and
+        sqrt(s^2 / m))."""
+        if not isinstance(stats, FoldedCoMoments):
             return super().summarize(stats)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            r = regression_estimate(stats, 0.0, self._alpha())
+        r = self._crossfit(stats)
         return r["value"], r["stderr"]
 
     def unit_values(self, integrand, u: np.ndarray) -> np.ndarray:
         """Y - alpha^T (H - theta) per unit: only for a fixed ``alpha`` (a fitted one is a
-        function of all the samples, see :meth:`fold`)."""
+        function of the other folds' samples, see :meth:`fold`)."""
         a = self._alpha()
-        if isinstance(a, str) and self._n_controls():
+        if self._fitted():
             raise ValueError(f"alpha: {self.label} fits alpha over all samples, so it has no per-unit values; "
                              "give a fixed alpha for them (its fold fits alpha per set of units)")
         cols = self._columns(integrand, u)
@@ -119,34 +129,23 @@ class _Regression(Estimator):
             return cols[..., 0]
         return cols[..., 0] - np.sum(np.atleast_1d(np.asarray(a, float))[..., None, :] * cols[..., 1:], -1)
 
-    def units_for(self, n: int) -> int:
-        """Sample units for ``n`` evaluations of f (controls are not counted): at least K + 2
-        with K fitted coefficients."""
-        m = super().units_for(n)
-        if m < self._min_units():
-            raise ValueError(f"n: {self.label} with {self._n_controls()} fitted control(s) needs "
-                             f"n >= {self._min_units()} evaluations, got {n}")
-        return m
-
     def details(self, stats) -> dict:
-        """``variance`` (residual, per unit), the fitted or fixed ``alpha`` and, with
-        co-moments, the ``variance_factor`` against plain sampling and its ``plain_variance``."""
-        if not isinstance(stats, CoMoments):
+        """``variance`` (residual, per unit), the fitted (averaged over the folds) or fixed
+        ``alpha`` and, with fitted coefficients, the ``variance_factor`` against plain sampling
+        and its ``plain_variance``."""
+        if not isinstance(stats, FoldedCoMoments):
             out = super().details(stats)
             if self._n_controls():
                 out["alpha"] = _scalar(self.alpha)
             return out
-        with np.errstate(invalid="ignore", divide="ignore"):
-            r = regression_estimate(stats, 0.0, self._alpha())
+        r = self._crossfit(stats)
         alpha = r["alpha"][..., 0] if getattr(self, "_single", False) else r["alpha"]
         return {"variance": r["variance"], "alpha": _scalar(alpha), "variance_factor": _scalar(r["variance_factor"]),
                 "plain_variance": _scalar(r["plain_variance"])}
 
     def statistics_from_state(self, state: dict):
-        """:class:`CoMoments` (fitted coefficients) or ``Moments`` (fixed ones), by the state's kind."""
-        if state.get("kind") == "CoMoments":
-            return CoMoments.from_state(state)
-        return super().statistics_from_state(state)
+        """:class:`FoldedCoMoments` (fitted coefficients) or ``Moments`` (fixed ones), by the state's kind."""
+        return statistics_from_state(state, super().statistics_from_state)
 
 
 class ControlVariate(_Regression):
@@ -164,7 +163,7 @@ class ControlVariate(_Regression):
         On an integrand with point masses theta is the integral w.r.t. the same mixed measure:
         h's value at an atom a_k counts as a point mass there, theta = int h dx + sum_k h(a_k)
         (:mod:`vrlab.distributions.point_masses`).
-    alpha : ``"optimal"`` (default; least squares on the same samples, O(1/n) bias),
+    alpha : ``"optimal"`` (default; least squares, cross-fitted over 4 folds: unbiased),
         or fixed coefficients: a number (used for every control) or one per control
         (last axis K, may carry batch axes); ``alpha=1`` is the plain difference estimator.
     distribution : importance distribution p (default uniform on the domain).

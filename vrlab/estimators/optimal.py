@@ -5,9 +5,11 @@ TOG 38(4)).  With c_k = n_k / N and q = sum_k c_k p_k the variance-minimising we
     F_o = sum_k a_k + (1/N) sum_{i,j} (f - sum_k a_k p_k)(X_ij) / q(X_ij),   A a = b,
     A_ik = int p_i p_k / q,  b_i = int f p_i / q,
 
-A and b estimated from the samples (or from a pilot).  ``MIS.estimate`` calls
-:func:`fit_optimal`; the renderer's per-unit form is ``MIS.unit_outputs`` (a regression on the
-density controls).
+A and b estimated from a pilot, or from the very samples they weight (consistent: an
+O(1/N) bias, negligible at the lab's N but not at a pixel's).  ``MIS.estimate`` calls
+:func:`fit_optimal` for fractions that are not a ratio of whole numbers and for a pilot;
+whole unit counts (and the renderer) use ``MIS.unit_outputs``, a regression on the density
+controls cross-fitted over folds of units, unbiased (:mod:`vrlab.estimators.crossfit`).
 """
 from __future__ import annotations
 
@@ -17,7 +19,7 @@ from .base import ratio
 from .heuristics import _stack_pdfs
 from .regression import CoMoments, regression_estimate
 
-__all__ = ["fit_optimal", "regression_with_emitted"]
+__all__ = ["fit_optimal"]
 
 
 def _solve_psd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -80,19 +82,3 @@ def fit_optimal(integrand, all_dists, blocks, n_pilot_segments: int, pilot_count
     alpha_full = np.zeros(shape + (len(counts),))
     alpha_full[..., active] = np.broadcast_to(a, shape + (Ka,))
     return value, full, {"alpha": alpha_full}
-
-
-def regression_with_emitted(stats: CoMoments, k: int) -> dict:
-    """``MIS._regression`` (the renderer's optimal MIS) with columns (Y, H_1..H_k, E): a from the (Y, H) block."""
-    fit = CoMoments()
-    fit.count, fit.mean, fit.comoment = stats.count, stats.mean[..., :-1], stats.comoment[..., :-1, :-1]
-    r = regression_estimate(fit, 0.0, "optimal")
-    a, n = r["alpha"], stats.count
-    C = stats.comoment
-    b = np.concatenate([np.ones(a.shape[:-1] + (1,)), -a, np.ones(a.shape[:-1] + (1,))], -1)   # Y - a.H + E
-    resid = np.maximum(np.einsum("...i,...ij,...j->...", b, C, b), 0.0)
-    s2 = resid / max(n - 1 - k, 1)
-    value = stats.mean[..., 0] + stats.mean[..., -1] - np.sum(a * stats.mean[..., 1:-1], -1)
-    extra = (r["stderr"] ** 2 / np.where(r["variance"] > 0, r["variance"], 1.0) - 1.0 / n) if k else 0.0
-    return {"value": value, "stderr": np.sqrt(s2 * (1.0 / n + np.maximum(extra, 0.0))), "variance": s2,
-            "alpha": a, "variance_factor": r["variance_factor"], "plain_variance": r["plain_variance"]}
