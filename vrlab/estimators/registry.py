@@ -56,7 +56,8 @@ from typing import Any
 import numpy as np
 
 from .. import limits
-from ._recipe_tools import _cls, _names, _positive_int, _probed, _techniques, ris_source_target  # noqa: F401
+from ._recipe_tools import (BIAS, _cls, _names, _positive_int, _probed, _techniques, check_bias,  # noqa: F401
+                            check_recipe_names, ris_source_target)
 
 __all__ = ["Recipe", "check_recipe_names", "recipes", "register_recipe", "MAX_RECIPE_ARG", "RQMC_REPLICATES", "RIS_DEFAULT_M", "BIAS", "check_bias",
            "DEFENSIVE_ALPHA"]
@@ -130,15 +131,6 @@ class Recipe:
 
 _REGISTRY: dict[str, Recipe] = {}
 
-#: The bias statuses a recipe states, with their meaning.
-#: ``unbiased``: E[estimate] = integral at every n (spp) the estimator accepts;
-#: ``consistent``: biased at finite n, the bias vanishing as n grows (error bars then
-#: measure the spread only); ``biased``: a bias that does not vanish with n.
-BIAS = {"unbiased": "unbiased at every sample count",
-        "consistent": "consistent: biased at finite n, the bias -> 0 as n grows",
-        "biased": "biased: the bias does not vanish as n grows"}
-
-
 def recipes(where: str | None = None) -> dict[str, Recipe]:
     """``{name: Recipe}`` of every registered recipe (a copy, in registration order);
     ``where="lab"`` or ``"render"``: only those with a builder there."""
@@ -177,31 +169,6 @@ def register_recipe(name: str, summary: str, module: str, *, bias: str, lab: Lab
                     uses)
     _REGISTRY[name] = recipe
     return recipe
-
-
-def check_bias(bias: Any) -> str:
-    """``bias``: one of :data:`BIAS`'s keys (``TypeError``/``ValueError`` naming ``bias``)."""
-    if not isinstance(bias, str):
-        raise TypeError(f"bias: expected one of {', '.join(map(repr, BIAS))}, got {type(bias).__name__}")
-    if bias not in BIAS:
-        raise ValueError(f"bias: expected one of {', '.join(map(repr, BIAS))}, got {bias!r}")
-    return bias
-
-
-def check_recipe_names(name: Any, summary: Any, module: Any, arg: Any = None, arg_required: Any = False) -> None:
-    """The checks of :func:`register_recipe` on its names (errors name ``base``, ``summary``,
-    ``module``, ``arg``, ``arg_required``)."""
-    for key, value in (("base", name), ("summary", summary), ("module", module)):
-        if not isinstance(value, str):
-            raise TypeError(f"{key} must be a string, got {type(value).__name__}")
-    if not name or any(c in name for c in ":, \t\n"):
-        raise ValueError(f"base: a recipe name must be non-empty, without ':', ',' or spaces, got {name!r}")
-    if arg is not None and not isinstance(arg, str):
-        raise TypeError(f"arg must be a string (e.g. '<m>') or None, got {type(arg).__name__}")
-    if not isinstance(arg_required, (bool, np.bool_)):
-        raise TypeError(f"arg_required must be True or False, got {type(arg_required).__name__}")
-    if arg_required and arg is None:
-        raise ValueError("arg_required: a recipe that needs an argument must name it (arg='<m>')")
 
 
 # -- render-only presets: one technique of the shading integrand ------------------------------------
