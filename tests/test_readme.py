@@ -196,3 +196,30 @@ def test_the_veach_figure_numbers_come_from_its_command(tmp_path):
     got = res["rel_mse"]
     assert got["bsdf"] == pytest.approx(25.0, rel=0.01) and got["light"] == pytest.approx(0.682, rel=0.01)
     assert got["mis-power"] == pytest.approx(0.0424, rel=0.01)
+
+
+def _readme_strategies(text: str) -> dict[str, str]:
+    """``{strategy: bias}`` from the README's strategy list: the bullets after "The strategies
+    (`--strategy`" up to the first blank line, each "- `a` / `b` (bias): ..."."""
+    start = text.index("The strategies (`--strategy`")
+    block = text[start:text.index("\n\n", start)]
+    out = {}
+    for names, bias in re.findall(r"^- ((?:`[^`]+`(?:, | / | and )?)+) \((\w+)\):", block, re.M):
+        for name in re.findall(r"`([^`]+)`", names):
+            assert name not in out, f"the README lists strategy {name!r} twice"
+            out[name] = bias
+    return out
+
+
+def test_the_readme_strategy_list_is_the_registry():
+    """Every render recipe is in the README's strategy list with the bias its recipe states
+    (``Recipe.bias``), and nothing else is; a list missing one, or with a wrong bias, fails."""
+    from vrlab.estimators import recipes
+
+    expected = {name: r.bias for name, r in recipes("render").items()}
+    text = README.read_text()
+    assert _readme_strategies(text) == expected
+    dropped = text.replace(" / `mis-optimal` (unbiased)", " (unbiased)")
+    assert _readme_strategies(dropped) != expected                      # the parser sees a missing name
+    wrong = text.replace("- `cv` (unbiased)", "- `cv` (consistent)")
+    assert _readme_strategies(wrong) != expected                        # ... and a wrong bias

@@ -157,9 +157,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     cli_render.add_parser(sub, **kw)
 
+    from .experiments import list_notebooks
+
+    books = list_notebooks()
+    topics = [n.split("_", 1)[1].removesuffix(".ipynb").replace("_", " ") for n in (books[0], books[-1])]
     nbs = sub.add_parser("notebooks", help="copy the lecture notebooks into a folder, to open with Jupyter",
-                         description="Copy the eleven lecture notebooks (importance sampling ... gradient-domain\n"
-                                     "rendering) into FOLDER. Open them with: jupyter lab FOLDER (Jupyter comes\n"
+                         description=f"Copy the {len(books)} lecture notebooks ({topics[0]} ... {topics[1]})\n"
+                                     "into FOLDER. Open them with: jupyter lab FOLDER (Jupyter comes\n"
                                      'with: pip install "vrlab[notebooks]"). Each notebook runs its experiment\n'
                                      "from the installed package and writes its figures to vrlab-out/.", **kw)
     nbs.add_argument("folder", nargs="?", default="vrlab-notebooks",

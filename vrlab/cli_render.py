@@ -33,6 +33,15 @@ def _menu(table: dict, names) -> str:
     return "; ".join(f"{name}: {table[name]}" if name in table else name for name in names)
 
 
+def _with_bias(table: dict) -> dict:
+    """``table``'s help texts followed by each strategy's bias status from the registry
+    (``Recipe.bias``: unbiased / consistent / biased)."""
+    from .estimators import recipes
+
+    bias = {name: r.bias for name, r in recipes("render").items()}
+    return {name: f"{text} [{bias[name]}]" if name in bias else text for name, text in table.items()}
+
+
 def add_parser(sub, **kw) -> argparse.ArgumentParser:
     from .render.presets import PRESETS, preset_help
 
@@ -50,8 +59,8 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                                                      "existing files are not replaced (default: the current folder)")
     rend.add_argument("--spp", help=f"samples per pixel, 1 .. {SPP_MAX} (default: the scene's)")
     rend.add_argument("--strategy", choices=list(PRESETS), metavar="NAME",
-                      help=f"how each shading point samples its direct light. {_menu(preset_help(), PRESETS)} "
-                           "(default: mis-power)")
+                      help=f"how each shading point samples its direct light, [its bias status]. "
+                           f"{_menu(_with_bias(preset_help()), PRESETS)} (default: mis-power)")
     rend.add_argument("--pixel-sampler", choices=list(PIXEL_SAMPLERS), metavar="NAME",
                       help=f"how each pixel's uniforms are drawn. {_menu(PIXEL_SAMPLER_HELP, PIXEL_SAMPLERS)}. "
                            "The standard errors assume independent (default: independent)")
