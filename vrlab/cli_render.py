@@ -237,6 +237,7 @@ def _run_one(args: argparse.Namespace, p: RenderSettings) -> int:
             raise
     img, err = est.value, est.stderr
     seconds = time.perf_counter() - t0
+    resumed = int(est.extra.get("spp_resumed", 0))
     bad = int(np.count_nonzero(~np.isfinite(img)))
     if bad:
         import warnings
@@ -244,9 +245,15 @@ def _run_one(args: argparse.Namespace, p: RenderSettings) -> int:
     finite_err = err[np.isfinite(err)]
     out = {"scene": str(p.path), "strategy": p.strategy, "spp": p.spp, "workers": workers,
            "width": scene.sensor.width, "height": scene.sensor.height, "seconds": seconds,
-           "samples_per_second": scene.sensor.width * scene.sensor.height * p.spp / seconds,
+           # samples rendered by this run: a resumed --checkpoint's stored samples are not counted
+           "samples_per_second": scene.sensor.width * scene.sensor.height * (p.spp - resumed) / seconds,
            # spp = 1 has no standard error: null in JSON rather than NaN
            "mean_stderr": float(finite_err.mean()) if finite_err.size else None}
+    if p.checkpoint is not None:
+        out["spp_resumed"] = resumed
+        if resumed:
+            print(f"vrlab render: note: {resumed} of {p.spp} spp were read from {p.checkpoint}; "
+                  f"samples_per_second counts the {p.spp - resumed} rendered now", file=sys.stderr, flush=True)
     if p.output is not None:
         if p.output.suffix.lower() == ".png":         # the exposure used, in the report
             out["exposure"] = auto_exposure(img) if p.exposure_auto else p.exposure
