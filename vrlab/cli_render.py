@@ -99,9 +99,11 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
     rend.add_argument("--gradient-domain", action="store_true",
                       help="render the image and its pixel differences with common random numbers and "
                            "reconstruct it (screened Poisson); -o OUT.EXT also writes OUT_primal, OUT_dx, OUT_dy "
-                           "(|differences|) and the figure OUT_panels.png; spp >= 2 (vrlab.cli_gradient)")
+                           "(|differences|) and the figure OUT_panels.png (primal, |dx| + |dy|, the --reconstruct "
+                           "reconstruction); spp >= 2 (vrlab.cli_gradient)")
     rend.add_argument("--reconstruct", choices=["l2", "l1"], metavar="NORM",
-                      help="with --gradient-domain: the reconstruction written to -o. l2: least squares, "
+                      help="with --gradient-domain: the one reconstruction solved, written to -o and shown in "
+                           "the figure. l2: least squares, "
                            "exact DCT solve; l1: gradient terms in the 1-norm (IRLS), robust to outlying gradients "
                            "(default: l2)")
     rend.add_argument("--alpha", help="with --gradient-domain: weight of the primal image in the reconstruction, "
