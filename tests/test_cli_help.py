@@ -162,3 +162,20 @@ def test_notebooks_help_counts_the_notebooks_it_writes(tmp_path, capsys):
     assert f"Copy the {n} lecture notebooks" in description, description
     assert main(["notebooks", str(tmp_path / "nb")]) == 0
     assert len(list((tmp_path / "nb").glob("*.ipynb"))) == n and f"wrote {n} notebooks" in capsys.readouterr().out
+
+
+def test_demo_help_states_the_budget_from_its_one_place(monkeypatch):
+    """``vrlab demo --help`` states the time budget of vrlab.cli.DEMO_BUDGET_S (which
+    benchmarks/bench_demo.py measures against), not a typed-in measurement: changing the
+    budget changes the help."""
+    import vrlab.cli as cli
+
+    def quick_help():
+        sub = next(a for a in cli.build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+        return next(a.help for a in sub.choices["demo"]._actions if "--quick" in a.option_strings)
+
+    text = quick_help()
+    assert f"under {cli.DEMO_BUDGET_S['quick']:g} s" in text and f"under {cli.DEMO_BUDGET_S['full'] / 60:g} min" in text
+    assert "bench_demo.py" in text
+    monkeypatch.setattr(cli, "DEMO_BUDGET_S", {"quick": 7.0, "full": 300.0})
+    assert "under 7 s" in quick_help() and "under 5 min" in quick_help()

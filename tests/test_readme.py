@@ -223,3 +223,16 @@ def test_the_readme_strategy_list_is_the_registry():
     assert _readme_strategies(dropped) != expected                      # the parser sees a missing name
     wrong = text.replace("- `cv` (unbiased)", "- `cv` (consistent)")
     assert _readme_strategies(wrong) != expected                        # ... and a wrong bias
+
+
+def test_the_demo_timings_name_their_benchmark_machine_and_load():
+    """The README's demo timings say which command measured them, on how many cores, under
+    which load, and quote the budgets that vrlab.cli.DEMO_BUDGET_S (``vrlab demo --help``) states."""
+    from vrlab.cli import DEMO_BUDGET_S
+
+    text = " ".join(README.read_text().split())
+    start = text.index("`vrlab demo --quick` took")
+    sentence = text[start:text.index("`vrlab demo --help`", start)]
+    for words in ("`python benchmarks/bench_demo.py`", "2 cores", "load average"):
+        assert words in sentence, words
+    assert f"budgets, {DEMO_BUDGET_S['quick']:g} s and {DEMO_BUDGET_S['full'] / 60:g} min" in sentence
