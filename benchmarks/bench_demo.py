@@ -23,7 +23,7 @@ import time
 
 import pandas as pd
 
-BUDGET = {"quick": 10.0, "full": 120.0}
+from vrlab.cli import DEMO_BUDGET_S as BUDGET      # the one place: `vrlab demo --help` states it too
 
 
 def _children_cpu() -> float:

@@ -186,3 +186,27 @@ def test_compare_figure_shares_one_auto_exposure_from_the_reference(tmp_path):
     grey = np.isclose(auto, auto[..., :1], atol=0.02).all(-1) & (auto.max(-1) < 0.98) & (auto.max(-1) > 0.2)
     assert grey.sum() > 0.5 * 2 * 24 * 32
     assert (one.max(-1) >= 0.99).mean() > (auto.max(-1) >= 0.99).mean()
+
+
+def test_compare_figure_labels_each_panel_with_its_bias_status(tmp_path, monkeypatch):
+    """Each panel's label starts with the strategy and the bias status its recipe states
+    (``Recipe.bias``, read from the registry: a recipe whose bias changes shows the new one)."""
+    from dataclasses import replace
+
+    import vrlab.render.compare as cmp
+    from vrlab.estimators import recipes, registry as reg
+
+    labels = []
+    monkeypatch.setattr(cmp, "panels_figure", lambda panels, path, **kw: labels.extend(p[0] for p in panels) or path)
+    names = ["light", "mis-power", "restir"]
+    img = np.ones((4, 6, 3))
+    res = {"images": {s: img for s in names}, "seconds": dict.fromkeys(names, 1.0),
+           "rel_mse": dict.fromkeys(names, 0.1), "reference": img, "spp": 4}
+    cmp.compare_figure(res, tmp_path / "f.png")
+    assert [label.split("\n")[0] for label in labels] == [f"{s} ({recipes('render')[s].bias})" for s in names]
+    table = dict(reg._REGISTRY)
+    table["restir"] = replace(table["restir"], bias="biased")
+    monkeypatch.setattr(reg, "_REGISTRY", table)
+    labels.clear()
+    cmp.compare_figure(res, tmp_path / "f.png")
+    assert labels[-1].startswith("restir (biased)\n")

@@ -126,3 +126,56 @@ def test_gradient_domain_flags_have_help():
     assert "l2:" in helps["--reconstruct"] and "l1:" in helps["--reconstruct"]
     assert all(name in helps["--gradient-domain"] for name in ("OUT_primal", "OUT_dx", "OUT_dy", "OUT_panels.png"))
     assert undocumented(build_parser()) == []
+
+
+def _strategy_help() -> str:
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    rend = sub.choices["render"]
+    return next(a.help for a in rend._actions if "--strategy" in a.option_strings)
+
+
+def test_render_help_gives_each_strategy_its_bias_from_the_registry(monkeypatch):
+    """``vrlab render --help`` names each strategy with its recipe's bias status, read from the
+    registry when the parser is built (a recipe whose bias changes shows the new one)."""
+    from dataclasses import replace
+
+    from vrlab.estimators import recipes, registry as reg
+
+    text = _strategy_help()
+    for name, r in recipes("render").items():
+        assert f"{name}: {r.render_help} [{r.bias}]" in text, name
+    table = dict(reg._REGISTRY)
+    table["cv"] = replace(table["cv"], bias="consistent")
+    monkeypatch.setattr(reg, "_REGISTRY", table)
+    assert "[consistent]" in _strategy_help() and "[consistent]" not in text
+
+
+def test_notebooks_help_counts_the_notebooks_it_writes(tmp_path, capsys):
+    """The count in ``vrlab notebooks --help`` is the number of notebooks the command writes."""
+    from vrlab.experiments import list_notebooks
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    description = " ".join(sub.choices["notebooks"].description.split())
+    n = len(list_notebooks())
+    assert f"Copy the {n} lecture notebooks" in description, description
+    assert main(["notebooks", str(tmp_path / "nb")]) == 0
+    assert len(list((tmp_path / "nb").glob("*.ipynb"))) == n and f"wrote {n} notebooks" in capsys.readouterr().out
+
+
+def test_demo_help_states_the_budget_from_its_one_place(monkeypatch):
+    """``vrlab demo --help`` states the time budget of vrlab.cli.DEMO_BUDGET_S (which
+    benchmarks/bench_demo.py measures against), not a typed-in measurement: changing the
+    budget changes the help."""
+    import vrlab.cli as cli
+
+    def quick_help():
+        sub = next(a for a in cli.build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+        return next(a.help for a in sub.choices["demo"]._actions if "--quick" in a.option_strings)
+
+    text = quick_help()
+    assert f"under {cli.DEMO_BUDGET_S['quick']:g} s" in text and f"under {cli.DEMO_BUDGET_S['full'] / 60:g} min" in text
+    assert "bench_demo.py" in text
+    monkeypatch.setattr(cli, "DEMO_BUDGET_S", {"quick": 7.0, "full": 300.0})
+    assert "under 7 s" in quick_help() and "under 5 min" in quick_help()

@@ -194,6 +194,8 @@ def test_point_sets_figure_is_labelled():
 
 
 def test_veach_figure_shares_one_auto_exposure(monkeypatch, tmp_path):
+    """The three panels share the auto exposure of the reference, and the figure's title says
+    so exactly once (the demo's title does not repeat what compare_figure appends)."""
     import vrlab.render.compare as C
     from vrlab.render.image import auto_exposure
 
@@ -204,14 +206,47 @@ def test_veach_figure_shares_one_auto_exposure(monkeypatch, tmp_path):
         seen["reference"] = kwargs["reference"]
         return real_compare(*args, **kwargs)
 
-    def figure(result, path, *, title="", exposure=1.0):
-        seen.update(title=title, exposure=exposure, images=len(result["images"]))
+    def panels(items, path, *, title, exposure):
+        seen.update(title=title, exposure=exposure, images=len(items))
         return path
 
     monkeypatch.setattr(C, "compare", compare)
-    monkeypatch.setattr(C, "compare_figure", figure)
+    monkeypatch.setattr(C, "panels_figure", panels)
     demo.render_section(tmp_path, seed=3, quick=True)
     assert seen["images"] == 3
     assert seen["exposure"] == pytest.approx(auto_exposure(seen["reference"]), rel=1e-12)
     assert seen["exposure"] != 1.0 and "exposure: auto, shared" in seen["title"]
-    assert f"{seen['exposure']:.3g}" in seen["title"]
+    assert seen["title"].count(f"{seen['exposure']:.3g}") == 1 and seen["title"].count("exposure:") == 1
+
+
+def test_theory_notes_give_the_rate_for_each_estimator_and_integrand():
+    """The demo's theory lines come from lab.fit_slopes: scrambled Sobol' RQMC on the smooth
+    integrands (Owen's -3/2) and on the discontinuous glossy-light (He & Wang) on lines of
+    their own, each naming the rows it applies to."""
+    from vrlab.lab import fit_slopes
+    from vrlab.lab.summary import theoretical_slope
+
+    rows = []
+    for integrand, smooth in (("exp", True), ("sin", True), ("glossy-light", False)):
+        for est, cls, pts in (("mc", "MonteCarlo", "independent"), ("rqmc-sobol", "RQMC", "sobol")):
+            for k, n in enumerate((64, 256, 1024)):
+                for rep in range(2):
+                    rows.append({"estimator": est, "integrand": integrand, "n": n, "rep": rep, "value": 1.0,
+                                 "stderr": 0.1, "exact": 1.0, "error": 0.1 * (1 + rep) / 2 ** k, "seconds": 0.1,
+                                 "n_evals": n, "n_units": n, "class": cls, "points": pts,
+                                 "dim_u": 1 if integrand != "glossy-light" else 2, "smooth": smooth})
+    lines = demo.theory_notes(fit_slopes(pd.DataFrame(rows)))
+    smooth_rate, note = theoretical_slope("RQMC", "sobol", 1, True)
+    assert smooth_rate == -1.5
+    assert f"  -1.5: {note}: rqmc-sobol on exp, sin" in lines
+    assert any(line.startswith("  -0.667: ") and line.endswith("rqmc-sobol on glossy-light") for line in lines)
+    assert any(line.startswith("  -0.5: ") and "mc on exp, sin, glossy-light" in line for line in lines)
+
+
+def test_a_chi_square_message_keeps_small_expected_counts():
+    """A cell's expected count of 0.005 prints as 0.005, not 0.0."""
+    from vrlab.testing.chisquare import GofResult
+
+    res = GofResult("x", 12.0, 3, 0.01, 100, 100.0, 0, [((1, 2), 3, 0.005), ((0, 0), 40, 25.25)])
+    text = res.message()
+    assert "observed 3, expected 0.005" in text and "observed 40, expected 25.2" in text

@@ -325,7 +325,10 @@ def test_fit_slopes_on_synthetic_data():
     ("Stratified", "independent", 1, True, -1.5),
     ("MonteCarlo", "lhs", 1, True, -1.5),
     ("MonteCarlo", "lhs", 2, True, -0.5),
-    ("RQMC", "sobol", 2, True, -1.0),
+    ("RQMC", "sobol", 2, True, -1.5),              # scrambled nets on smooth f: Owen 1997
+    ("RQMC", "sobol", 1, True, -1.5),
+    ("RQMC", "halton", 2, True, -1.0),             # not a net: Koksma-Hlawka
+    ("RQMC", "sobol", 2, False, -0.5 - 1 / 6),     # discontinuous: He & Wang 2015
     ("RQMC", "halton", 2, False, -0.5 - 1 / 6),
 ])
 def test_theoretical_slopes(cls, points, d, smooth, theory):

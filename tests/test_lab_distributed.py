@@ -122,10 +122,12 @@ def test_resume_runs_only_the_missing_units(reference, tmp_path, monkeypatch):
     calls = []
     real = runner._run_block
     monkeypatch.setattr(runner, "_run_block", lambda task: calls.append(len(task[4])) or real(task))
-    ticks = []
-    again = _sweep(store=path, progress=lambda done, total: ticks.append(done))
+    ticks, said = [], []
+    again = _sweep(store=path, progress=lambda done, total: ticks.append(done),
+                   resumed=lambda stored, total: said.append((stored, total, len(calls))))
     _same(reference, again)
     assert sum(calls) == len(reference) - stored and ticks[0] == stored
+    assert said == [(stored, len(reference), 0)]          # once, before any unit ran
     calls.clear()
     _same(reference, _sweep(store=path, workers=2))     # workers are not part of the sweep: a full store
     assert calls == []
@@ -191,9 +193,11 @@ def _csv(path):
 
 def test_cli_store_resumes_and_refuses_another_sweep(capsys, tmp_path):
     store, a, b = tmp_path / "runs.sqlite", tmp_path / "a.csv", tmp_path / "b.csv"
-    assert run_cli(capsys, LAB + ["--store", str(store), "--csv", str(a)])[0] == 0
+    code, _, err = run_cli(capsys, LAB + ["--store", str(store), "--csv", str(a)])
+    assert code == 0 and "resuming" not in err                 # a new store: nothing to resume
     assert _count(store) == 2 * 2 * 2 * 4
-    assert run_cli(capsys, LAB + ["--store", str(store), "--csv", str(b)])[0] == 0
+    code, _, err = run_cli(capsys, LAB + ["--store", str(store), "--csv", str(b)])
+    assert code == 0 and f"resuming: 32 of 32 units already stored in {store}" in err, err
     pd.testing.assert_frame_equal(_csv(a), _csv(b), check_exact=True)     # all from the store, timings too
     code, out, err = run_cli(capsys, LAB[:-3] + ["--seed", "6", "--store", str(store)])
     assert code == 2 and out == ""

@@ -1,8 +1,14 @@
-"""The README's code that plugs estimators into the renderer runs as printed (at a small size),
-and every repository path that README.md and docs/design.md mention exists."""
+"""Every python block of the README runs as a user runs it: saved as a script and run with
+``python snippet.py`` in a fresh process (so check_estimator's spawn check really spawns); the
+blocks' results are what the README says; every repository path that README.md and
+docs/design.md mention exists."""
 from __future__ import annotations
 
+import os
 import re
+import subprocess
+import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -17,61 +23,116 @@ REPO_DIRS = ("vrlab", "tests", "experiments", "benchmarks", "docs", ".ci", "note
 FILE_SUFFIXES = (".py", ".ipynb", ".md", ".xml", ".npy", ".npz", ".png", ".toml", ".csv", ".sqlite")
 
 
-def _section_code(title: str) -> str:
+def _python_blocks() -> list[tuple[str, str]]:
+    """``(heading, code)`` of every ```python block of the README, the heading it stands under."""
     text = README.read_text()
-    start = text.index(f"### {title}")
-    end = text.index("\n### ", start + 4)
-    blocks = re.findall(r"```python\n(.*?)```", text[start:end], re.S)
-    assert len(blocks) == 1, f"expected one python block in {title!r}"
-    return blocks[0]
+    out = []
+    for m in re.finditer(r"```python\n(.*?)```", text, re.S):
+        heading = re.findall(r"^#+ (.+)$", text[:m.start()], re.M)[-1]
+        out.append((heading, m.group(1)))
+    return out
 
 
-def test_plug_your_own_estimator_section_runs(monkeypatch, capsys):
-    """The code runs as printed, except that every render is made small (8 x 6 pixels) to keep
-    the suite fast; the user's estimator and heuristic then give finite images."""
-    import vrlab.render as R
-
-    real = R.render
-
-    def small(*args, **kwargs):
-        return real(*args, **{**kwargs, "width": 8, "height": 6})
-
-    monkeypatch.setattr(R, "render", small)
-    import sys
-    import types
-
-    import vrlab.estimators.registry as registry
-    import vrlab.testing as T
-
-    # the README's class lives in a script; here in a module of its own, checked in this process
-    module = types.ModuleType("readme_example")
-    monkeypatch.setitem(sys.modules, "readme_example", module)
-    real_check = T.check_estimator
-    monkeypatch.setattr(T, "check_estimator", lambda est, *a, **kw: real_check(est, *a, **{**kw, "spawn": False}))
-    monkeypatch.setattr(registry, "_REGISTRY", dict(registry._REGISTRY))
-    namespace: dict = module.__dict__
-    exec(compile(_section_code("Plug your own estimator into the renderer"), str(README), "exec"), namespace)
-    assert namespace["named"].value.shape == (6, 8, 3)
-    for name in ("mis", "pairs", "mine"):
-        est = namespace[name]
-        assert est.value.shape == (6, 8, 3) and np.all(np.isfinite(est.value)) and est.n == 16
-    out = capsys.readouterr().out
-    assert "LightThenBSDF" in out and "'render': 'ok'" in out
+BLOCKS = _python_blocks()
+#: what the test reads back from a block's script: names whose value (``.value`` for an Estimate) it saves
+KEEP = {"Plug your own estimator into the renderer": ("mis", "pairs", "mine", "named"),
+        "Your own scene element": ("image",)}
+#: a Dask scheduler address the README assumes is running; the test starts a local one instead
+README_SCHEDULER = "tcp://127.0.0.1:8786"
 
 
-def test_your_own_scene_element_section_runs(capsys):
-    """The registered element of the README loads from XML and renders (tint applied)."""
-    from vrlab.render import registered
+def _run_script(code: str, tmp_path: Path, keep: tuple[str, ...] = ()) -> tuple[str, dict]:
+    """Save ``code`` as ``snippet.py`` and run ``python snippet.py`` in a fresh process, as a user
+    does (so worker processes started with the spawn method re-run it).  After the block, an
+    epilogue under the main guard saves the values of ``keep`` to ``snippet_out.npz``.
+    Returns (stdout, the saved arrays); a failing script fails with its stderr."""
+    epilogue = ("\nif __name__ == \"__main__\":\n    import numpy as _np\n"
+                f"    _g = {{k: globals()[k] for k in {list(keep)!r}}}\n"
+                "    _np.savez('snippet_out.npz', **{k: _np.asarray(getattr(v, 'value', v)) for k, v in _g.items()},\n"
+                "              **{k + '.n': _np.asarray(v.n) for k, v in _g.items() if hasattr(v, 'n')})\n") if keep else ""
+    script = tmp_path / "snippet.py"
+    script.write_text(code + epilogue)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.run([sys.executable, script.name], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, f"python snippet.py failed:\n{code}\n--- stderr:\n{proc.stderr[-3000:]}"
+    saved = dict(np.load(tmp_path / "snippet_out.npz")) if keep else {}
+    return proc.stdout, saved
 
-    namespace: dict = {}
-    exec(compile(_section_code("Your own scene element"), str(README), "exec"), namespace)
-    image = namespace["image"]
-    assert image.shape == (24, 32, 3) and np.all(np.isfinite(image))
-    floor = image[21, 16]
-    assert floor[0] > floor[1] > floor[2] > 0                       # reflectance 0.5 x (1, 0.5, 0.25)
-    assert floor[1] / floor[0] == pytest.approx(0.5, rel=1e-5)
-    assert registered("bsdf")["tinted"] is namespace["Tinted"]
-    assert "(24, 32, 3)" in capsys.readouterr().out
+
+def _local_scheduler():
+    """A Dask scheduler on 127.0.0.1 with one worker thread in this process (closed by the caller)."""
+    distributed = pytest.importorskip("distributed")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
+                                        host="127.0.0.1", dashboard_address=None)
+
+
+@pytest.mark.parametrize("heading, code", BLOCKS, ids=[f"{i}-{h[:30]}" for i, (h, _) in enumerate(BLOCKS)])
+def test_every_python_block_runs_as_a_script(heading, code, tmp_path):
+    """Each block, saved as a script and run with ``python snippet.py``, exits 0; the blocks whose
+    results are checked below give what the README says of them."""
+    if README_SCHEDULER in code:
+        cluster = _local_scheduler()
+        try:
+            out, saved = _run_script(code.replace(README_SCHEDULER, cluster.scheduler_address), tmp_path)
+        finally:
+            cluster.close()
+        return
+    out, saved = _run_script(code, tmp_path, KEEP.get(heading, ()))
+    if heading == "Plug your own estimator into the renderer":
+        for name in ("mis", "pairs", "mine", "named"):
+            value = saved[name]
+            assert value.ndim == 3 and value.shape[2] == 3 and np.all(np.isfinite(value)), name
+            assert int(saved[name + ".n"]) == 16
+        assert "LightThenBSDF" in out and "'render': 'ok'" in out and "'pickle': 'ok'" in out, out
+    elif heading == "Your own scene element":
+        image = saved["image"]
+        assert image.shape == (24, 32, 3) and np.all(np.isfinite(image))
+        floor = image[21, 16]
+        assert floor[0] > floor[1] > floor[2] > 0                       # reflectance 0.5 x (1, 0.5, 0.25)
+        assert floor[1] / floor[0] == pytest.approx(0.5, rel=1e-5)
+        assert "(24, 32, 3)" in out
+
+
+def test_the_blocks_are_found():
+    """The block finder sees every python block (a renamed heading would drop a block's checks)."""
+    assert len(BLOCKS) == README.read_text().count("```python\n") >= 6
+    assert set(KEEP) <= {h for h, _ in BLOCKS}
+
+
+_SCRIPT = """from vrlab.estimators import MonteCarlo
+from vrlab.testing import check_estimator
+
+class Plain(MonteCarlo):                 # a user's class, defined in the script
+    pass
+"""
+
+
+@pytest.mark.parametrize("variant", ["unguarded", "child dies", "guarded"])
+def test_check_estimator_names_the_missing_main_guard(variant, tmp_path):
+    """A class defined in a script run as ``python script.py``: check_estimator's spawn check
+    tells an unguarded script to add ``if __name__ == "__main__":`` (before spawning), says so
+    too when the spawned child dies re-running the script, and passes a guarded script."""
+    call = "print(check_estimator(Plain(), 'sin', render=False))\n"
+    code = _SCRIPT + {"unguarded": call,
+                      "child dies": "if __name__ != '__main__':\n    raise SystemExit(3)\n"
+                                    "if __name__ == '__main__':\n    " + call,
+                      "guarded": "if __name__ == '__main__':\n    " + call}[variant]
+    script = tmp_path / "script.py"
+    script.write_text(code)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.run([sys.executable, script.name], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=300)
+    if variant == "guarded":
+        assert proc.returncode == 0 and "'pickle': 'ok'" in proc.stdout, proc.stderr[-2000:]
+        return
+    last = proc.stderr.strip().splitlines()[-1]
+    assert proc.returncode != 0 and last.startswith("AssertionError: check_estimator[pickle]"), proc.stderr[-2000:]
+    assert 'if __name__ == "__main__":' in last and "script.py" in last and "Plain" in last, last
+    assert "importable by module path" not in last
+    assert ("died" in last) == (variant == "child dies"), last
 
 
 def _mentioned_paths(doc: Path) -> list[tuple[str, Path]]:
@@ -135,3 +196,43 @@ def test_the_veach_figure_numbers_come_from_its_command(tmp_path):
     got = res["rel_mse"]
     assert got["bsdf"] == pytest.approx(25.0, rel=0.01) and got["light"] == pytest.approx(0.682, rel=0.01)
     assert got["mis-power"] == pytest.approx(0.0424, rel=0.01)
+
+
+def _readme_strategies(text: str) -> dict[str, str]:
+    """``{strategy: bias}`` from the README's strategy list: the bullets after "The strategies
+    (`--strategy`" up to the first blank line, each "- `a` / `b` (bias): ..."."""
+    start = text.index("The strategies (`--strategy`")
+    block = text[start:text.index("\n\n", start)]
+    out = {}
+    for names, bias in re.findall(r"^- ((?:`[^`]+`(?:, | / | and )?)+) \((\w+)\):", block, re.M):
+        for name in re.findall(r"`([^`]+)`", names):
+            assert name not in out, f"the README lists strategy {name!r} twice"
+            out[name] = bias
+    return out
+
+
+def test_the_readme_strategy_list_is_the_registry():
+    """Every render recipe is in the README's strategy list with the bias its recipe states
+    (``Recipe.bias``), and nothing else is; a list missing one, or with a wrong bias, fails."""
+    from vrlab.estimators import recipes
+
+    expected = {name: r.bias for name, r in recipes("render").items()}
+    text = README.read_text()
+    assert _readme_strategies(text) == expected
+    dropped = text.replace(" / `mis-optimal` (unbiased)", " (unbiased)")
+    assert _readme_strategies(dropped) != expected                      # the parser sees a missing name
+    wrong = text.replace("- `cv` (unbiased)", "- `cv` (consistent)")
+    assert _readme_strategies(wrong) != expected                        # ... and a wrong bias
+
+
+def test_the_demo_timings_name_their_benchmark_machine_and_load():
+    """The README's demo timings say which command measured them, on how many cores, under
+    which load, and quote the budgets that vrlab.cli.DEMO_BUDGET_S (``vrlab demo --help``) states."""
+    from vrlab.cli import DEMO_BUDGET_S
+
+    text = " ".join(README.read_text().split())
+    start = text.index("`vrlab demo --quick` took")
+    sentence = text[start:text.index("`vrlab demo --help`", start)]
+    for words in ("`python benchmarks/bench_demo.py`", "2 cores", "load average"):
+        assert words in sentence, words
+    assert f"budgets, {DEMO_BUDGET_S['quick']:g} s and {DEMO_BUDGET_S['full'] / 60:g} min" in sentence

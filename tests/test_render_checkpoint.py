@@ -123,3 +123,23 @@ def test_a_killed_render_command_resumes_to_the_same_image(tmp_path):
     assert done.returncode == 0, done.stderr
     full = render("cornell_box", 192, "mis-power", rng=0, spp_batch=8, width=64, height=64)
     np.testing.assert_array_equal(np.load(out), full.value)
+
+
+def test_a_resumed_cli_render_counts_only_its_new_samples(capsys, tmp_path):
+    """``vrlab render --checkpoint``: extending 2 stored spp to 6 reports spp_resumed = 2 and a
+    samples_per_second of the 4 new spp only (x seconds = pixels x 4, not pixels x 6)."""
+    import json
+
+    from conftest import run_cli
+
+    ckpt = tmp_path / "c.npz"
+    cmd = ["render", "furnace", "--width", "8", "--height", "6", "--workers", "1", "--no-progress", "--spp-batch",
+           "1", "--checkpoint", str(ckpt), "--json"]
+    code, out, _ = run_cli(capsys, cmd + ["--spp", "2"])
+    first = json.loads(out)
+    assert code == 0 and first["spp_resumed"] == 0
+    assert first["samples_per_second"] * first["seconds"] == pytest.approx(48 * 2, rel=1e-9)
+    code, out, err = run_cli(capsys, cmd + ["--spp", "6"])
+    res = json.loads(out)
+    assert code == 0 and res["spp_resumed"] == 2 and "2 of 6 spp were read" in err
+    assert res["samples_per_second"] * res["seconds"] == pytest.approx(48 * 4, rel=1e-9)

@@ -434,3 +434,27 @@ def test_an_emissive_mesh_is_sampled_as_a_light(tmp_path):
     m0, s0 = means["mis"]
     for name, (m, s) in means.items():
         assert abs(m - m0) < 4 * np.hypot(s, s0), (name, means)
+
+
+@pytest.mark.parametrize("sensor, body, typo, meant", [
+    (SENSOR.replace('name="fov"', 'name="fvo"'), LIGHT, "fvo", "fov"),            # fov not given: still suggested
+    (SENSOR.replace('<float name="fov" value="40"/>', '<string name="focal_lenght" value="50mm"/>'), LIGHT,
+     "focal_lenght", "focal_length"),
+    (SENSOR.replace('<float name="fov" value="40"/>', '<float name="fov" value="40"/><string name="fov_axs" value="y"/>'),
+     LIGHT, "fov_axs", "fov_axis"),
+    (SENSOR, LIGHT.replace('name="radius"', 'name="radus"'), "radus", "radius"),
+    (SENSOR, LIGHT.replace('name="radius"', 'name="zzzz"'), "zzzz", None),
+])
+def test_a_parameter_typo_suggests_the_close_parameters_of_the_element(sensor, body, typo, meant):
+    """An unknown parameter's error suggests close matches (difflib) among all of the element's
+    parameters, those given and those not (``fvo`` on a perspective sensor without ``fov``:
+    did you mean 'fov'?), and lists them all; nothing close, no suggestion."""
+    with pytest.raises(SceneError) as info:
+        load_scene(scene_xml(body, sensor))
+    text = str(info.value)
+    assert f"unknown parameter '{typo}'" in text
+    if meant is None:
+        assert "did you mean" not in text
+    else:
+        assert f"(did you mean '{meant}'" in text                              # the closest first
+        assert f" {meant}," in text.split("supported:")[1] + ","          # and listed among the supported

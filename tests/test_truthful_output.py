@@ -1,6 +1,6 @@
 """What the commands say is true (issue 23, item 9): --version, demo --json is only JSON (tested in
 test_cli), a render without -o says nothing was saved, inapplicable flags are warned about,
---gradient-domain times each solve it ran and runs L1 only for the figure or when asked, the lab
+--gradient-domain solves and shows only the reconstruction asked for (L1 says when it starts), the lab
 flags untrustworthy error bars and names its bigger-is-better columns, slopes need 3 sample counts."""
 from __future__ import annotations
 
@@ -62,8 +62,18 @@ def test_gradient_domain_runs_and_times_only_what_it_needs(capsys, tmp_path, mon
     assert code == 0 and set(res["reconstruct_seconds"]) == {"l2"}          # no figure: L1 not run
     code, out, _ = run_cli(capsys, GD + ["--reconstruct", "l1"])
     assert set(json.loads(out)["reconstruct_seconds"]) == {"l1"}
-    code, out, _ = run_cli(capsys, GD + ["-o", str(tmp_path / "gd.npy")])
-    assert set(json.loads(out)["reconstruct_seconds"]) == {"l1", "l2"}     # the figure shows both
+    code, out, err = run_cli(capsys, GD + ["-o", str(tmp_path / "gd.npy")])
+    assert set(json.loads(out)["reconstruct_seconds"]) == {"l2"}           # the figure: L2 only, L1 not solved
+    assert "L1" not in err
+    labels = []
+    monkeypatch.setattr("vrlab.render.compare.panels_figure",
+                        lambda panels, path, **kw: labels.extend(p[0] for p in panels) or path)
+    for norm in ("l2", "l1"):
+        labels.clear()
+        code, out, err = run_cli(capsys, GD + ["--reconstruct", norm, "-o", str(tmp_path / f"{norm}.npy")])
+        assert set(json.loads(out)["reconstruct_seconds"]) == {norm}
+        assert [label for label in labels if "reconstruction" in label] == [f"{norm.upper()} reconstruction, alpha = 0.2"]
+        assert ("solving the L1 reconstruction" in err) == (norm == "l1")    # the long solve says it starts
     del calls, real
 
 

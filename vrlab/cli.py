@@ -29,6 +29,10 @@ from typing import Sequence
 
 from .cli_args import Failure, UsageError, output_folder, seed
 
+#: the wall-time budgets of ``vrlab demo --quick`` and ``vrlab demo`` on 2 cores, in seconds (issue
+#: 15): ``vrlab demo --help`` states them and ``benchmarks/bench_demo.py`` measures against them
+DEMO_BUDGET_S = {"quick": 10.0, "full": 120.0}
+
 EPILOG = """\
 errors: one line on stderr, e.g. "vrlab render: error: --width must be >= 1, got 0".
 exit status: 0 success; 2 usage error (unknown flag, bad value or combination; every
@@ -138,7 +142,9 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--seed", default="2026", help="root seed of every random number, 0 .. 2**128-1: the same "
                                                      "seed gives the same figures and tables (default: %(default)s)")
     demo.add_argument("--quick", action="store_true",
-                      help="smaller sample counts, for a first look (under 10 s on 2 cores; the full demo: 1 minute)")
+                      help=f"smaller sample counts, for a first look (time budget on 2 cores: under "
+                           f"{DEMO_BUDGET_S['quick']:g} s; the full demo under {DEMO_BUDGET_S['full'] / 60:g} min; "
+                           "benchmarks/bench_demo.py in the repository measures both against it)")
     demo.add_argument("--json", action="store_true", help="print a JSON summary of what was written (stdout: only "
                                                           "the JSON; the text report goes to stderr)")
     demo.set_defaults(func=_cmd_demo, parser=demo)
@@ -157,9 +163,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     cli_render.add_parser(sub, **kw)
 
+    from .experiments import list_notebooks
+
+    books = list_notebooks()
+    topics = [n.split("_", 1)[1].removesuffix(".ipynb").replace("_", " ") for n in (books[0], books[-1])]
     nbs = sub.add_parser("notebooks", help="copy the lecture notebooks into a folder, to open with Jupyter",
-                         description="Copy the eleven lecture notebooks (importance sampling ... gradient-domain\n"
-                                     "rendering) into FOLDER. Open them with: jupyter lab FOLDER (Jupyter comes\n"
+                         description=f"Copy the {len(books)} lecture notebooks ({topics[0]} ... {topics[1]})\n"
+                                     "into FOLDER. Open them with: jupyter lab FOLDER (Jupyter comes\n"
                                      'with: pip install "vrlab[notebooks]"). Each notebook runs its experiment\n'
                                      "from the installed package and writes its figures to vrlab-out/.", **kw)
     nbs.add_argument("folder", nargs="?", default="vrlab-notebooks",

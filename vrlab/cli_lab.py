@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import sys
 import warnings
 
 from . import cli_args as A
@@ -167,7 +168,7 @@ def run_lab(args: argparse.Namespace) -> int:
         try:
             df = run(plan["estimators"], plan["integrands"], plan["ns"], plan["reps"], rng=plan["seed"],
                      progress=_progress(args.progress), workers=plan["workers"], executor=client,
-                     store=plan["store"])
+                     store=plan["store"], resumed=_resumed(plan["store"]))
         except StoreError as exc:            # raised before any unit runs
             text = "--store" + str(exc).removeprefix("store")
             raise (A.UsageError if isinstance(exc, StoreMismatch) else A.Failure)(text) from None
@@ -213,6 +214,14 @@ def run_lab(args: argparse.Namespace) -> int:
     if csv or plot:
         print("\nwrote " + ", ".join(p for p in (csv, plot) if p))
     return 0
+
+
+def _resumed(store):
+    """The line a resumed --store sweep prints on stderr before it runs the missing units."""
+    def say(stored, total):
+        print(f"vrlab lab: resuming: {stored} of {total} units already stored in {store}; running the "
+              f"other {total - stored}", file=sys.stderr, flush=True)
+    return say
 
 
 def _progress(flag):

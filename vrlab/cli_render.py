@@ -33,6 +33,15 @@ def _menu(table: dict, names) -> str:
     return "; ".join(f"{name}: {table[name]}" if name in table else name for name in names)
 
 
+def _with_bias(table: dict) -> dict:
+    """``table``'s help texts followed by each strategy's bias status from the registry
+    (``Recipe.bias``: unbiased / consistent / biased)."""
+    from .estimators import recipes
+
+    bias = {name: r.bias for name, r in recipes("render").items()}
+    return {name: f"{text} [{bias[name]}]" if name in bias else text for name, text in table.items()}
+
+
 def add_parser(sub, **kw) -> argparse.ArgumentParser:
     from .render.presets import PRESETS, preset_help
 
@@ -50,8 +59,8 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                                                      "existing files are not replaced (default: the current folder)")
     rend.add_argument("--spp", help=f"samples per pixel, 1 .. {SPP_MAX} (default: the scene's)")
     rend.add_argument("--strategy", choices=list(PRESETS), metavar="NAME",
-                      help=f"how each shading point samples its direct light. {_menu(preset_help(), PRESETS)} "
-                           "(default: mis-power)")
+                      help=f"how each shading point samples its direct light, [its bias status]. "
+                           f"{_menu(_with_bias(preset_help()), PRESETS)} (default: mis-power)")
     rend.add_argument("--pixel-sampler", choices=list(PIXEL_SAMPLERS), metavar="NAME",
                       help=f"how each pixel's uniforms are drawn. {_menu(PIXEL_SAMPLER_HELP, PIXEL_SAMPLERS)}. "
                            "The standard errors assume independent (default: independent)")
@@ -90,9 +99,11 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
     rend.add_argument("--gradient-domain", action="store_true",
                       help="render the image and its pixel differences with common random numbers and "
                            "reconstruct it (screened Poisson); -o OUT.EXT also writes OUT_primal, OUT_dx, OUT_dy "
-                           "(|differences|) and the figure OUT_panels.png; spp >= 2 (vrlab.cli_gradient)")
+                           "(|differences|) and the figure OUT_panels.png (primal, |dx| + |dy|, the --reconstruct "
+                           "reconstruction); spp >= 2 (vrlab.cli_gradient)")
     rend.add_argument("--reconstruct", choices=["l2", "l1"], metavar="NORM",
-                      help="with --gradient-domain: the reconstruction written to -o. l2: least squares, "
+                      help="with --gradient-domain: the one reconstruction solved, written to -o and shown in "
+                           "the figure. l2: least squares, "
                            "exact DCT solve; l1: gradient terms in the 1-norm (IRLS), robust to outlying gradients "
                            "(default: l2)")
     rend.add_argument("--alpha", help="with --gradient-domain: weight of the primal image in the reconstruction, "
@@ -228,6 +239,7 @@ def _run_one(args: argparse.Namespace, p: RenderSettings) -> int:
             raise
     img, err = est.value, est.stderr
     seconds = time.perf_counter() - t0
+    resumed = int(est.extra.get("spp_resumed", 0))
     bad = int(np.count_nonzero(~np.isfinite(img)))
     if bad:
         import warnings
@@ -235,9 +247,15 @@ def _run_one(args: argparse.Namespace, p: RenderSettings) -> int:
     finite_err = err[np.isfinite(err)]
     out = {"scene": str(p.path), "strategy": p.strategy, "spp": p.spp, "workers": workers,
            "width": scene.sensor.width, "height": scene.sensor.height, "seconds": seconds,
-           "samples_per_second": scene.sensor.width * scene.sensor.height * p.spp / seconds,
+           # samples rendered by this run: a resumed --checkpoint's stored samples are not counted
+           "samples_per_second": scene.sensor.width * scene.sensor.height * (p.spp - resumed) / seconds,
            # spp = 1 has no standard error: null in JSON rather than NaN
            "mean_stderr": float(finite_err.mean()) if finite_err.size else None}
+    if p.checkpoint is not None:
+        out["spp_resumed"] = resumed
+        if resumed:
+            print(f"vrlab render: note: {resumed} of {p.spp} spp were read from {p.checkpoint}; "
+                  f"samples_per_second counts the {p.spp - resumed} rendered now", file=sys.stderr, flush=True)
     if p.output is not None:
         if p.output.suffix.lower() == ".png":         # the exposure used, in the report
             out["exposure"] = auto_exposure(img) if p.exposure_auto else p.exposure

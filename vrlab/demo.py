@@ -203,6 +203,8 @@ def lab_section(out: Path, seed: int, quick: bool, painter: _Painter | None = No
         print(table.drop(columns="reps").to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     for line in _flag_notes(flagged[flagged["flag"] != ""], trust_thresholds(reps, 2 * len(flagged)), reps):
         print(line)
+    for line in theory_notes(slopes):
+        print(line)
     skipped = df.attrs.get("skipped", [])
     missing = sorted({s["estimator"] for s in skipped if "not available" in s["reason"]})
     if missing:
@@ -212,13 +214,22 @@ def lab_section(out: Path, seed: int, quick: bool, painter: _Painter | None = No
             "lab_flagged": {m: int((table["flag"] == m).sum()) for m in ("!", "~")}}
 
 
+def theory_notes(slopes: pd.DataFrame) -> list[str]:
+    """One line per theoretical slope of ``slopes`` (:func:`vrlab.lab.fit_slopes`): the rate,
+    its source (``theory_note``) and the estimator x integrand rows it applies to."""
+    lines = ["theory: the slope theory gives, by estimator and integrand (vrlab.lab.theoretical_slope)"]
+    for (theory, note), g in slopes.groupby(["theory", "theory_note"], sort=False):
+        rows = [f"{est} on {', '.join(gi['integrand'])}" for est, gi in g.groupby("estimator", sort=False)]
+        lines.append(f"  {theory:+.3g}: {note}: {'; '.join(rows)}")
+    return lines
+
+
 def render_section(out: Path, seed: int, quick: bool) -> pd.DataFrame:
     """The Veach figure: BSDF sampling | light sampling | MIS on the glossy plates scene.
     The reference (an MIS render at more spp, its own seed) is rendered first, with progress."""
     
     from .render import builtin_scene_path, load_scene, render
     from .render.compare import compare, compare_figure
-    from .render.image import auto_exposure
 
     scene = load_scene(builtin_scene_path("veach_mis"))
     w, h = (64, 48) if quick else (128, 96)
@@ -229,10 +240,10 @@ def render_section(out: Path, seed: int, quick: bool) -> pd.DataFrame:
                        progress=lambda done, total: bar.update(max(0, done - bar.done))).value
     bar.close()
     res = compare(scene, spp=8 if quick else 16, rng=seed, reference=reference)
-    exposure = auto_exposure(reference)         # one exposure for the three panels, from the reference
-    compare_figure(res, out / "veach_mis.png", exposure=exposure,
+    # one exposure for the three panels, auto from the reference; compare_figure's title states it once
+    compare_figure(res, out / "veach_mis.png", exposure="auto",
                    title=f"Veach's glossy plates, {res['spp']} spp per pixel: BSDF sampling | light sampling | "
-                         f"MIS (power)\nexposure: auto, shared (x{exposure:.3g}, from the {ref_spp}-spp reference)")
+                         f"MIS (power)\nrelMSE against a {ref_spp}-spp reference, which sets the exposure")
     df = pd.DataFrame({"strategy": list(res["rel_mse"]), "rel_mse": list(res["rel_mse"].values()),
                        "seconds": list(res["seconds"].values())})
     df.to_csv(out / "veach_mis.csv", index=False)

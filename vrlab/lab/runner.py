@@ -114,7 +114,8 @@ def stable_index(text: str) -> int:
 
 def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int, *, rng: Any = 0,
         progress: bool | Callable[[int, int], None] = False, workers: int = 1, skip: bool = False,
-        crn: bool = False, chunk: int | None = None, executor: Any = None, store: Any = None) -> pd.DataFrame:
+        crn: bool = False, chunk: int | None = None, executor: Any = None, store: Any = None,
+        resumed: Callable[[int, int], None] | None = None) -> pd.DataFrame:
     """Run every estimator on every integrand at every ``n`` (integrand evaluations), ``reps`` times.
 
     ``estimators``: recipe names (see :mod:`vrlab.lab.registry`) or tuples
@@ -129,7 +130,9 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
     another sweep is refused with a ``ValueError`` naming ``store``).  ``skip``: leave out
     estimator x integrand pairs whose recipe does not apply (listed in
     ``df.attrs["skipped"]``) instead of raising.  ``progress``: True for a tqdm bar on
-    stderr (shown when stderr is a terminal), or a callback ``(done, total)``.
+    stderr (shown when stderr is a terminal), or a callback ``(done, total)``.  ``resumed``:
+    a callback ``(stored, total)``, called once before any unit runs when ``store`` already
+    holds ``stored`` of the sweep's ``total`` units (estimator x integrand x n x rep).
 
     Returns one row per estimator x integrand x n x rep with columns ``estimator,
     integrand, n, rep, value, stderr, exact, error (= value - exact), seconds, n_evals,
@@ -147,6 +150,8 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
         raise TypeError(f"progress must be True, False or a callback (done, total), got {type(progress).__name__}")
     progress = bool(progress) if isinstance(progress, (bool, np.bool_)) else progress
     chunk = None if chunk is None else checks.integer(chunk, "chunk", low=1)
+    if resumed is not None and not callable(resumed):
+        raise TypeError(f"resumed must be a callback (stored, total) or None, got {type(resumed).__name__}")
     pool = check_executor(executor)
     if store is not None:
         store_path(store)
@@ -215,6 +220,8 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
                     tasks.append(((ii, jj), key, n, tuple(todo[lo:lo + per])))
 
         total = len(jobs) * len(ns) * reps
+        if results and resumed is not None:
+            resumed(len(results), total)
         # the bar counts integrand evaluations (samples, in samples/s); a callable gets repetitions
         evals = len(jobs) * sum(ns) * reps
         bar = ProgressBar(evals, disable=None, unit="samples") if progress is True else None   # quiet off a terminal

@@ -18,10 +18,14 @@ Theoretical RMSE slopes in n (log-log), used beside the fitted ones:
   stratified sampling in graphics"; Owen, ch. 10);
 * Latin hypercube: -1/2 (only the additive part is removed; Stein 1987), -3/2 in 1D where it
   is jittered;
-* randomized QMC (scrambled Sobol', scrambled Halton) on smooth f: about -1
-  (Koksma-Hlawka, discrepancy O(n^-1 log^d n); Owen 1997 shows -3/2 for scrambled nets at
-  n = b^m on very smooth f); on discontinuous f: -1/2 - 1/(4d - 2) (He & Wang 2015,
-  "On the convergence rate of randomized quasi-Monte Carlo for discontinuous functions").
+* randomized QMC on smooth f: scrambled Sobol' nets (SciPy's linear matrix scrambling with a
+  digital shift), -3/2 up to log factors: Var = O(n^-3 (log n)^(d-1)) at n = 2^m points per
+  replicate for f with continuous mixed partial derivatives (Owen 1997, "Scrambled net
+  variance for integrals of smooth functions"; Owen 2003, "Variance with alternative
+  scramblings of digital nets": linear scrambling has the same variance); scrambled Halton
+  (not a net), about -1 (Koksma-Hlawka, discrepancy O(n^-1 log^d n)); on discontinuous f,
+  either: -1/2 - 1/(4d - 2) (He & Wang 2015, "On the convergence rate of randomized
+  quasi-Monte Carlo for discontinuous functions").
 
 Tables are checked (errors name ``df``): a non-empty DataFrame with the needed columns,
 numeric columns holding numbers, finite values and ``n > 0``, at least 2 repetitions per
@@ -120,10 +124,11 @@ def theoretical_slope(cls: str, points: str, dim_u: int, smooth: bool = True,
     if cls == "Stratified" and not fixed_strata and d is not None:
         pts = "stratified"   # about n/2 strata: the jittered rate
     if cls == "RQMC":
-        if d is None:
-            return -1.0, "RQMC, smooth f (Koksma-Hlawka)"
-        if smooth:
-            return -1.0, "RQMC on smooth f: ~ -1 (Koksma-Hlawka; -3/2 for Owen-scrambled nets, Owen 1997)"
+        if smooth and pts == "sobol":
+            return -1.5, ("RQMC, scrambled Sobol' net, smooth f: -3/2 up to logs, Var O(n^-3 (log n)^(d-1)) at "
+                          "n = 2^m per replicate (Owen 1997)")
+        if d is None or smooth:
+            return -1.0, "RQMC, smooth f: ~ -1 up to logs (Koksma-Hlawka)"
         return -0.5 - 1.0 / (4 * d - 2), "RQMC, discontinuous f: -1/2 - 1/(4d-2) (He & Wang 2015)"
     if pts in ("stratified", "jittered") and d is not None:
         if smooth:

@@ -49,7 +49,7 @@ from .pixels import PixelIntegrand
 from .presets import PRESETS
 from .scene import Scene
 
-__all__ = ["VEACH_STRATEGIES", "compare", "compare_figure", "panels_figure", "sample_cost"]
+__all__ = ["VEACH_STRATEGIES", "bias_status", "compare", "compare_figure", "panels_figure", "sample_cost"]
 
 VEACH_STRATEGIES = ("bsdf", "light", "mis-power")
 #: the cost model of ``equal_time`` (see the module docstring), in traced rays per pixel sample
@@ -153,8 +153,18 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
             "spp": counts if equal_time else spp, "cost": cost, "reference_render": ref_info, "settings": settings}
 
 
+def bias_status(strategy: str) -> str:
+    """The bias status the registry states for render strategy ``strategy`` (``Recipe.bias``:
+    "unbiased", "consistent" or "biased"); "bias unknown" for a name it does not know."""
+    from ..estimators.registry import recipes
+
+    recipe = recipes("render").get(strategy)
+    return recipe.bias if recipe is not None else "bias unknown"
+
+
 def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure: float | str = "auto") -> Path:
-    """Panels side by side with relMSE and time under each (matplotlib, Agg); ``path``'s
+    """Panels side by side, each labelled with its strategy, the strategy's bias status
+    (:func:`bias_status`), relMSE and time (matplotlib, Agg); ``path``'s
     suffix picks the format (.png, .pdf, .svg, ...).  ``exposure``: one scale for every
     panel, ``"auto"`` (default): :func:`~vrlab.render.image.auto_exposure` of the reference."""
     keys = ("images", "seconds", "rel_mse", "reference", "spp")
@@ -175,7 +185,8 @@ def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure:
     panels = []
     for name in names:
         each = f", {result['spp'][name]} spp" if isinstance(result["spp"], dict) else ""
-        panels.append((f"{name}\nrelMSE = {result['rel_mse'][name]:.3g}, {result['seconds'][name]:.1f} s{each}",
+        panels.append((f"{name} ({bias_status(name)})\nrelMSE = {result['rel_mse'][name]:.3g}, "
+                       f"{result['seconds'][name]:.1f} s{each}",
                        result["images"][name]))
     equal = "equal modelled cost" if isinstance(result["spp"], dict) else f"{result['spp']} spp per strategy"
     shared = f"exposure: {'auto, ' if auto else ''}shared, x{exposure:.3g}"

@@ -191,10 +191,13 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
         estimator=estimator, units=units, light_selection=light_selection, emitter_samples=emitter_samples,
         bsdf_samples=bsdf_samples, ris_candidates=ris_candidates), points=points, rng=rng, workers=workers,
         chunk_pixels=chunk_pixels, width=width, height=height, spp_batch=spp_batch)
-    ((value, stderr),) = execute(job, workers, executor, progress, checkpoint)
+    loaded: list[int] = []
+    ((value, stderr),) = execute(job, workers, executor, progress, checkpoint, resumed=loaded.append)
     integrand, spp = job.integrand, job.spp
     est = integrand.estimator
     extra = {"units": integrand.units, "points": sampler.label, "spp_batch": job.batch}
+    if checkpoint is not None:            # samples per pixel read from the checkpoint, not rendered now
+        extra["spp_resumed"] = loaded[0]
     if not sampler.iid:
         extra["stderr_note"] = ("stderr uses the i.i.d. formula but the pixel's points are not independent "
                                 f"({sampler.label}): it is not a valid error bar")
@@ -249,11 +252,13 @@ def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLi
 
 
 def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[int, int], None] | None = None,
-            checkpoint: Any = None) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+            checkpoint: Any = None, resumed: Callable[[int], None] | None = None
+            ) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
     """Run a job's units, batch after batch (in this process, a process pool of ``workers``
     or the caller's ``executor``), merging each tile's statistics in batch order and saving
     them to ``checkpoint`` after each batch: ``(value, stderr)`` images ``(H, W, 3)`` float32
-    per estimate of the job."""
+    per estimate of the job.  ``resumed(spp)``, with a checkpoint: called once before any unit
+    runs with the samples per pixel the checkpoint already holds (0 for a new one)."""
     from .checkpoint import check_path, load_checkpoint, render_hash, save_checkpoint
 
     if progress is not None and not callable(progress):
@@ -275,6 +280,8 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
                              job.samplers[job.batch].label, (job.root.entropy, tuple(job.root.spawn_key)), job.batch)
         start, stats = load_checkpoint(path, digest, job.batch, job.spp,
                                        job.integrand.estimator.statistics_from_state)
+    if path is not None and resumed is not None:
+        resumed(min(start * job.batch, job.spp))
     tiles = list(range(job.n_tiles))
     # progress counts pixel samples: a unit (tile t, batch k) is its pixels x batch k's spp
     total, done = job.n_pixels * job.spp, min(start * job.batch, job.spp) * job.n_pixels

@@ -2,6 +2,7 @@
 ``<transform>`` operations. Parsing and the reading context are :mod:`vrlab.render.xml_reader`'s."""
 from __future__ import annotations
 
+import difflib
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -31,6 +32,7 @@ class Props:
         self.named: dict[str, tuple[ET.Element, Any]] = {}
         self.objects: list[tuple[ET.Element, Any]] = []
         self.used: set[str] = set()
+        self.asked: set[str] = set()          # names from_props asked about (has()) without reading them
         self.used_objects: set[int] = set()
         for c in el:
             if c.tag in PROP_TAGS:
@@ -64,6 +66,9 @@ class Props:
         return f"{self.el.tag} '{self.plugin}'"
 
     def has(self, name: str) -> bool:
+        """Is parameter ``name`` given?  (A parameter of the element: an unknown name's error
+        lists it and may suggest it.)"""
+        self.asked.add(name)
         return name in self.values or name in self.named
 
     def element(self, name: str) -> ET.Element | None:
@@ -81,7 +86,10 @@ class Props:
         c = self.values.get(name)
         if c is None:
             if required:
-                raise self.ctx.error(self.el, f"missing required parameter '{name}'")
+                given = [k for k in list(self.values) + list(self.named) if k not in self.used]
+                close = difflib.get_close_matches(name, given, n=1, cutoff=0.6)
+                hint = f" (is the given '{close[0]}' a typo of it?)" if close else ""
+                raise self.ctx.error(self.el, f"missing required parameter '{name}'{hint}")
             return None
         if c.tag not in tags:
             raise self.ctx.error(c, f"parameter '{name}' of {self.what} cannot be <{c.tag}>",
@@ -269,12 +277,21 @@ class Props:
         found = self.children(kind, at_most=1)
         return found[0] if found else None
 
+    def parameters(self) -> list[str]:
+        """The element's parameters: every name ``from_props`` read or asked about (:meth:`has`),
+        given or not, sorted."""
+        return sorted(self.used | self.asked)
+
     def check_unused(self, supported: list[str] | None = None) -> None:
-        """Refuse the parameters and nested objects that ``from_props`` did not read."""
+        """Refuse the parameters and nested objects that ``from_props`` did not read; an unknown
+        name's error suggests the close matches among all of the element's parameters
+        (``difflib``; ``fvo`` -> ``fov``) and lists them all."""
         for name, c in list(self.values.items()) + [(n, c) for n, (c, _) in self.named.items()]:
             if name not in self.used:
-                known = sorted(self.used) if supported is None else supported
-                raise self.ctx.error(c, f"unknown parameter '{name}' for {self.what}", known or ["no parameters"])
+                known = self.parameters() if supported is None else list(supported)
+                close = difflib.get_close_matches(name, [k for k in known if k != name], n=3, cutoff=0.6)
+                hint = f" (did you mean {' or '.join(repr(k) for k in close)}?)" if close else ""
+                raise self.ctx.error(c, f"unknown parameter '{name}' for {self.what}{hint}", known or ["no parameters"])
         for c, obj in self.objects:
             if id(c) not in self.used_objects:
                 raise self.ctx.error(c, f"{self.what} does not take a nested <{obj.kind}>")

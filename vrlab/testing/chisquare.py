@@ -64,14 +64,14 @@ class GofResult:
     def message(self) -> str:
         lines = [
             f"{self.name}: chi2 = {self.statistic:.1f} on {self.dof} dof, p = {self.pvalue:.3g}, "
-            f"n = {self.n}, expected total = {self.expected_total:.1f}"
+            f"n = {self.n}, expected total = {self.expected_total:.6g}"
         ]
         if self.outside:
             lines.append(f"  {self.outside} samples fell where the pdf integrates to zero or outside the domain")
         if self.nonfinite:
             lines.append(f"  ({self.nonfinite} of them were NaN or infinite)")
         for cell, o, e in self.worst:
-            lines.append(f"  cell {cell}: observed {o}, expected {e:.1f}")
+            lines.append(f"  cell {cell}: observed {o}, expected {e:.3g}")      # 0.005 stays 0.005, not 0.0
         return "\n".join(lines)
 
     def __str__(self) -> str:

@@ -33,11 +33,15 @@ import inspect
 import multiprocessing as mp
 import pickle
 import re
+import sys
 import warnings
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 import numpy as np
+
+from .main_guard import main_guard_advice, unguarded_main_script
 
 __all__ = ["check_estimator", "closed_form_scene", "CLOSED_FORM_RADIANCE"]
 
@@ -171,6 +175,14 @@ def _spawn_pool() -> ProcessPoolExecutor:
     return _POOL
 
 
+def _drop_pool() -> None:
+    """Forget a broken pool (its worker died), so that the next check starts a new one."""
+    global _POOL
+    if _POOL is not None:
+        _POOL.shutdown(wait=False, cancel_futures=True)
+    _POOL = None
+
+
 # -- the checks --------------------------------------------------------------------------------------
 def _check_params(est, integrand, points) -> str:
     sig = inspect.signature(type(est).__init__)
@@ -211,12 +223,26 @@ def _check_pickle(est, integrand, points, spawn: bool) -> str:
         return "ok (in process)"
     from ..integrands import CATALOGUE
 
+    script = unguarded_main_script(type(est))
+    if script is not None:
+        raise _fail("pickle", main_guard_advice(type(est), script))
     name = integrand.name if integrand is not None and integrand.name in CATALOGUE else None
     try:
         text, got = _spawn_pool().submit(_spawn_estimate, payload, name, _n_for(est), 11, points).result(timeout=120)
+    except BrokenProcessPool as exc:
+        _drop_pool()
+        main = sys.modules.get("__main__")
+        path = getattr(main, "__file__", None)
+        if type(est).__module__ == "__main__" and path:
+            raise _fail("pickle", f"the spawned process died ({exc}), most likely while running the main script "
+                                  f"again to find {type(est).__name__}: " + main_guard_advice(type(est), path)) from None
+        raise _fail("pickle", f"the spawned process checking {est!r} died ({exc})") from None
     except Exception as exc:  # noqa: BLE001
+        where = ("it is defined in an interactive session or notebook cell, which a spawned process cannot "
+                 "import: define it in a module" if type(est).__module__ == "__main__"
+                 else "its class must be importable by module path")
         raise _fail("pickle", f"{est!r} cannot be used in a process started with the spawn method "
-                              f"({type(exc).__name__}: {exc}); its class must be importable by module path") from None
+                              f"({type(exc).__name__}: {exc}); {where}") from None
     if _plain_repr(text) != _plain_repr(repr(est)):
         raise _fail("pickle", f"a spawned process sees {text}, not {est!r}")
     if got is not None:
