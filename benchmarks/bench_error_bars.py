@@ -6,6 +6,7 @@ and, at 16 spp, the reported per-pixel variance over the spread across seeds (1 
 error bars).  Prints a markdown table for BENCHMARKS.md.
 
     python benchmarks/bench_error_bars.py [--seeds 24] [--scenes cornell_box,veach_mis,...]
+    python benchmarks/bench_error_bars.py --optimal-gain     # mis-optimal's variance against balance
 """
 from __future__ import annotations
 
@@ -13,7 +14,9 @@ import argparse
 import tempfile
 import time
 
-from vrlab.estimators import recipes
+import numpy as np
+
+from vrlab.estimators import MIS, recipes
 from vrlab.render import PRESETS
 from vrlab.testing.battery import battery_scenes, reference_mean, seed_battery
 
@@ -23,7 +26,11 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=24)
     ap.add_argument("--scenes", default="cornell_box,veach_mis,delta_lights,envmap")
     ap.add_argument("--presets", default=",".join(PRESETS))
+    ap.add_argument("--optimal-gain", action="store_true",
+                    help="per-pixel variance of mis-optimal (ridge 1) and of the unridged fit, over mis-balance's")
     args = ap.parse_args()
+    if args.optimal_gain:
+        return optimal_gain(args)
     with tempfile.TemporaryDirectory() as tmp:
         scenes = battery_scenes(tmp)
         print("| scene | preset | bias | z at 1 spp | z at 4 | z at 16 | mean/ref at 4 | error-bar ratio at 16 |")
@@ -41,6 +48,24 @@ def main() -> None:
                 print(f"| {name} | {p} | {recipes()[p].bias} | {rows[1]['z']:+.1f} | {rows[4]['z']:+.1f} | "
                       f"{rows[16]['z']:+.1f} | {rows[4]['mean_ratio']:.3f} | {rows[16]['bar_ratio']:.2f} |"
                       f"  <!-- {time.perf_counter() - t0:.1f} s -->", flush=True)
+
+
+def optimal_gain(args, spps=(16, 64, 256), seeds=12) -> None:
+    """Per-pixel variance over ``seeds`` seeds on a 24 x 18 film, relative to mis-balance's."""
+    from vrlab.render import render
+
+    with tempfile.TemporaryDirectory() as tmp:
+        scenes = battery_scenes(tmp, 24, 18)
+        print("| scene | spp | `mis-optimal` (ridge 1) | no ridge |")
+        print("|---|---:|---:|---:|")
+        for name in args.scenes.split(","):
+            for spp in spps:
+                var = {}
+                for key, est in (("balance", "mis-balance"), ("preset", "mis-optimal"),
+                                 ("plain", MIS(["light", "bsdf"], heuristic="optimal"))):
+                    var[key] = np.stack([render(scenes[name], spp, est, rng=s).value for s in range(seeds)]).var(0).mean()
+                print(f"| {name} | {spp} | {var['preset'] / var['balance']:.2f} | {var['plain'] / var['balance']:.2f} |",
+                      flush=True)
 
 
 if __name__ == "__main__":

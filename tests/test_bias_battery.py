@@ -67,3 +67,16 @@ def test_a_biased_recipe_shows_its_bias(scenes):
     assert r["z"] < -BIAS_Z, r
     fair = seed_battery(scene, ReSTIR(candidates=8, neighbours=5, radius=3.0, mis="pairwise"), 16, ref)
     assert abs(fair["z"]) < BIAS_Z and np.isfinite(fair["bar_ratio"])
+
+
+@pytest.mark.parametrize("name", ["cornell_box", "delta_lights"])
+def test_fitted_control_variate_is_unbiased_at_low_spp(scenes, name):
+    """ControlVariate with alpha fitted per pixel (cross-fitted), not only the preset's alpha = 1."""
+    from vrlab.estimators import ControlVariate
+
+    scene, ref = scenes[name]
+    for spp in (2, 4, 16):
+        r = seed_battery(scene, ControlVariate("lambertian", distribution="light"), spp, ref)
+        assert abs(r["z"]) < BIAS_Z, (spp, r)
+        if spp == 16:
+            assert 0.7 <= r["bar_ratio"] <= 1.4, r
