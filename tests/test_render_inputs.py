@@ -122,7 +122,10 @@ BAD_XML = {
     "both samples 0": (dict(integ='<integer name="shading_samples" value="0"/>'),
                        ["emitter_samples", "bsdf_samples"]),
     "emitter_samples huge": (dict(integ='<integer name="emitter_samples" value="1000000000"/>'),
-                             ["emitter_samples", "4096"]),
+                             ["emitter_samples", "1024"]),
+    # above vrlab.limits.MAX_SAMPLES: refused at load with its file and line, not later by render
+    "emitter_samples 2000": (dict(integ='<integer name="emitter_samples" value="2000"/>'),
+                             ["emitter_samples", "1024", "line 2"]),
     "xml junk": (dict(integ='<integer name="bsdf_samples" value="1"'), ["well-formed"]),
 }
 

@@ -143,3 +143,15 @@ def _worker_state():
 
     watching = any(t.name == "vrlab-watch-parent" for t in threading.enumerate())
     return watching, bool(alloc._done)
+
+
+def test_one_definition_of_luminance_and_light_selections():
+    """The luminance weights and the light-selection names each live in one place."""
+    import re
+
+    weights = re.compile(r"[\[(,]\s*0\.2126")
+    where = [str(p.relative_to(PKG)) for p in PKG.rglob("*.py") if weights.search(p.read_text())]
+    assert where == ["colour.py"], where
+    names = re.compile(r"""["']uniform["'],\s*["']power["'],\s*["']bvh["']""")
+    where = [str(p.relative_to(PKG)) for p in PKG.rglob("*.py") if names.search(p.read_text())]
+    assert where == ["limits.py"], where

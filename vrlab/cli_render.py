@@ -22,6 +22,7 @@ import sys
 
 from . import cli_args as A
 from . import cli_compare as C
+from . import limits
 from .cli_render_settings import (DEFAULTS, FIGURE_SUFFIXES, IMAGE_SUFFIXES, PIXEL_SAMPLER_HELP,  # noqa: F401
                                   PIXEL_SAMPLERS, RIS_MAX, SAMPLES_MAX, SIDE_MAX, SPP_MAX, RenderSettings,
                                   progress_callback, settings_from_args)
@@ -64,7 +65,7 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
     rend.add_argument("--pixel-sampler", choices=list(PIXEL_SAMPLERS), metavar="NAME",
                       help=f"how each pixel's uniforms are drawn. {_menu(PIXEL_SAMPLER_HELP, PIXEL_SAMPLERS)}. "
                            "The standard errors assume independent (default: independent)")
-    rend.add_argument("--light-selection", choices=["uniform", "power", "bvh"], metavar="NAME",
+    rend.add_argument("--light-selection", choices=list(limits.LIGHT_SELECTIONS), metavar="NAME",
                       help="how strategies that sample a light pick it. uniform: each light alike; power: by "
                            "emitted power (pi x mean radiance x area; a point light 4 pi I), from an alias table; "
                            "bvh: pbrt-v4's light BVH, by power, distance and orientation from each shading point "

@@ -19,6 +19,23 @@ name                value       what
 ``max_workers()``   max(256,    worker processes (more only fork without speed-up)
                     4 x CPUs)
 ==================  ==========  ==============================================================
+
+Scene values (:mod:`vrlab.render.scene_checks` applies them as each element is built, so a
+scene file's bad value is refused at load, naming the element, its file and line; the
+renderer intersects and shades in float32):
+
+==================  ==========  ==============================================================
+``MAX_COORD``       1e8         entries of a ``to_world`` matrix, mesh vertices (absolute)
+``SCALE_RANGE``     1e-9, 1e8   scale factors (singular values) of a transform
+``MAX_VALUE``       1e15        radiance, intensities and reflectances
+``MAX_ALPHA``       1e4         microfacet roughness ``alpha``
+``MAX_EXPONENT``    1e6         the Phong ``exponent``
+==================  ==========  ==============================================================
+
+Allowed names: ``LIGHT_SELECTIONS`` (``uniform``, ``power``, ``bvh``).
+
+``MAX_SIDE``, ``MAX_PIXELS`` bound a scene's film too, and ``MAX_SAMPLES`` its integrator's
+``emitter_samples`` / ``bsdf_samples``: a scene asks no more than ``vrlab render`` accepts.
 """
 from __future__ import annotations
 
@@ -33,6 +50,13 @@ MAX_RADIUS = 256
 MAX_OFFSETS = 1 << 22
 MAX_N = 1 << 30
 MAX_REPS = 10**6
+#: the renderer's light selections (``render(light_selection=...)``, ``--light-selection``)
+LIGHT_SELECTIONS = ("uniform", "power", "bvh")
+MAX_COORD = 1e8
+SCALE_RANGE = (1e-9, 1e8)
+MAX_VALUE = 1e15
+MAX_ALPHA = 1e4
+MAX_EXPONENT = 1e6
 
 
 def max_workers() -> int:

@@ -68,13 +68,14 @@ import numpy as np
 
 from .. import checks
 from ..checks import describe as _describe
+from ..colour import LUMINANCE
 from .base import Distribution, as_float, as_points
 from .bilinear import BilinearPiecewise2D
 
 __all__ = ["EnvironmentMap", "MITSUBA_LUMINANCE", "SIN_THETA_MIN", "TABLES", "latlong_direction", "latlong_uv"]
 
-#: Mitsuba 3's ``luminance(rgb)`` weights (include/mitsuba/core/spectrum.h, linear sRGB).
-MITSUBA_LUMINANCE = (0.212671, 0.715160, 0.072169)
+#: Mitsuba 3's ``luminance(rgb)`` weights (include/mitsuba/core/spectrum.h, linear sRGB): vrlab.colour's
+MITSUBA_LUMINANCE = tuple(LUMINANCE.tolist())
 #: The floor of sin(theta) in the Jacobian (Mitsuba's ``dr::Epsilon<float>``, 2^-24).
 SIN_THETA_MIN = 2.0 ** -24
 TABLES = ("alias", "cdf")   # the cell choice of ``BilinearPiecewise2D``
@@ -178,7 +179,7 @@ class EnvironmentMap(Distribution):
         self.scale = checks.real(scale, "scale", low=0.0)
         self.mis_compensation = checks.flag(mis_compensation, "mis_compensation")
         self.table = checks.choice(table, "table", TABLES)
-        lum = self.image @ np.asarray(MITSUBA_LUMINANCE)
+        lum = self.image @ LUMINANCE
         self.offset = 0.0
         if self.mis_compensation:
             mean = float(lum.mean())

@@ -18,6 +18,8 @@ from typing import Sequence
 
 import numpy as np
 
+from ..colour import LUMINANCE
+
 from .base import Distribution, as_float, as_points, as_uniforms
 from .interval import as_bounds
 
@@ -123,10 +125,10 @@ class PiecewiseConstant2D(Distribution):
 
     def __init__(self, image, domain=((0.0, 1.0), (0.0, 1.0))):
         img = as_float(image, "image")
-        if img.ndim == 3:  # an RGB(A) image: sample its luminance (Rec. 709 weights)
+        if img.ndim == 3:  # an RGB(A) image: sample its luminance (vrlab.colour)
             if img.shape[-1] not in (3, 4):
                 raise ValueError(f"image: expected (ny, nx), (ny, nx, 3) or (ny, nx, 4), got shape {img.shape}")
-            img = check_weights(img, "image", 3)[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
+            img = check_weights(img, "image", 3)[..., :3] @ LUMINANCE
         self.image = check_weights(img, "image", 2)
         b = _domain(domain, 2)
         self.lo, self.hi = b[:, 0], b[:, 1]

@@ -49,6 +49,7 @@ from vrlab.integrands import Integrand
 from vrlab.lab.experiment import experiment_cli, output_dir, save_figure
 from vrlab.metrics import rel_mse
 from vrlab.render import preset, render
+from vrlab.render.light_set import LIGHT_SELECTIONS
 
 from ._restir_figures import efficiency_figure, images_figure, row_figure
 from .ris import light_free_mask, small_scene
@@ -70,7 +71,7 @@ ROW_METHODS = ("RIS", f"RIS, {CANDIDATES * (NEIGHBOURS + 1)} candidates", "ReSTI
 COLOURS = {"RIS": "C7", ROW_METHODS[1]: "C5", "ReSTIR pairwise": "C0", "ReSTIR balance": "C2",
            "ReSTIR 1/M": "C3"}
 
-SELECTIONS = ("uniform", "power", "bvh")
+SELECTIONS = LIGHT_SELECTIONS
 REF = "mis-power, bvh"
 
 

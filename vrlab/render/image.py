@@ -3,7 +3,7 @@
 * ``.npy``: the linear float32 (H, W, 3) image, unchanged (NaN kept: the standard error
   of a 1-spp render is NaN).
 * ``auto_exposure(img)``: the scale that maps the log-average luminance exp(mean log(1e-4
-  + Y)) (Y = 0.2126 R + 0.7152 G + 0.0722 B, Rec. 709) to the mid-grey key 0.18 (Reinhard
+  + Y)) (Y the luminance of :mod:`vrlab.colour`) to the mid-grey key 0.18 (Reinhard
   et al. 2002, "Photographic tone reproduction"), lowered where needed so that the
   brightest 3% of the pixels at most reach white: directly seen lights clip, the lit
   scene does not.  Figures
@@ -40,6 +40,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .. import checks
+from ..colour import luminance
 
 __all__ = ["BITMAP_SUFFIXES", "Bitmap", "auto_exposure", "load_image", "read_bitmap", "rel_mse", "save_image",
            "srgb_decode", "srgb_encode"]
@@ -78,7 +79,7 @@ def auto_exposure(img: np.ndarray, key: float = 0.18, clip: float = 0.03) -> flo
     img = _image(img, "img", False)
     key = checks.real(key, "key", low=0.0, low_open=True)
     clip = checks.real(clip, "clip", low=0.0, high=1.0)
-    lum = img.astype(float) @ np.array([0.2126, 0.7152, 0.0722])
+    lum = luminance(img)
     lum = np.maximum(lum[np.isfinite(lum)], 0.0)
     if lum.size == 0 or not np.any(lum > 0):
         return 1.0

@@ -30,7 +30,7 @@ from .shapes.sphere import sphere_cos_integral
 
 __all__ = ["LIGHT_SELECTIONS", "LightSet"]
 
-LIGHT_SELECTIONS = ("uniform", "power", "bvh")
+from ..limits import LIGHT_SELECTIONS  # noqa: E402  (the one list of names, shared with the CLI)
 
 
 def _rows_by_light(j: np.ndarray, which: np.ndarray):

@@ -19,12 +19,8 @@ from ..distributions.base import uniforms32
 from ..distributions.surfaces import Surface
 from .shapes import Shape
 
-__all__ = ["EmitterLight", "Light", "lambertian_flux", "luminance"]
+__all__ = ["EmitterLight", "Light", "lambertian_flux"]
 
-_LUMA = np.array([0.2126, 0.7152, 0.0722])   # Rec. 709 luminance weights
-
-LIGHT_SELECTIONS = ("uniform", "power", "bvh")
-_LUMA = np.array([0.2126, 0.7152, 0.0722])   # Rec. 709 luminance weights
 
 
 def lambertian_flux(radiance: np.ndarray, area):
@@ -32,11 +28,6 @@ def lambertian_flux(radiance: np.ndarray, area):
     ``DiffuseAreaLight::Phi``; ``area`` a number or an array of triangle areas): on the scale
     of a point light's 4 pi I, so that power selection weighs area and non-area lights alike."""
     return np.pi * max(float(np.mean(radiance)), 0.0) * area
-
-
-def luminance(rgb: np.ndarray) -> np.ndarray:
-    """Rec. 709 luminance Y = 0.2126 R + 0.7152 G + 0.0722 B of ``(..., 3)`` values."""
-    return np.asarray(rgb, float) @ _LUMA
 
 
 class Light:

@@ -30,7 +30,7 @@ from ..integrands.base import Integrand
 from .direct import DirectLighting
 from .presets import preset
 from .scene import Scene
-from .scene_checks import MAX_SAMPLES
+from ..limits import MAX_CANDIDATES, MAX_SAMPLES
 from .shading import ShadingIntegrand, checked_outputs
 
 __all__ = ["PixelFunction", "PixelIntegrand", "as_estimator"]
@@ -77,7 +77,7 @@ class PixelIntegrand:
                              "emitter_samples", low=0, high=MAX_SAMPLES)
         n_b = checks.integer(integ.bsdf_samples if bsdf_samples is None else bsdf_samples,
                              "bsdf_samples", low=0, high=MAX_SAMPLES)
-        m = checks.integer(ris_candidates, "ris_candidates", low=0, high=MAX_SAMPLES)
+        m = checks.integer(ris_candidates, "ris_candidates", low=1, high=MAX_CANDIDATES)
         self.estimator, k = as_estimator(estimator, emitter_samples=n_l, bsdf_samples=n_b, ris_candidates=m)
         self.units = k if units is None else checks.integer(units, "units", low=1, high=MAX_SAMPLES)
         self.lighting = DirectLighting(scene, light_selection)

@@ -16,7 +16,9 @@ Limits (the renderer intersects and shades in float32, see :mod:`vrlab.render.di
   ``alpha`` in (0, 1e4]; the Phong ``exponent`` in [0, 1e6];
 * sensor: ``fov`` in (0, 180) degrees (and so is the horizontal fov it implies);
   ``width``, ``height`` in [1, 65536] with at most 2^26 pixels; ``spp`` >= 1;
-* integrator: ``emitter_samples``, ``bsdf_samples`` in [0, 4096], not both 0.
+* integrator: ``emitter_samples``, ``bsdf_samples`` in [0, 1024], not both 0.
+
+The numbers are :mod:`vrlab.limits`' (the one table of limits).
 """
 from __future__ import annotations
 
@@ -26,14 +28,9 @@ import numpy as np
 
 from .. import checks
 
-MAX_COORD = 1e8
-SCALE_RANGE = (1e-9, 1e8)
-MAX_VALUE = 1e15
-MAX_ALPHA = 1e4
-MAX_EXPONENT = 1e6
-MAX_SIDE = 65536
-MAX_PIXELS = 1 << 26
-MAX_SAMPLES = 4096            # emitter_samples, bsdf_samples (and render's ris_candidates)
+# the bounds are vrlab.limits' (the one table), named here for the elements' checks
+from ..limits import (MAX_ALPHA, MAX_COORD, MAX_EXPONENT, MAX_PIXELS, MAX_SAMPLES, MAX_SIDE,  # noqa: E402,F401
+                      MAX_VALUE, SCALE_RANGE)
 
 
 def rgb(value: Any, name: str) -> np.ndarray:

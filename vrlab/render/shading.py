@@ -46,7 +46,7 @@ import numpy as np
 from .._vec import dot, scale, side
 from ..distributions import Frame
 from ..integrands.base import Integrand
-from .lights import luminance
+from ..colour import luminance
 from .techniques import F32, NO_SAMPLE, _Directional, _LightTechnique, _Lobe
 
 

@@ -15,6 +15,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..colour import LUMINANCE
+
 from .. import checks
 from .mitsuba_scene import REFERENCE_BATCH_SPP, _scene_xml, mitsuba_reference  # noqa: F401
 
@@ -24,7 +26,7 @@ __all__ = ["SRGB_TO_XYZ", "DEFAULT_SAMPLES", "REFERENCE_FACTOR", "MEAN_Z_THRESHO
 
 #: Linear sRGB (D65) -> CIE XYZ, Mitsuba 3 convention (``srgb_to_xyz``, include/mitsuba/core/spectrum.h).
 SRGB_TO_XYZ = np.array([[0.412453, 0.357580, 0.180423],
-                        [0.212671, 0.715160, 0.072169],
+                        LUMINANCE,
                         [0.019334, 0.119193, 0.950227]])
 #: Default samples per image (W x H x spp) of the image under test: Mitsuba's own budget
 #: (``sample_budget = int(2e6)`` in test_renders.py).  Measured on this 2-core machine (32x24,

@@ -34,6 +34,8 @@ from typing import Any
 
 import numpy as np
 
+from ...colour import LUMINANCE
+
 from ... import checks
 from ...distributions import GGX, CosineHemisphere, VisibleNormals
 from ...distributions.base import Distribution, as_points, as_uniforms
@@ -44,7 +46,7 @@ __all__ = ["LUMA", "schlick_weight", "schlick", "schlick_r0", "tint", "ggx_alpha
            "smith_ggx1", "MicrofacetReflection", "MicrofacetRefraction", "ClearcoatReflection", "SidedCosine",
            "Flipped", "PrincipledParams", "unit", "up", "vdot", "weight_param", "texture_or"]
 
-LUMA = np.array([0.212671, 0.715160, 0.072169])      # Mitsuba's luminance of linear sRGB
+LUMA = LUMINANCE                                     # Mitsuba's luminance of linear sRGB (vrlab.colour)
 Z = np.array([0.0, 0.0, 1.0])
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from ... import checks
 from ..registry import Element
-from ..scene_checks import MAX_SAMPLES
+from ...limits import MAX_SAMPLES
 
 __all__ = ["Integrator"]
 
@@ -14,7 +14,7 @@ __all__ = ["Integrator"]
 class Integrator(Element):
     """``Integrator(emitter_samples=1, bsdf_samples=1, hide_emitters=False, shading=True)``.
 
-    ``emitter_samples``, ``bsdf_samples``: integers in [0, 4096], not both 0 when
+    ``emitter_samples``, ``bsdf_samples``: integers in [0, ``limits.MAX_SAMPLES``], not both 0 when
     ``shading``; ``shading`` False: emitters seen directly only (a path of depth 1)."""
 
     kind = "integrator"

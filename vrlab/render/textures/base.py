@@ -26,13 +26,11 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ... import checks
+from ...colour import LUMINANCE  # noqa: F401  (the one definition, re-exported)
 from ..registry import Element
 
 __all__ = ["LUMINANCE", "ConstantTexture", "SurfacePoints", "Texture", "apply_uv", "as_texture",
            "surface_points", "take", "uv_transform"]
-
-#: Linear sRGB -> luminance Y, Mitsuba 3 convention (``luminance``, include/mitsuba/core/spectrum.h).
-LUMINANCE = np.array([0.212671, 0.715160, 0.072169])
 
 
 class SurfacePoints(NamedTuple):
