@@ -109,3 +109,19 @@ def test_bench_sampling_prints_one_table_per_suite_with_progress(capsys):
     code, out, err = run_cli(capsys, ["bench", "sampling", "--quick"])
     assert code == 0 and "timing qmc (1/2)" in err and "timing discrete (2/2)" in err
     assert out.startswith("qmc:") and "\ndiscrete:" in out and "NaN" not in out
+
+
+def test_the_stderr_mark_appears_where_error_bars_are_off():
+    """The lab's marks (vrlab.lab.trust) follow the ratio of reported variance to the spread
+    over repetitions, (mean stderr / sd of the values)^2 = 1 / z_std^2 for honest bars: a
+    cell whose ratio is below 0.7 is marked '!' (is:brdf misses the small bright light), one
+    within [0.7, 1.4] is not."""
+    from vrlab.lab.trust import stderr_flags
+
+    s = lab.summarize(lab.run(["mc", "is:brdf"], ["glossy-light"], [64, 256, 1024], 40, rng=0))
+    ratio = 1.0 / s["z_std"] ** 2
+    flags = stderr_flags(s)
+    off = ratio < 0.7
+    assert off.any() and (~off).any()
+    assert (flags[off] == "!").all(), s.assign(ratio=ratio, flag=flags)
+    assert (flags[(ratio >= 0.7) & (ratio <= 1.4)] == "").all(), s.assign(ratio=ratio, flag=flags)
