@@ -34,12 +34,12 @@ import numpy as np
 from ..._vec import dot as _dot
 from .groups import Planar, unit
 
-__all__ = ["IndexedPlanar", "TrianglePool", "pool_triangles"]
+__all__ = ["IndexedPlanar", "TrianglePool", "greedy_pairs", "pool_triangles"]
 
 _BLOCK = 1 << 14              # triangles per block of the zero-area test (cache sized)
 
 
-def _greedy_pairs(ok: np.ndarray) -> np.ndarray:
+def greedy_pairs(ok: np.ndarray) -> np.ndarray:
     """Positions k taken by a greedy scan of ``ok`` (pair k joins items k, k + 1) that skips a
     pair overlapping the one taken before: in each run of consecutive True, the even offsets."""
     idx = np.flatnonzero(ok)
@@ -138,7 +138,7 @@ def pool_triangles(parts: list, order: np.ndarray | None = None) -> TrianglePool
         rev = near(b[:, 1], p0) & near(b[:, 2], p2)
         y = np.where(fan[:, None], b[:, 2], b[:, 0])
         ok = (fan | rev) & near(y, p0 + p2 - p1) & (part_of[1:] == part_of[:-1])
-        first = _greedy_pairs(ok)
+        first = greedy_pairs(ok)
         if len(first):
             p0, p1, p2 = tri[first, 0], tri[first, 1], tri[first, 2]
             n = unit(np.cross(p1 - p0, p2 - p0))
