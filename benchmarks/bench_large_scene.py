@@ -9,8 +9,9 @@ imports, loading, rendering, saving the image):
 
 * vrlab (``--workers 1`` and the default, the CPUs available): ``load_scene`` (load), then
   the render's set-up up to its first sample (build: ``vrlab.render.film.plan``, i.e. the
-  scene's geometry, acceleration structures, lights), then the samples (render:
-  ``vrlab.render.film.execute``), as ``vrlab render`` runs them;
+  scene's geometry, acceleration structures, lights, and with one worker Embree's own BVH,
+  which it builds on first use), then the samples (render: ``vrlab.render.film.execute``;
+  with several workers each builds its Embree BVH there), as ``vrlab render`` runs them;
 * Mitsuba 3 ``scalar_rgb`` with 2 threads (``drjit.set_thread_count(2)``): ``mi.load_file``
   (load; Mitsuba builds its acceleration structure while loading) and ``mi.render`` at the
   same spp.
@@ -47,6 +48,8 @@ _WRAPPER = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:]);
 def _child_vrlab(scene: str, spp: int, workers: int | None, out: str) -> dict:
     import numpy as np
 
+    import vrlab
+
     from vrlab._alloc import keep_freed_memory
     from vrlab.render import load_scene
     from vrlab.render.film import execute, plan
@@ -59,12 +62,17 @@ def _child_vrlab(scene: str, spp: int, workers: int | None, out: str) -> dict:
     job, _, workers = plan(sc, spp, settings=dict(estimator="mis-power", units=None, light_selection="uniform",
                                                   emitter_samples=None, bsdf_samples=None, ris_candidates=8),
                            points=None, rng=0, workers=workers, chunk_pixels=None, width=None, height=None)
+    if workers == 1:         # Embree builds its BVH on first use: before the first sample, in this process
+        lit = job.integrand.lighting
+        for geo in {id(g): g for g in (lit.geometry, lit.blocker_geometry, lit.emitter_geometry)}.values():
+            if geo.accel is not None and geo.accel.embree is not None:
+                geo.accel.embree.scene
     t_build = time.perf_counter() - t
     t = time.perf_counter()
     ((value, _),) = execute(job, workers)
     t_render = time.perf_counter() - t
     np.save(out, value)
-    return {"load": t_load, "build": t_build, "render": t_render, "workers": workers}
+    return {"load": t_load, "build": t_build, "render": t_render, "workers": workers, "vrlab": vrlab.__file__}
 
 
 def _child_mitsuba(scene: str, spp: int, threads: int, out: str) -> dict:
@@ -84,13 +92,14 @@ def _child_mitsuba(scene: str, spp: int, threads: int, out: str) -> dict:
     return {"load": t_load, "build": None, "render": t_render, "workers": threads}
 
 
-def run_child(kind: str, scene: Path, spp: int, workers: int | None, out: Path) -> dict:
-    """One configuration in a fresh process: its phase times, whole-process seconds and peak MB."""
+def run_child(kind: str, scene: Path, spp: int, workers: int | None, out: Path, root: Path = ROOT) -> dict:
+    """One configuration in a fresh process (vrlab imported from the checkout ``root``): its phase
+    times, whole-process seconds and peak MB."""
     argv = [sys.executable, __file__, "--child", kind, "--scene-file", str(scene), "--spp", str(spp),
-            "--workers", "0" if workers is None else str(workers), "--out", str(out)]
+            "--workers", "0" if workers is None else str(workers), "--out", str(out), "--vrlab-root", str(root)]
     t = time.perf_counter()
     res = subprocess.run([sys.executable, "-c", _WRAPPER, *argv], capture_output=True, text=True,
-                         env={**os.environ, "PYTHONPATH": str(ROOT)})
+                         env={**os.environ, "PYTHONPATH": str(root)})
     seconds = time.perf_counter() - t
     if res.returncode:
         raise RuntimeError(f"{kind} child failed:\n{res.stderr[-3000:]}")
@@ -115,7 +124,7 @@ def _fmt(x, digits=2) -> str:
     return "-" if x is None else f"{x:.{digits}f}"
 
 
-def compare(scene: Path, spp: int, tmp: Path, workers: list) -> None:
+def compare(scene: Path, spp: int, tmp: Path, workers: list, root: Path = ROOT) -> None:
     import numpy as np
 
     rows = []
@@ -123,10 +132,10 @@ def compare(scene: Path, spp: int, tmp: Path, workers: list) -> None:
     for label, kind, w in [(f"vrlab --workers {w if w else 'default'}", "vrlab", w or None) for w in workers] + \
                           [("Mitsuba scalar_rgb, 2 threads", "mitsuba", 2)]:
         out = tmp / f"{kind}_{w}.npy"
-        r = run_child(kind, scene, spp, w, out)
+        r = run_child(kind, scene, spp, w, out, root)
         images[label] = np.load(out)
         rows.append((label, r))
-    print(f"\n{scene.parent.name}: {(scene.parent / 'SIZE').read_text().strip()}, spp {spp} "
+    print(f"\n{scene.parent.name}: {(scene.parent / 'SIZE').read_text().strip()}, spp {spp}, vrlab from {root} "
           f"({os.cpu_count()} CPUs; load average {os.getloadavg()[0]:.2f})\n")
     print("| renderer | load s | build s | load to first sample s | render s | whole process s | peak RSS GB |")
     print("|---|---|---|---|---|---|---|")
@@ -166,11 +175,14 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", default="1,0", help="vrlab worker counts, 0 for the default (default: 1,0)")
     ap.add_argument("--scaling", help="comma-separated triangle counts, e.g. 1e4,1e5,1e6,4e6")
     ap.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "vrlab_large_scenes"))
+    ap.add_argument("--vrlab-root", default=str(ROOT), help="the vrlab checkout to time (default: this one; "
+                                                             "another, e.g. an older commit's worktree, for before/after)")
     ap.add_argument("--child", choices=["vrlab", "mitsuba"], help=argparse.SUPPRESS)
     ap.add_argument("--scene-file", help=argparse.SUPPRESS)
     ap.add_argument("--out", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
+        sys.path.insert(0, args.vrlab_root)          # vrlab from the checkout timed
         w = int(args.workers)
         fn = _child_vrlab if args.child == "vrlab" else _child_mitsuba
         print(json.dumps(fn(args.scene_file, args.spp, w if w or args.child == "mitsuba" else None, args.out)))
@@ -182,7 +194,7 @@ def main(argv=None) -> int:
                     Path(tmp))
         else:
             scene = scene_for(cache, int(args.triangles), args.meshes, args.size, args.spp)
-            compare(scene, args.spp, Path(tmp), [int(w) for w in args.workers.split(",")])
+            compare(scene, args.spp, Path(tmp), [int(w) for w in args.workers.split(",")], Path(args.vrlab_root))
     return 0
 
 
