@@ -2,7 +2,9 @@
 
 The scene's BVH (:mod:`vrlab.render.accel.scene_bvh`) hands its planar groups (parallelograms,
 triangles) to Embree when ``embreex`` imports (it has wheels for x86-64 Linux, Windows and
-macOS; elsewhere the NumPy BVH traces them).  Each parallelogram ``v0 + s e1 + u e2`` is
+macOS; elsewhere the NumPy BVH traces them).  The pooled mesh triangles
+(:class:`~vrlab.render.accel.pool.IndexedPlanar`) go in as an indexed mesh (their float32
+vertices and int32 faces); each parallelogram ``v0 + s e1 + u e2`` is
 two triangles (v0, v0 + e1, v0 + e1 + e2) and (v0, v0 + e1 + e2, v0 + e2); Embree builds
 its own BVH over the triangles and intersects float32 rays (watertight, both faces), so
 hit/miss decisions are float32-accurate, as the all-pairs kernels' and Mitsuba's scalar
@@ -13,7 +15,8 @@ origins forward (Embree's rays start at t = 0).  Shadow queries use Embree's occ
 (any hit before ``t_max``).
 
 The Embree scene is not pickled: a process that receives the geometry rebuilds it on first
-use (milliseconds for thousands of triangles).
+use (milliseconds for thousands of triangles; about 1.5 s for 2 million on this machine, most
+of it embreex copying the index buffer, 0.45 us per triangle).
 """
 from __future__ import annotations
 

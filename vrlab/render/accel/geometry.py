@@ -46,6 +46,13 @@ disks) and then the lowest primitive wins (a parallelogram before a cube face). 
 over primitive groups, blocks and tree steps, never over single rays.  The primitive groups
 live in :mod:`vrlab.render.accel.groups`.
 
+Building: the loop over shapes only collects their parts; every triangle of every mesh and
+cube is pooled into one indexed set (:mod:`vrlab.render.accel.pool`: one vertex array, one
+face array, parallelograms found by array operations over all triangles at once), so the
+set-up costs a few passes over the triangles whatever the number of meshes.  When Embree
+traces the triangles of a large scene they keep no per-triangle tables at all (a hit's
+normal, plane, shape and triangle are computed for the hit rows, with the same bits).
+
 Checked: ``scene`` is a ``Scene`` and ``only`` distinct shape indices in range;
 ``intersect``/``distance`` check the ray arrays' shapes (``(N, 3)`` or broadcastable
 ``(..., 3)``), ``t_min`` (finite, >= 0) and ``chunk`` (integer >= 1), not the ray values

@@ -5,7 +5,11 @@ per-vertex ``normals`` and ``uvs``, and named vertex/face attributes; ``to_world
 it to the world.  Geometric normals follow the winding (``e1 x e2``), flipped by
 ``flip_normals``; ``face_normals=True`` drops the vertex normals (flat shading).
 Checked: vertices finite and within the float32 range in the world, faces integer
-indices of existing vertices, at least one triangle of non-zero area.
+indices of existing vertices, at least one triangle of non-zero area.  The mesh keeps its
+arrays once: its world vertices are the vertex array itself under the identity (else one
+transformed copy, cached), the ray tracer gets them indexed
+(:class:`~vrlab.render.shapes.base.IndexedTriangles`), and barycentrics are computed for the
+hit faces only (no per-face tables).
 """
 from __future__ import annotations
 
