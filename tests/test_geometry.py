@@ -620,3 +620,22 @@ def test_embree_pool_drops_zero_area_triangles_and_matches_tables(tmp_path):
     np.testing.assert_allclose(a.t[same & (a.shape >= 0)], b.t[same & (a.shape >= 0)], rtol=1e-9)
     np.testing.assert_array_equal(a.n[same], b.n[same])
     assert not np.isin(a.prim[(a.shape == 0)], np.arange(0, 300, 50)).any()
+
+
+def test_mesh_with_many_leading_zero_area_triangles_is_accepted(tmp_path):
+    """The zero-area check of a mesh looks at its first triangles first, then at all: 100
+    degenerate triangles before a real one are accepted (and the real one is hit); a mesh of
+    degenerate triangles only is refused, naming faces."""
+    from vrlab.render import SceneError
+
+    tri = np.zeros((101, 3, 3))
+    tri[:, 1, 0] = 1.0
+    tri[:100, 2, 0] = 2.0                                  # collinear: zero area
+    tri[100, 2] = [0.0, 1.0, 0.0]
+    _obj(tmp_path / "m.obj", tri + [0, 0, -3])
+    sc = _scene('<shape type="obj"><string name="filename" value="m.obj"/></shape>', tmp_path)
+    h = SceneGeometry(sc).intersect(np.array([[0.2, 0.2, 0.0]]), np.array([[0.0, 0.0, -1.0]]))
+    assert h.shape[0] == 0 and h.prim[0] == 100 and h.t[0] == pytest.approx(3.0)
+    _obj(tmp_path / "m.obj", tri[:100])
+    with pytest.raises(SceneError, match="faces"):
+        _scene('<shape type="obj"><string name="filename" value="m.obj"/></shape>', tmp_path)
