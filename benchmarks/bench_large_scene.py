@@ -175,8 +175,9 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", default="1,0", help="vrlab worker counts, 0 for the default (default: 1,0)")
     ap.add_argument("--scaling", help="comma-separated triangle counts, e.g. 1e4,1e5,1e6,4e6")
     ap.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "vrlab_large_scenes"))
-    ap.add_argument("--vrlab-root", default=str(ROOT), help="the vrlab checkout to time (default: this one; "
-                                                             "another, e.g. an older commit's worktree, for before/after)")
+    ap.add_argument("--vrlab-root", default=str(ROOT),
+                    help="the vrlab checkout to time (default: this one; another, e.g. an older commit's worktree, "
+                         "for before/after)")
     ap.add_argument("--child", choices=["vrlab", "mitsuba"], help=argparse.SUPPRESS)
     ap.add_argument("--scene-file", help=argparse.SUPPRESS)
     ap.add_argument("--out", help=argparse.SUPPRESS)

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..._vec import dot as _dot
 from .groups import Planar, unit
 
 __all__ = ["IndexedPlanar", "TrianglePool", "greedy_pairs", "pool_triangles"]
