@@ -342,3 +342,27 @@ def test_render_bad_exposure_is_a_one_line_usage_error(value, capsys, tmp_path):
     lines = err.strip().splitlines()
     assert code == 2 and len(lines) == 1 and "Traceback" not in err
     assert "--exposure" in lines[0] and "auto" in lines[0] and not (tmp_path / "x.png").exists()
+
+
+def test_phase_lines_only_for_slow_steps(capsys):
+    """A step before the first sample is said on stderr once it has taken ``after`` seconds
+    (then its duration when it ends); a quicker step, or without progress output, says nothing."""
+    import time
+
+    from vrlab.cli_render_settings import Phase
+
+    with Phase(True, "loading big.xml", after=0.0) as ph:
+        for _ in range(1000):                      # the timer thread says the first line
+            if ph.said:
+                break
+            time.sleep(0.01)
+    ph.stop()                                      # a second stop says nothing more
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "vrlab render: loading big.xml ..."
+    assert err[1].startswith("vrlab render: loading big.xml: done after ") and err[1].endswith(" s")
+    assert len(err) == 2
+    with Phase(True, "quick", after=3600):
+        pass
+    with Phase(False, "hidden", after=0.0):
+        time.sleep(0.05)
+    assert capsys.readouterr().err == ""

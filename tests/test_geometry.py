@@ -537,3 +537,105 @@ def test_embree_geometry_pickles_and_backend_is_checked(tmp_path):
     np.testing.assert_array_equal(a.shape, b.shape)
     np.testing.assert_array_equal(a.t, b.t)
     assert np.mean(a.shape >= 0) > 0.2
+
+
+# ----------------------------------------------------------------------------- pooled meshes
+def test_greedy_pairs_take_what_the_one_by_one_scan_takes():
+    """The vectorised pairing of consecutive triangles takes, in each run of pairable
+    positions, the even offsets: exactly the positions of the greedy scan (a pair k joins
+    items k and k + 1; a pair overlapping the one taken before is skipped)."""
+    from vrlab.render.accel.pool import greedy_pairs
+
+    rng = np.random.default_rng(5)
+    for p in (0.0, 0.2, 0.5, 0.9, 1.0):
+        ok = rng.random(500) < p
+        used, want = np.zeros(len(ok) + 1, bool), []
+        for k in range(len(ok)):
+            if ok[k] and not used[k]:
+                used[k] = used[k + 1] = True
+                want.append(k)
+        np.testing.assert_array_equal(greedy_pairs(ok), want)
+
+
+def _obj(path, tri):
+    """An OBJ file of separate triangles ``(T, 3, 3)``."""
+    path.write_text("\n".join(f"v {a} {b} {c}" for a, b, c in tri.reshape(-1, 3)) + "\n"
+                    + "\n".join(f"f {3 * k + 1} {3 * k + 2} {3 * k + 3}" for k in range(len(tri))) + "\n")
+
+
+def test_meshes_pooled_pair_quads_within_a_mesh_only(tmp_path):
+    """Flat-shaded meshes (face_normals) are pooled and their fan-triangulated quads tested as
+    parallelograms, but never a triangle of one mesh with one of the next: mesh A holds quad
+    Q1 and the first half of Q2, mesh B the second half of Q2 and quad Q3.  Rays through every
+    triangle's centroid hit its mesh and report its triangle (the pair's first for a quad)."""
+    def quad(x):                  # two triangles (p0, p1, p2), (p0, p2, p3) of the unit square at x, in z = 0
+        p0, p1, p2, p3 = (np.array(v, float) + [x, 0, 0] for v in ([0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]))
+        return np.array([[p0, p1, p2], [p0, p2, p3]])
+
+    q1, q2, q3 = quad(0.0), quad(2.0), quad(4.0)
+    _obj(tmp_path / "a.obj", np.concatenate([q1, q2[:1]]))
+    _obj(tmp_path / "b.obj", np.concatenate([q2[1:], q3]))
+    shapes = "".join(f'<shape type="obj"><string name="filename" value="{n}.obj"/>'
+                     '<boolean name="face_normals" value="true"/></shape>' for n in "ab")
+    sc = _scene(shapes, tmp_path)
+    for backend in ("numpy", "embree"):
+        from vrlab.render.accel.embree import embree_available
+
+        if backend == "embree" and not embree_available():
+            continue
+        geo = SceneGeometry(sc, backend=backend)
+        assert [len(g) for g in geo.planar] == [2, 2]              # Q1, Q3 as parallelograms; Q2's halves
+        tri = np.concatenate([q1, q2, q3])
+        o = tri.mean(1) + [0, 0, 2]
+        h = geo.intersect(o, np.tile([0.0, 0.0, -1.0], (len(o), 1)))
+        np.testing.assert_array_equal(h.shape, [0, 0, 0, 1, 1, 1])
+        np.testing.assert_array_equal(h.prim, [0, 0, 2, 0, 1, 1])
+        np.testing.assert_allclose(h.t, 2.0)
+        np.testing.assert_allclose(h.n, np.tile([0.0, 0.0, 1.0], (6, 1)))
+
+
+def test_embree_pool_drops_zero_area_triangles_and_matches_tables(tmp_path):
+    """Above DENSE_COST with Embree the pooled triangles keep no per-triangle tables: their
+    hits (normal, t, shape, triangle) equal those of the NumPy BVH over the full tables, and
+    zero-area triangles (a repeated vertex) are left out of Embree's mesh."""
+    from vrlab.render.accel.embree import embree_available
+
+    if not embree_available():
+        pytest.skip("embreex is not installed on this platform")
+    rng = np.random.default_rng(8)
+    tri = rng.uniform(-0.3, 0.3, (600, 3, 3)) + rng.uniform(-2, 2, (600, 1, 3)) + [0, 0, -4]
+    tri[::50, 2] = tri[::50, 1]                                   # 12 zero-area triangles
+    _obj(tmp_path / "a.obj", tri[:300])
+    _obj(tmp_path / "b.obj", tri[300:])
+    shapes = "".join(f'<shape type="obj"><string name="filename" value="{n}.obj"/>'
+                     '<boolean name="face_normals" value="true"/></shape>' for n in "ab")
+    sc = _scene(shapes, tmp_path)
+    emb, ref = SceneGeometry(sc, backend="embree"), SceneGeometry(sc, backend="numpy")
+    assert len(emb.accel) == len(ref.accel) == 600 - 12
+    o = np.zeros((4000, 3))
+    d = tri.mean(1)[rng.integers(600, size=4000)] + rng.normal(size=(4000, 3)) * 0.05
+    a, b = emb.intersect(o, d), ref.intersect(o, d)
+    same = (a.shape == b.shape) & (a.prim == b.prim)
+    assert same.mean() > 0.995 and np.mean(a.shape >= 0) > 0.5        # float32 decisions near edges
+    np.testing.assert_allclose(a.t[same & (a.shape >= 0)], b.t[same & (a.shape >= 0)], rtol=1e-9)
+    np.testing.assert_array_equal(a.n[same], b.n[same])
+    assert not np.isin(a.prim[(a.shape == 0)], np.arange(0, 300, 50)).any()
+
+
+def test_mesh_with_many_leading_zero_area_triangles_is_accepted(tmp_path):
+    """The zero-area check of a mesh looks at its first triangles first, then at all: 100
+    degenerate triangles before a real one are accepted (and the real one is hit); a mesh of
+    degenerate triangles only is refused, naming faces."""
+    from vrlab.render import SceneError
+
+    tri = np.zeros((101, 3, 3))
+    tri[:, 1, 0] = 1.0
+    tri[:100, 2, 0] = 2.0                                  # collinear: zero area
+    tri[100, 2] = [0.0, 1.0, 0.0]
+    _obj(tmp_path / "m.obj", tri + [0, 0, -3])
+    sc = _scene('<shape type="obj"><string name="filename" value="m.obj"/></shape>', tmp_path)
+    h = SceneGeometry(sc).intersect(np.array([[0.2, 0.2, 0.0]]), np.array([[0.0, 0.0, -1.0]]))
+    assert h.shape[0] == 0 and h.prim[0] == 100 and h.t[0] == pytest.approx(3.0)
+    _obj(tmp_path / "m.obj", tri[:100])
+    with pytest.raises(SceneError, match="faces"):
+        _scene('<shape type="obj"><string name="filename" value="m.obj"/></shape>', tmp_path)

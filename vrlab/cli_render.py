@@ -24,7 +24,7 @@ from . import cli_args as A
 from . import cli_compare as C
 from . import limits
 from .cli_render_settings import (DEFAULTS, FIGURE_SUFFIXES, IMAGE_SUFFIXES, PIXEL_SAMPLER_HELP,  # noqa: F401
-                                  PIXEL_SAMPLERS, RIS_MAX, SAMPLES_MAX, SIDE_MAX, SPP_MAX, RenderSettings,
+                                  PIXEL_SAMPLERS, RIS_MAX, SAMPLES_MAX, SIDE_MAX, SPP_MAX, Phase, RenderSettings,
                                   progress_callback, settings_from_args)
 
 
@@ -230,9 +230,12 @@ def _run_one(args: argparse.Namespace, p: RenderSettings) -> int:
         client = None
         if p.scheduler is not None:
             client = stack.enter_context(A.connect_scheduler(p.scheduler))
+        # geometry, acceleration structure and lights, up to the first finished samples (the bar's first report)
+        setup = stack.enter_context(Phase(p.show_progress, "setting up the render (geometry, acceleration "
+                                                           "structure, lights)"))
         try:
             est = render(scene, p.spp, p.strategy, rng=p.seed, workers=2 if client is not None else workers,
-                         executor=client, progress=progress_callback(p.show_progress, "render"),
+                         executor=client, progress=progress_callback(p.show_progress, "render", first=setup.stop),
                          checkpoint=p.checkpoint, **p.sampling())
         except ValueError as exc:
             if str(exc).startswith("checkpoint"):      # another render's file: choose another name

@@ -5,8 +5,9 @@ the scene, reads the reference and returns a :class:`RenderSettings`; the plain 
 (:mod:`vrlab.cli_render`), ``--compare`` (:mod:`vrlab.cli_compare`) and
 ``--gradient-domain`` (:mod:`vrlab.cli_gradient`) all read that one object, and all depend on
 this module rather than on each other (no import circle).  Also here: the flags' tables
-(pixel samplers, limits from :mod:`vrlab.limits`, the ``--compare`` flags' rules) and the
-progress bar callback the three share.
+(pixel samplers, limits from :mod:`vrlab.limits`, the ``--compare`` flags' rules), the
+progress bar callback the three share and :class:`Phase`, the lines that say what a slow step
+before the first sample (loading the scene, setting up the render) is doing.
 """
 from __future__ import annotations
 
@@ -15,6 +16,8 @@ import dataclasses
 import importlib.util
 import os
 import sys
+import threading
+import time
 import warnings
 from pathlib import Path
 from typing import Any, Callable
@@ -101,19 +104,71 @@ class RenderSettings:
         return self.workers
 
 
-def progress_callback(show: bool, label: str) -> Callable[[int, int], None] | None:
+class Phase:
+    """A step that may be slow, said on stderr when ``show`` and only once it has taken ``after``
+    seconds: ``vrlab render: <label> ...``, then at :meth:`stop` ``vrlab render: <label>: done
+    after X.X s`` (a quicker step prints nothing).  A timer thread prints the first line;
+    :meth:`stop` cancels it and may be called more than once.  Also a context manager."""
+
+    def __init__(self, show: bool, label: str, after: float = 1.0, prefix: str = "vrlab render"):
+        self.show, self.label, self.after, self.prefix = bool(show), label, float(after), prefix
+        self._lock = threading.Lock()
+        self._timer: threading.Timer | None = None
+        self._said = self._stopped = False
+        self._t0 = 0.0
+
+    def start(self) -> "Phase":
+        if self.show:
+            self._t0 = time.perf_counter()
+            self._timer = threading.Timer(self.after, self._say)
+            self._timer.daemon = True
+            self._timer.start()
+        return self
+
+    @property
+    def said(self) -> bool:
+        """Whether the first line was printed (the step took longer than ``after``)."""
+        return self._said
+
+    def _say(self) -> None:
+        with self._lock:
+            if not self._stopped:
+                print(f"{self.prefix}: {self.label} ...", file=sys.stderr, flush=True)
+                self._said = True
+
+    def stop(self) -> None:
+        with self._lock:
+            first, self._stopped = not self._stopped, True
+            said = self._said
+        if self._timer is not None:
+            self._timer.cancel()
+        if first and said:
+            print(f"{self.prefix}: {self.label}: done after {time.perf_counter() - self._t0:.1f} s", file=sys.stderr,
+                  flush=True)
+
+    def __enter__(self) -> "Phase":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+
+
+def progress_callback(show: bool, label: str, first: Callable[[], None] | None = None
+                      ) -> Callable[[int, int], None] | None:
     """``progress(done, total)`` for a render (pixel samples done of the total), drawing a
     progress bar on stderr labelled ``label`` that counts samples, in samples/s (made on the
-    first report, which knows the total); None if not ``show``."""
+    first report, which knows the total, after calling ``first()``, e.g. a :class:`Phase`'s
+    ``stop``); None if not ``show``."""
     if not show:
         return None
-    import time
 
     bar: list = []
     start = time.time()          # the render starts now; the bar is made at its first report
 
     def progress(done, total):
         if not bar:
+            if first is not None:
+                first()
             from .lab.progress import ProgressBar
             bar.append(ProgressBar(total, label=label, unit="samples", start=start))
         bar[0].update(done - bar[0].done)
@@ -253,7 +308,9 @@ def settings_from_args(args: argparse.Namespace) -> RenderSettings:
         raise A.UsageError("--reference: reading .exr needs the OpenEXR package (pip install OpenEXR); use a .npy")
     ref_path = A.input_file(args.reference, "--reference", (".npy", ".exr"))
     path = scene_path(args.scene)
-    scene = _load(path)
+    show = args.progress if args.progress is not None else sys.stderr.isatty()
+    with Phase(show, f"loading {path.name}"):
+        scene = _load(path)
     if width is not None or height is not None:
         scene = scene.with_size(width or scene.sensor.width, height or scene.sensor.height)
     spp = spp or scene.sensor.spp
@@ -271,7 +328,6 @@ def settings_from_args(args: argparse.Namespace) -> RenderSettings:
                       f"{'no image is saved' if output is None else output.suffix + ' is saved linear'}, unscaled",
                       UserWarning, stacklevel=2)
     reference = _reference(ref_path, (scene.sensor.height, scene.sensor.width, 3))
-    show = args.progress if args.progress is not None else sys.stderr.isatty()
     return RenderSettings(path=path, scene=scene, strategy=args.strategy, pixel_sampler=args.pixel_sampler,
                           light_selection=args.light_selection, spp=spp, seed=seed, emitter_samples=emitter_samples,
                           bsdf_samples=bsdf_samples, ris_candidates=ris_candidates, workers=workers,

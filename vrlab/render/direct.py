@@ -66,7 +66,9 @@ class DirectLighting:
         emits = np.array([s.emitter is not None for s in scene.shapes], bool)
         # rays leaving a surface only need the first emitter they meet and whether a
         # non-emitter blocks it: two smaller geometries (see ``trace``; the emitters' below)
-        self.blocker_geometry = SceneGeometry(scene, np.flatnonzero(~emits), track_prim=prim)
+        # (the whole scene's geometry where no shape emits: the same primitives, built once)
+        self.blocker_geometry = self.geometry if not emits.any() else \
+            SceneGeometry(scene, np.flatnonzero(~emits), track_prim=prim)
         self.camera = scene.sensor
         self.hide_emitters = bool(scene.integrator.hide_emitters)
         self.shading = bool(scene.integrator.shading)

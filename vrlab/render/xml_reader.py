@@ -36,6 +36,7 @@ class Ctx:
         self.built: dict[int, Any] = {}                # id(element) -> the object built from it
         self.building: set[int] = set()
         self.files: list[Path] = []                    # every file the scene reads (includes, meshes, ...)
+        self._seen: set[Path] = set()
 
     def describe(self, el: ET.Element) -> str:
         attrs = "".join(f' {k}="{el.get(k)}"' for k in ("type", "name", "id") if el.get(k) is not None)
@@ -99,7 +100,8 @@ class Ctx:
         ``<path>`` folders (in the order given, the scene's own folder first)."""
         p = Path(filename)
         found = p if p.is_absolute() else next((f / p for f in self.paths if (f / p).exists()), self.base / p)
-        if found not in self.files:
+        if found not in self._seen:                    # (a set: scenes name hundreds of files)
+            self._seen.add(found)
             self.files.append(found)
         return found
 

@@ -2,7 +2,9 @@
 
 The scene's BVH (:mod:`vrlab.render.accel.scene_bvh`) hands its planar groups (parallelograms,
 triangles) to Embree when ``embreex`` imports (it has wheels for x86-64 Linux, Windows and
-macOS; elsewhere the NumPy BVH traces them).  Each parallelogram ``v0 + s e1 + u e2`` is
+macOS; elsewhere the NumPy BVH traces them).  The pooled mesh triangles
+(:class:`~vrlab.render.accel.pool.IndexedPlanar`) go in as an indexed mesh (their float32
+vertices and int32 faces); each parallelogram ``v0 + s e1 + u e2`` is
 two triangles (v0, v0 + e1, v0 + e1 + e2) and (v0, v0 + e1 + e2, v0 + e2); Embree builds
 its own BVH over the triangles and intersects float32 rays (watertight, both faces), so
 hit/miss decisions are float32-accurate, as the all-pairs kernels' and Mitsuba's scalar
@@ -13,14 +15,14 @@ origins forward (Embree's rays start at t = 0).  Shadow queries use Embree's occ
 (any hit before ``t_max``).
 
 The Embree scene is not pickled: a process that receives the geometry rebuilds it on first
-use (milliseconds for thousands of triangles).
+use (milliseconds for thousands of triangles; about 1.5 s for 2 million on this machine, most
+of it embreex copying the index buffer, 0.45 us per triangle).
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ..._vec import dot as _dot
-from .groups import Planar
 
 __all__ = ["EmbreeTriangles", "embree_available"]
 
@@ -36,36 +38,38 @@ def embree_available() -> bool:
 
 
 class EmbreeTriangles:
-    """The planar groups ``planar`` (a list of :class:`~vrlab.render.accel.groups.Planar`) as one
-    Embree triangle mesh; triangle i is primitive ``prim[i]`` of group ``group[i]``."""
+    """The planar groups ``planar`` (:class:`~vrlab.render.accel.groups.Planar` or
+    :class:`~vrlab.render.accel.pool.IndexedPlanar`) as one Embree triangle mesh: group g's
+    primitives are Embree's triangles ``first[g] ..`` (a parallelogram two of them, its j-th
+    half at j and at j + its group's size).  Nothing is stored per triangle: the Embree
+    scene is built from the groups on first use (in the process that traces rays)."""
 
-    def __init__(self, planar: list[Planar]):
+    def __init__(self, planar: list):
         self.planar = list(planar)
-        tris, group, prim = [], [], []
-        for g, pl in enumerate(self.planar):
-            v0, e1, e2 = pl.v0, pl.e1, pl.e2
-            j = np.arange(len(v0))
-            if pl.para:
-                far = v0 + e1 + e2
-                tris += [np.stack([v0, v0 + e1, far], 1), np.stack([v0, far, v0 + e2], 1)]
-                group += [np.full(2 * len(v0), g)]
-                prim += [j, j]
-            else:
-                tris.append(np.stack([v0, v0 + e1, v0 + e2], 1))
-                group.append(np.full(len(v0), g))
-                prim.append(j)
-        self.tri = np.ascontiguousarray(np.concatenate(tris), dtype=np.float32)
-        self.group = np.concatenate(group).astype(np.int64)
-        self.prim = np.concatenate(prim).astype(np.int64)
+        sizes = [(2 if pl.para else 1) * len(pl) for pl in self.planar]
+        self.first = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
         self._scene = None
 
     def __len__(self) -> int:
-        return len(self.tri)
+        return int(self.first[-1])
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state["_scene"] = None                   # Embree's scene does not pickle: rebuilt on use
         return state
+
+    @staticmethod
+    def _arrays(pl) -> tuple[np.ndarray, np.ndarray]:
+        """``(vertices float32, indices int32)`` of a group's Embree triangles."""
+        if not pl.para:
+            if hasattr(pl, "embree_arrays"):
+                return pl.embree_arrays()
+            tri = np.stack([pl.v0, pl.v0 + pl.e1, pl.v0 + pl.e2], 1)
+        else:
+            v0, e1, e2 = pl.v0, pl.e1, pl.e2
+            far = v0 + e1 + e2
+            tri = np.concatenate([np.stack([v0, v0 + e1, far], 1), np.stack([v0, far, v0 + e2], 1)])
+        return tri.reshape(-1, 3).astype(np.float32), np.arange(3 * len(tri), dtype=np.int32).reshape(-1, 3)
 
     @property
     def scene(self):
@@ -73,8 +77,12 @@ class EmbreeTriangles:
             from embreex import rtcore_scene
             from embreex.mesh_construction import TriangleMesh
 
+            verts, index = zip(*(self._arrays(pl) for pl in self.planar))
+            if len(verts) > 1:
+                off = np.cumsum([0] + [len(v) for v in verts[:-1]])
+                index = [i + np.int32(o) for i, o in zip(index, off)]
             self._scene = rtcore_scene.EmbreeScene()
-            TriangleMesh(self._scene, self.tri)
+            TriangleMesh(self._scene, np.concatenate(verts), np.concatenate(index))
         return self._scene
 
     @staticmethod
@@ -93,21 +101,24 @@ class EmbreeTriangles:
         if not len(rows):
             return rows
         k = k[rows]
-        gs, js = self.group[k], self.prim[k]
+        one = len(self.planar) == 1
+        gs = np.zeros(len(k), np.int64) if one else np.searchsorted(self.first, k, side="right") - 1
         for g in np.unique(gs):
-            m = rows if len(self.planar) == 1 else rows[gs == g]
-            jm = js if len(self.planar) == 1 else js[gs == g]
+            m = rows if one else rows[gs == g]
             pl = self.planar[int(g)]
-            if o.dtype == np.float64:                   # float64 rays: t from the plane
-                q = pl.packed[jm]
+            jm = (k if one else k[gs == g]) - self.first[g]
+            if pl.para:
+                jm %= len(pl)
+            q, nrm, sh, loc = pl.hit_info(jm, plane=o.dtype == np.float64)
+            if q is not None:                           # float64 rays: t from the plane
                 with np.errstate(divide="ignore", invalid="ignore"):
                     t64 = -_dot(o[m] - q[:, :3], q[:, 3:6]) / _dot(d[m], q[:, 3:6])
                 tt[m] = np.where(np.isfinite(t64) & (t64 > t_min), t64, tt[m])
             t[m] = tt[m]
-            shape[m] = pl.shape[jm]
-            normal[m] = pl.normal[jm]
+            shape[m] = sh
+            normal[m] = nrm
             if prim is not None:
-                prim[m] = pl.local[jm]
+                prim[m] = loc
         return rows
 
     def occluded(self, o, d, t_min: float, t_max: np.ndarray) -> np.ndarray:

@@ -46,6 +46,13 @@ disks) and then the lowest primitive wins (a parallelogram before a cube face). 
 over primitive groups, blocks and tree steps, never over single rays.  The primitive groups
 live in :mod:`vrlab.render.accel.groups`.
 
+Building: the loop over shapes only collects their parts; every triangle of every mesh and
+cube is pooled into one indexed set (:mod:`vrlab.render.accel.pool`: one vertex array, one
+face array, parallelograms found by array operations over all triangles at once), so the
+set-up costs a few passes over the triangles whatever the number of meshes.  When Embree
+traces the triangles of a large scene they keep no per-triangle tables at all (a hit's
+normal, plane, shape and triangle are computed for the hit rows, with the same bits).
+
 Checked: ``scene`` is a ``Scene`` and ``only`` distinct shape indices in range;
 ``intersect``/``distance`` check the ray arrays' shapes (``(N, 3)`` or broadcastable
 ``(..., 3)``), ``t_min`` (finite, >= 0) and ``chunk`` (integer >= 1), not the ray values
@@ -61,10 +68,11 @@ import numpy as np
 from ... import checks
 from ..._vec import scale
 from ..scene import Scene
-from ..shapes.base import CustomPart, DiskPart, Parallelograms, Quadric, Triangles
+from ..shapes.base import CustomPart, DiskPart, IndexedTriangles, Parallelograms, Quadric, Triangles
 from .disks import Disks
-from .groups import Planar, Quadrics, parallelograms, unit
-from .scene_bvh import BACKENDS, Accel
+from .groups import Planar, Quadrics
+from .pool import IndexedPlanar, TrianglePool, pool_triangles
+from .scene_bvh import BACKENDS, Accel, embree_used
 
 __all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "Hits", "SceneGeometry"]
 
@@ -102,6 +110,39 @@ def _rays(origin, direction, t_min, chunk) -> tuple[np.ndarray, np.ndarray]:
     return o, d
 
 
+def _para_group(parts: list, order: list, pool: TrianglePool | None):
+    """``(data (P, 4, 3), shape, index in the shape)`` of every parallelogram: the parts'
+    (rectangles, cube faces) and the pool's pairs of mesh triangles, in the order of their parts."""
+    counts = np.array([len(d) for _, d in parts], np.int64)
+    data = np.concatenate([d for _, d in parts]) if parts else np.zeros((0, 4, 3))
+    shape = np.repeat(np.array([k for k, _ in parts], np.int64), counts)
+    local = np.arange(len(data)) - np.repeat(np.cumsum(counts) - counts, counts)
+    if pool is None or not len(pool.para):
+        return data, shape, local
+    key = np.concatenate([np.repeat(np.asarray(order, np.int64), counts), pool.para_part])
+    s = np.argsort(key, kind="stable")
+    return (np.concatenate([data, pool.para])[s], np.concatenate([shape, pool.para_shape])[s],
+            np.concatenate([local, pool.para_local])[s])
+
+
+def _para_extent(parts: list) -> float:
+    """The largest coordinate of the parallelogram parts' corners."""
+    if not parts:
+        return 0.0
+    d = np.concatenate([d for _, d in parts])
+    c, e1, e2 = d[:, 0], d[:, 1], d[:, 2]
+    return float(max(np.max(np.abs(x)) for x in (c, c + e1, c + e2, c + e1 + e2)))
+
+
+def _pool_extent(pool: TrianglePool | None) -> float:
+    """The largest coordinate of the vertices the pool's faces use."""
+    if pool is None:
+        return 0.0
+    used = np.zeros(len(pool.vertices), bool)
+    used[pool.faces.ravel()] = True
+    return float(np.max(np.abs(pool.vertices).max(axis=1), where=used, initial=0.0))
+
+
 class SceneGeometry:
     """All shapes of ``scene`` as arrays of primitives (see the module docstring), or only
     the shapes ``only`` (indices into ``scene.shapes``, which the hits report);
@@ -125,36 +166,28 @@ class SceneGeometry:
                                  f"got {idx.tolist()}")
         #: whether ``intersect`` reports each hit's primitive (meshes' triangles: smooth normals, textures)
         self.track_prim = bool(track_prim)
-        para, tris, quad, disk, custom, pts, boxes = [], [], [], [], [], [np.zeros(3)], {}
-        self._n_tri = 0
+        # collect the parts (references only: the arrays are pooled below, for every shape at once)
+        para_parts, tri_parts, quad, disk, custom, centers, boxes = [], [], [], [], [], [np.zeros(3)], {}
+        para_order, tri_order = [], []
         self.n_shapes = len(scene.shapes) if only is None else len(only)
         radii = []
         unmerged = {int(k) for k in unmerged}
         for k in range(len(scene.shapes)) if only is None else [int(i) for i in only]:
             s = scene.shapes[k]
-            pts.append(s.center)
+            centers.append(s.center)
             for part in s.parts():
                 if isinstance(part, Parallelograms):
-                    para.append((part.data, k, np.arange(len(part.data))))
-                    self._n_tri += 2 * len(part.data)
-                    c, e1, e2 = part.data[:, 0], part.data[:, 1], part.data[:, 2]
-                    pts += [c, c + e1, c + e2, c + e1 + e2]
-                elif isinstance(part, Triangles):
-                    t = part.tri
-                    self._n_tri += len(t)
-                    pts.append(t.reshape(-1, 3))
-                    if part.merge and k not in unmerged:
-                        tol = 1e-12 * (1.0 + np.max(np.abs(t)))
-                        pg, rest, first = parallelograms(t, tol)
-                        para.append((pg, k, first))
-                    else:              # every triangle on its own (its index and barycentrics are needed)
-                        rest = np.arange(len(t))
-                    if part.box is not None:
-                        boxes[k] = part.box
-                    t = t[rest]
-                    tris.append((np.stack([t[:, 0], t[:, 1] - t[:, 0], t[:, 2] - t[:, 0],
-                                           unit(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]))],
-                                          axis=1), k, rest))
+                    para_parts.append((k, part.data))
+                    para_order.append(len(para_order) + len(tri_order))
+                elif isinstance(part, (Triangles, IndexedTriangles)):
+                    if isinstance(part, Triangles):
+                        v, f = part.tri.reshape(-1, 3), np.arange(3 * len(part.tri)).reshape(-1, 3)
+                        if part.box is not None:
+                            boxes[k] = part.box
+                    else:
+                        v, f = part.vertices, part.faces
+                    tri_parts.append((k, v, f, part.merge and k not in unmerged))
+                    tri_order.append(len(para_order) + len(tri_order))
                 elif isinstance(part, Quadric):
                     quad.append((k, part.center, np.linalg.inv(part.matrix), part.sign))
                     radii.append(np.linalg.norm(part.matrix, 2))
@@ -167,27 +200,36 @@ class SceneGeometry:
                 else:
                     raise TypeError(f"shapes[{k}].parts(): unknown primitive part {type(part).__name__}; "
                                     "use the parts of vrlab.render.shapes.base")
+        pool = pool_triangles(tri_parts, tri_order) if tri_parts else None
+        para = _para_group(para_parts, para_order, pool)
+        self._n_tri = 2 * sum(len(d) for _, d in para_parts) + (int(pool.start[-1]) if pool else 0)
         # all pairs while their cost stays small (a quadric costs about a quarter of a planar
         # primitive through the culling products), else one BVH over every primitive
-        cost = sum(len(g) for g, _, _ in para + tris) + len(disk) + len(quad) / 4
+        cost = len(para[0]) + (pool.n_group if pool else 0) + len(disk) + len(quad) / 4
         dense = cost <= DENSE_COST
+        embree = not dense and embree_used(backend, len(para[0]) > 0 or pool is not None)
         self.planar = []
-        for group, is_para in ((para, True), (tris, False)):
-            arr = np.concatenate([g for g, _, _ in group] or [np.zeros((0, 4, 3))])
-            if len(arr):
-                ids = np.concatenate([np.full(len(g), k) for g, k, _ in group])
-                local = np.concatenate([loc for _, _, loc in group])
-                self.planar.append(Planar(arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], ids, is_para,
-                                           boxes if is_para else None, local, dense=dense))
+        if len(para[0]):
+            data, ids, local = para
+            self.planar.append(Planar(data[:, 0], data[:, 1], data[:, 2], data[:, 3], ids, True, boxes, local,
+                                      dense=dense))
+        if embree and pool is not None:   # Embree traces them: no per-triangle tables
+            pool.drop_degenerate()
+        if pool is not None and pool.n_group:
+            if embree:
+                self.planar.append(IndexedPlanar(pool))
+            else:
+                self.planar.append(IndexedPlanar(pool).planar(dense))
         self.quadrics = Quadrics(quad) if quad else None
         self.disks = Disks(disk) if disk else None
         self.custom = custom
         #: the BVH over every primitive (:mod:`vrlab.render.accel.scene_bvh`) of scenes whose all-pairs
         #: cost exceeds ``DENSE_COST``; None: the all-pairs kernels
         self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks, backend)
-        pts = np.vstack(pts)
-        #: a length scale of the scene (for ray offsets)
-        self.scale = float(np.max(np.abs(pts)) + max(radii, default=0.0))
+        #: a length scale of the scene (for ray offsets): the largest coordinate of a shape's
+        #: centre, a parallelogram's corner or a triangle's vertex, plus the largest radius
+        extent = max(float(np.max(np.abs(np.vstack(centers)))), _para_extent(para_parts), _pool_extent(pool))
+        self.scale = extent + max(radii, default=0.0)
 
     @property
     def n_triangles(self) -> int:

@@ -15,7 +15,7 @@ from ..._vec import norm, scale
 from ...distributions.quadrics import unit_sphere_hit
 from .dense import DensePlanar, closest_quadrics
 
-__all__ = ["DENSE_QUADRICS", "Planar", "Quadrics", "affine_boxes", "parallelograms", "unit", "unit_sphere_hit"]
+__all__ = ["DENSE_QUADRICS", "Planar", "Quadrics", "affine_boxes", "unit", "unit_sphere_hit"]
 
 # (ray, primitive) pairs per culling block: cache sized (the (N, 11) @ (11, P) products of the
 # quadric cull take as much CPU time as with OPENBLAS_NUM_THREADS=1: 0.814 against 0.827 us per
@@ -54,35 +54,6 @@ def _box_faces(v0, e1, e2, shape, boxes: dict) -> list:
             faces[code] = rows
             out.append((faces, minv, c))
     return out
-
-
-def parallelograms(tri: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
-    """Split triangles ``(T, 3, 3)`` into parallelograms ``(corner, e1, e2)`` made of
-    consecutive pairs ``(p0, p1, p2), (p0, p2, y)`` or ``(y, p0, p2)`` with ``y = p0 + p2 - p1``
-    (fan-triangulated quads, also reversed), and the indices of the triangles left over.
-    Returns ``(para (Q, 4, 3): corner, e1, e2, winding normal of the first triangle), rest,
-    first``, ``first`` the index of each parallelogram's first triangle."""
-    a, b = tri[:-1], tri[1:]
-    p0, p1, p2 = a[:, 0], a[:, 1], a[:, 2]
-
-    def near(x, y):
-        return np.all(np.abs(x - y) <= tol, axis=-1)
-
-    fan = near(b[:, 0], p0) & near(b[:, 1], p2)
-    rev = near(b[:, 1], p0) & near(b[:, 2], p2)
-    y = np.where(fan[:, None], b[:, 2], b[:, 0])
-    ok = (fan | rev) & near(y, p0 + p2 - p1)
-    used = np.zeros(len(tri), bool)
-    first = []
-    for k in np.flatnonzero(ok):       # greedy, non-overlapping pairs
-        if not used[k]:
-            used[k] = used[k + 1] = True
-            first.append(k)
-    first = np.array(first, int)
-    p0, p1, p2 = tri[first, 0], tri[first, 1], tri[first, 2]
-    n = unit(np.cross(p1 - p0, p2 - p0))
-    para = np.stack([p1, p0 - p1, p2 - p1, n], axis=1) if len(first) else np.zeros((0, 4, 3))
-    return para, np.flatnonzero(~used), first
 
 
 class Planar:
@@ -155,6 +126,11 @@ class Planar:
                                                                      else [])
         c = np.stack(corners, 1)
         return c.min(1), c.max(1)
+
+    def hit_info(self, j: np.ndarray, plane: bool):
+        """``(v0 and unit plane normal (N, 6) or None, normal, shape, index in the shape)`` of
+        primitives ``j`` (Embree's hits, :mod:`.embree`)."""
+        return (self.packed[j, :6] if plane else None), self.normal[j], self.shape[j], self.local[j]
 
     def normals(self, o, d, rows, j, t) -> np.ndarray:
         """Normals of the hits ``(rays rows, primitives j, t)``: the primitives' own."""

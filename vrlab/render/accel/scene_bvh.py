@@ -22,29 +22,38 @@ import numpy as np
 
 from .bvh import BVH
 from .disks import Disks
-from .groups import Planar, Quadrics
+from .groups import Quadrics
 
-__all__ = ["Accel", "BACKENDS"]
+__all__ = ["Accel", "BACKENDS", "embree_used"]
 
 
 BACKENDS = ("auto", "numpy", "embree")
 
 
+def embree_used(backend: str, planar: bool) -> bool:
+    """Whether a BVH with ``backend`` traces its planar primitives (if ``planar``) by Embree;
+    ``ValueError`` for an unknown backend or ``"embree"`` without ``embreex``."""
+    from .embree import embree_available
+
+    if backend not in BACKENDS:
+        raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
+    if backend == "embree" and not embree_available():
+        raise ValueError("backend: 'embree' needs the embreex package (pip install embreex)")
+    return planar and (backend == "embree" or (backend == "auto" and embree_available()))
+
+
 class Accel:
-    """A BVH over the primitives of ``planar`` (a list of :class:`Planar` groups),
+    """A BVH over the primitives of ``planar`` (a list of :class:`Planar` groups, or with Embree
+    also :class:`~vrlab.render.accel.pool.IndexedPlanar`),
     ``quadrics`` (a :class:`Quadrics` or None) and ``disks`` (``(shape, center, M^-1,
     normal)`` tuples); see the module docstring.  ``backend``: ``"numpy"`` (every kind in the
     NumPy BVH), ``"embree"`` (planar primitives through Embree, :mod:`vrlab.render.accel.embree`;
     the others in the NumPy BVH) or ``"auto"`` (Embree where ``embreex`` imports)."""
 
-    def __init__(self, planar: list[Planar], quadrics: Quadrics | None, disks: Disks | None, backend: str = "auto"):
-        from .embree import EmbreeTriangles, embree_available
+    def __init__(self, planar: list, quadrics: Quadrics | None, disks: Disks | None, backend: str = "auto"):
+        from .embree import EmbreeTriangles
 
-        if backend not in BACKENDS:
-            raise ValueError(f"backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
-        if backend == "embree" and not embree_available():
-            raise ValueError("backend: 'embree' needs the embreex package (pip install embreex)")
-        use_embree = bool(planar) and (backend == "embree" or (backend == "auto" and embree_available()))
+        use_embree = embree_used(backend, bool(planar))
         #: the planar groups traced by Embree (None: in the NumPy BVH)
         self.embree = EmbreeTriangles(planar) if use_embree else None
         self.kinds: list = [] if use_embree else list(planar)

@@ -1,7 +1,8 @@
 """Stanford PLY reader (ASCII, binary little and big endian) with Mitsuba 3's conventions.
 
-Binary elements whose rows all have the same size are read as one NumPy structured
-array; ASCII bodies are converted by one ``np.fromstring`` call.  Elements with lists of
+Elements whose rows all have the same size (the usual case) are read column by column as
+strided views of the body, one copy per column; ASCII bodies are converted by one
+``np.fromstring`` call.  Elements with lists of
 varying length (a mix of triangles and quads) are split into rows by pointer doubling
 (vectorised, O(n log n)) instead of a Python loop over the rows.
 """
@@ -102,6 +103,19 @@ class _Body:
     def size(self):
         return len(self.raw) if self.binary else len(self.values)
 
+    def column(self, dtype: np.dtype, start: int, count: int, stride: int, width: int = 0) -> np.ndarray:
+        """A strided view of ``count`` values (``width`` > 0: rows of ``width`` values) of
+        ``dtype``, the first at ``start`` after ``pos``, one every ``stride`` (bytes, or numbers
+        for ASCII)."""
+        if not self.binary:
+            v = self.values[self.pos + start:self.pos + start + count * stride:stride] if not width else \
+                np.lib.stride_tricks.as_strided(self.values[self.pos + start:], (count, width),
+                                                (stride * self.values.itemsize, self.values.itemsize),
+                                                writeable=False)
+            return v
+        shape, strides = ((count,), (stride,)) if not width else ((count, width), (stride, dtype.itemsize))
+        return np.ndarray(shape, dtype, self.raw.data, self.pos + start, strides)
+
     def take(self, dtype: np.dtype, at: np.ndarray) -> np.ndarray:
         """Values of ``dtype`` at the given offsets (bytes, or numbers for ASCII)."""
         if not self.binary:
@@ -174,22 +188,27 @@ def _read_element(body: _Body, name: str, count: int, props) -> dict:
     first, end = _row_offsets(body, props, np.array([body.pos]))
     lengths = [None if n is None else int(n[0]) for _, n in first]
     row = int(end[0]) - body.pos
-    if end[0] <= body.size and row > 0:         # try: every row like the first one
-        rows = np.arange(count) * row + body.pos
-        if rows[-1] + row <= body.size and all(
-                n is None or np.all(body.take(p.count, rows + (o[0] - body.pos)) == n)
-                for p, (o, _), n in zip(props, first, lengths)):
-            starts = np.append(rows, rows[-1] + row)
-        else:
-            starts = None
-    else:
-        starts = None
-    if starts is None and all(p.count is None for p in props):
+    if end[0] <= body.size and row > 0 and body.pos + count * row <= body.size:
+        # try: every row like the first one (then every column is a strided view of the body)
+        rel = [int(o[0]) - body.pos for o, _ in first]
+        if all(n is None or np.all(body.column(p.count, r, count, row) == n)
+               for p, r, n in zip(props, rel, lengths)):
+            out = {}
+            for p, r, n in zip(props, rel, lengths):
+                if n is None:
+                    vals = out[p.name] = np.array(body.column(p.dtype, r, count, row))
+                else:
+                    vals = np.array(body.column(p.dtype, r + unit(p.count), count, row, n).reshape(-1))
+                    out[p.name] = (np.full(count, n, np.int64), vals)
+                if not body.binary and p.dtype.kind in "iu" and np.any(vals != np.floor(vals)):
+                    raise ValueError(f"{body.path}: PLY '{name}' property {p.name!r} must hold integers")
+            body.pos += count * row
+            return out
+    if all(p.count is None for p in props):
         raise ValueError(f"{body.path}: the PLY file is truncated: element '{name}' needs "
                          f"{count * row} {'bytes' if body.binary else 'numbers'}, "
                          f"{body.size - body.pos} are left")
-    if starts is None:
-        starts = _row_starts(body, props, count, name)
+    starts = _row_starts(body, props, count, name)
     cols, _ = _row_offsets(body, props, starts[:-1])
     out = {}
     for p, (off, n) in zip(props, cols):

@@ -5,8 +5,10 @@ world, Mitsuba's conventions: :mod:`vrlab.render.transforms`), its BSDF and opti
 emitter, and its behaviour:
 
 * ``parts()``: what the ray tracer (:class:`vrlab.render.accel.geometry.SceneGeometry`)
-  intersects, as primitive parts: :class:`Parallelograms`, :class:`Triangles` (a mesh;
-  ``box`` marks the six faces of a parallelepiped for the slab test), :class:`Quadric`
+  intersects, as primitive parts: :class:`Parallelograms`, :class:`Triangles` (world
+  triangles; ``box`` marks the six faces of a parallelepiped for the slab test),
+  :class:`IndexedTriangles` (a mesh: world vertices and faces, pooled with the scene's other
+  triangles without a copy per triangle), :class:`Quadric`
   (an ellipsoid ``|M^-1 (x - c)| = 1``), :class:`DiskPart`, or :class:`CustomPart` (the
   shape's own batched ``intersect(o, d, t_min) -> (t, normal)``).  The kernels for the
   first four are vectorised over rays and primitives; a new shape type that is not one
@@ -34,7 +36,7 @@ from .. import transforms as tf
 from ..registry import Element
 from ..scene_checks import MAX_COORD, affine, matrix4
 
-__all__ = ["CustomPart", "DiskPart", "Parallelograms", "Quadric", "Shape", "Triangles"]
+__all__ = ["CustomPart", "DiskPart", "IndexedTriangles", "Parallelograms", "Quadric", "Shape", "Triangles"]
 
 
 class Parallelograms(NamedTuple):
@@ -49,6 +51,15 @@ class Triangles(NamedTuple):
     by the slab test), else None."""
     tri: np.ndarray
     box: np.ndarray | None = None
+    merge: bool = True
+
+
+class IndexedTriangles(NamedTuple):
+    """A triangle mesh in the world: ``vertices (V, 3)`` float64 world positions and ``faces
+    (T, 3)`` integer indices in outward winding (triangle i is ``vertices[faces[i]]``);
+    ``merge`` as for :class:`Triangles`."""
+    vertices: np.ndarray
+    faces: np.ndarray
     merge: bool = True
 
 

@@ -5,7 +5,11 @@ per-vertex ``normals`` and ``uvs``, and named vertex/face attributes; ``to_world
 it to the world.  Geometric normals follow the winding (``e1 x e2``), flipped by
 ``flip_normals``; ``face_normals=True`` drops the vertex normals (flat shading).
 Checked: vertices finite and within the float32 range in the world, faces integer
-indices of existing vertices, at least one triangle of non-zero area.
+indices of existing vertices, at least one triangle of non-zero area.  The mesh keeps its
+arrays once: its world vertices are the vertex array itself under the identity (else one
+transformed copy, cached), the ray tracer gets them indexed
+(:class:`~vrlab.render.shapes.base.IndexedTriangles`), and barycentrics are computed for the
+hit faces only (no per-face tables).
 """
 from __future__ import annotations
 
@@ -17,7 +21,7 @@ from ... import checks
 from ..._vec import dot, matvec3, norm, scale
 from .. import transforms as tf
 from ..scene_checks import MAX_COORD
-from .base import Shape, Triangles, check_world_points
+from .base import IndexedTriangles, Shape, check_world_points
 
 __all__ = ["Mesh", "check_mesh"]
 
@@ -36,8 +40,11 @@ def check_mesh(vertices: Any, faces: Any) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError("faces: the mesh has no faces")
     if f.min() < 0 or f.max() >= len(v):
         raise ValueError(f"faces: vertex indices must lie in [0, {len(v) - 1}], got {f.min()} to {f.max()}")
-    tri = v[f]
-    if not np.any(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])):
+    for rows in (slice(0, 64), slice(None)):     # a non-degenerate triangle is almost always among the first
+        tri = v[f[rows]]
+        if np.any(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])):
+            break
+    else:
         raise ValueError("faces: every triangle of the mesh has zero area")
     return v, f.astype(np.int64)
 
@@ -100,7 +107,7 @@ class Mesh(Shape):
 
     def validate(self) -> None:
         super().validate()
-        self._light_surface = self._faces_cache = None
+        self._light_surface = self._faces_cache = self._world_cache = None
         self.vertices, self.faces = check_mesh(self.vertices, self.faces)
         check_world_points(self.vertices, self.to_world)
 
@@ -109,45 +116,63 @@ class Mesh(Shape):
         """``{"vertices", "faces", "filename"}`` (the mesh data)."""
         return {"vertices": self.vertices, "faces": self.faces, "filename": self.filename}
 
+    def world_vertices(self) -> np.ndarray:
+        """``(V, 3)`` float64 world positions of the vertices, ``to_world`` applied row by row
+        (elementwise multiply-adds: a gather of them has the bits of transforming the gathered
+        rows); the vertex array itself for the identity; computed once per transform and array."""
+        key = (self.to_world, self.vertices)
+        c = getattr(self, "_world_cache", None)
+        if c is None or any(a is not b for a, b in zip(c[0], key)):
+            m = self.to_world
+            w = self.vertices if np.array_equal(m, np.eye(4)) else matvec3(m[:3, :3], self.vertices) + m[:3, 3]
+            c = self._world_cache = (key, w)
+        return c[1]
+
+    def world_faces(self) -> np.ndarray:
+        """``faces`` in outward winding (reversed by ``flip_normals``)."""
+        return self.faces[:, ::-1] if self.flip_normals else self.faces
+
     def triangles(self) -> np.ndarray:
-        tri = tf.transform_points(self.to_world, self.vertices[self.faces])
-        return tri[:, ::-1] if self.flip_normals else tri
+        return self.world_vertices()[self.world_faces()]
 
     def parts(self) -> list:
         # a hit's triangle and barycentrics are needed for smooth normals and textures: no pairs
         needs = self.has_shading_normals or bool(self.bsdf.textures) or \
             (self.emitter is not None and self.emitter.texture is not None)
-        return [Triangles(self.triangles(), merge=not needs)]
+        return [IndexedTriangles(self.world_vertices(), self.world_faces(), merge=not needs)]
 
     @property
     def has_shading_normals(self) -> bool:
         return self.normals is not None
 
-    def _world_faces(self) -> tuple:
-        """``(v0, d1, d2, m2, normal_map)`` per face, in world space, built once per transform
-        and vertex array: the first vertex, the dual basis of the edges (e2 x m, m x e1 with
-        m = e1 x e2), |m|^2, and to_world^-T for normals.  The vertices are transformed as
-        one row each, so a gather of them has the bits of transforming the gathered rows."""
-        key = (self.to_world, self.vertices, self.faces)
+    def _world_faces(self, prim: np.ndarray) -> tuple:
+        """``(v0, d1, d2, m2)`` of the faces ``prim`` in world space, computed for those faces
+        only (no per-face table is kept: a mesh of millions of faces is hit in a few of them
+        per block): the first vertex, the dual basis of the edges (e2 x m, m x e1 with
+        m = e1 x e2) and |m|^2.  The vertices are transformed as one row each
+        (:meth:`world_vertices`), so these have the bits of a table over every face."""
+        v = self.world_vertices()[self.faces[prim]]                                   # (N, 3, 3)
+        v0 = np.ascontiguousarray(v[:, 0])
+        e1, e2 = v[:, 1] - v0, v[:, 2] - v0
+        n = np.cross(e1, e2)
+        return v0, np.cross(e2, n), np.cross(n, e1), dot(n, n)
+
+    def _normal_map(self) -> np.ndarray:
+        """to_world^-T (3 x 3), for normals."""
+        key = self.to_world
         c = getattr(self, "_faces_cache", None)
-        if c is None or any(a is not b for a, b in zip(c[0], key)):
-            m = self.to_world
-            v = (matvec3(m[:3, :3], self.vertices) + m[:3, 3])[self.faces]                # (F, 3, 3)
-            e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
-            n = np.cross(e1, e2)
-            c = (key, (np.ascontiguousarray(v[:, 0]), np.cross(e2, n), np.cross(n, e1), dot(n, n),
-                       np.linalg.inv(m[:3, :3]).T))
-            self._faces_cache = c
+        if c is None or c[0] is not key:
+            c = self._faces_cache = (key, np.linalg.inv(key[:3, :3]).T)
         return c[1]
 
     def barycentrics(self, p: np.ndarray, prim: np.ndarray) -> np.ndarray:
         """``(b1, b2)`` of world points ``p`` on triangles ``prim``: p = v0 + b1 (v1 - v0) +
         b2 (v2 - v0) (object-space vertex order; the dual basis of the edges)."""
-        v0, d1, d2, m2, _ = self._world_faces()
-        x = np.asarray(p, float) - v0[prim]
+        v0, d1, d2, m2 = self._world_faces(np.asarray(prim))
+        x = np.asarray(p, float) - v0
         out = np.empty((len(x), 2))
-        np.divide(dot(x, d1[prim]), m2[prim], out=out[:, 0])
-        np.divide(dot(x, d2[prim]), m2[prim], out=out[:, 1])
+        np.divide(dot(x, d1), m2, out=out[:, 0])
+        np.divide(dot(x, d2), m2, out=out[:, 1])
         return out
 
     def uv(self, p, prim):
@@ -172,7 +197,7 @@ class Mesh(Shape):
         ns = scale(self.normals[f[:, 0]], b0)
         ns += scale(self.normals[f[:, 1]], b1)
         ns += scale(self.normals[f[:, 2]], b2)
-        ns = matvec3(self._world_faces()[4], ns)                                     # M^-T ns
+        ns = matvec3(self._normal_map(), ns)                                     # M^-T ns
         length = np.maximum(norm(ns), 1e-300)
         for k in range(3):
             ns[:, k] /= length
@@ -184,7 +209,7 @@ class Mesh(Shape):
 
     @property
     def bound_radius(self) -> float:
-        w = tf.transform_points(self.to_world, self.vertices)
+        w = self.world_vertices()
         return float(np.max(np.linalg.norm(w - self.center, axis=-1)))
 
     def surface(self):
