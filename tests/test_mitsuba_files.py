@@ -61,6 +61,23 @@ def test_defines_on_the_command_line_reach_the_scene_and_agree_with_mitsuba(caps
         assert (rt.passed and mt.passed) == agrees, (defines, str(rt), str(mt))
 
 
+@pytest.mark.parametrize("mode, target", [(["--compare", "bsdf,light"], "vrlab.render.compare.compare"),
+                                          (["--gradient-domain"], "vrlab.render.render_gradient_domain")])
+def test_compare_and_gradient_domain_load_the_scene_with_the_defines(capsys, monkeypatch, tmp_path, mode, target):
+    """``--compare`` and ``--gradient-domain`` render the scene as ``-D`` set it (their render
+    entry is replaced by a recorder: the scene it gets has the defined depth and spp)."""
+    seen = []
+
+    def record(scene, *args, **kwargs):
+        seen.append(scene)
+        raise KeyboardInterrupt
+    monkeypatch.setattr(target, record)
+    path = tmp_path / "scene.xml"
+    path.write_text(DEFINED)
+    run_cli(capsys, ["render", str(path), "-D", "max_depth=2", "-Dspp=3", *mode, "--workers", "1", "--no-progress"])
+    assert len(seen) == 1 and seen[0].sensor.spp == 3 and seen[0].integrator.max_depth == 2
+
+
 @pytest.mark.parametrize("flags, names", [
     (["-D", "spp"], ["-D", "NAME=VALUE"]),
     (["-D", "=3"], ["-D", "empty"]),
