@@ -5,8 +5,10 @@ The value at a surface point is the nested volume's value at the point's world p
 ``eval_1`` (one channel: the value; three: the luminance).  ``volume``: a volume element
 (:mod:`vrlab.render.volumes`: ``gridvolume``, ``constvolume``), or a number or an RGB colour
 (``<float>``/``<rgb>``/``<spectrum>`` in a scene file), which becomes a ``constvolume``, as
-Mitsuba's ``Properties::volume`` does; default 0.75.  The volume's ``to_world`` aligns it with
-the object.
+Mitsuba's documentation says (its default is 0.75; Mitsuba 3.9.1 itself refuses a colour
+there, "expected object", and crashes without a volume: vrlab takes both).  The volume's
+``to_world`` aligns it with the object.  The surface point must carry its position: a
+``spot`` or ``projector`` texture (looked up by uv alone) cannot be a volume texture.
 
 ``mean`` is not defined by Mitsuba for this texture (its value depends on the surface); here
 it is the volume's mean value (the mean of the grid's cells), which a light's power estimate
