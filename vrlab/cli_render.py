@@ -52,6 +52,9 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                                       "--export NAME copies one into a folder for editing.", **kw)
     rend.add_argument("scene", nargs="?", help="a scene XML file (Mitsuba 3 subset) or a built-in scene name "
                                                "(see --list)")
+    rend.add_argument("-D", dest="defines", action="append", metavar="NAME=VALUE",
+                      help="set the scene parameter $NAME (overrides its <default>), as Mitsuba's -D; repeatable: "
+                           "-D max_depth=2 -D spp=64 (or -Dspp=64)")
     rend.add_argument("--list", action="store_true", help="list the built-in scenes, one line each (with --json: "
                                                           "name -> summary, full description and file)")
     rend.add_argument("--export", metavar="NAME", help="copy the built-in scene NAME (its XML and any mesh files "

@@ -15,6 +15,7 @@ import argparse
 import dataclasses
 import importlib.util
 import os
+import re
 import sys
 import threading
 import time
@@ -214,13 +215,33 @@ def scene_path(text: str | None) -> Path:
                            f"{', '.join(list_builtin_scenes())}") from None
 
 
-def _load(path: Path):
+def defines(items: list[str] | None) -> dict[str, str]:
+    """The ``-D NAME=VALUE`` flags as ``{NAME: VALUE}`` (Mitsuba's ``-D``; the value is the
+    text after the first ``=``, substituted for ``$NAME`` as it is).  A flag without ``=``,
+    with a name that is not letters, digits and _ (not starting with a digit), or a name
+    given twice is a usage error naming -D."""
+    out: dict[str, str] = {}
+    for item in items or ():
+        name, eq, value = item.partition("=")
+        name = name.strip()
+        if not eq:
+            raise A.UsageError(f"-D: expected NAME=VALUE (e.g. -D spp=64), got {item!r}")
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+            raise A.UsageError(f"-D: {name!r} in {item!r} is not a parameter name (letters, digits and _, "
+                               "not starting with a digit)" if name else f"-D: empty parameter name in {item!r}")
+        if name in out:
+            raise A.UsageError(f"-D: the parameter {name!r} is given twice ({out[name]!r} and {value!r})")
+        out[name] = value
+    return out
+
+
+def _load(path: Path, params: dict[str, str] | None = None):
     from .render import SceneError, load_scene
 
     try:
-        return load_scene(path)
+        return load_scene(path, params=params or None)
     except SceneError as exc:
-        text = str(exc)
+        text = str(exc).replace(": params: ", ": -D: ", 1).replace("(from params)", "(from -D)")
         raise A.Failure(text if str(path) in text else f"scene {str(path)!r}: {text}") from exc
 
 
@@ -307,10 +328,11 @@ def settings_from_args(args: argparse.Namespace) -> RenderSettings:
     if (args.reference or "").lower().endswith(".exr") and importlib.util.find_spec("OpenEXR") is None:
         raise A.UsageError("--reference: reading .exr needs the OpenEXR package (pip install OpenEXR); use a .npy")
     ref_path = A.input_file(args.reference, "--reference", (".npy", ".exr"))
+    params = defines(getattr(args, "defines", None))
     path = scene_path(args.scene)
     show = args.progress if args.progress is not None else sys.stderr.isatty()
     with Phase(show, f"loading {path.name}"):
-        scene = _load(path)
+        scene = _load(path, params)
     if width is not None or height is not None:
         scene = scene.with_size(width or scene.sensor.width, height or scene.sensor.height)
     spp = spp or scene.sensor.spp

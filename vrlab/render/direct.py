@@ -213,13 +213,13 @@ class DirectLighting:
 
     def surface_points(self, k: int, p: np.ndarray, prim: np.ndarray | None):
         """The :class:`~vrlab.render.textures.SurfacePoints` of points ``p`` on shape ``k``
-        (triangles ``prim`` of a mesh): Mitsuba's uv, barycentrics and the shape."""
+        (triangles ``prim`` of a mesh): Mitsuba's uv, barycentrics, the shape and ``p``."""
         from .textures import SurfacePoints
 
         s = self.shapes[k]
         prim = np.zeros(len(p), np.int64) if prim is None else prim
         bary = s.barycentrics(p, prim) if hasattr(s, "barycentrics") else None
-        return SurfacePoints(s.uv(p, prim), prim, bary, s)
+        return SurfacePoints(s.uv(p, prim), prim, bary, s, p)
 
     def textured_radiance(self, shape: np.ndarray, p: np.ndarray, prim: np.ndarray | None,
                           le: np.ndarray) -> np.ndarray:

@@ -18,7 +18,7 @@
   ignored) or a grey ``Y`` (repeated into the three channels), half or float, with the
   values of ``mi.Bitmap(path)``.
 * :func:`read_bitmap` reads a texture file the way Mitsuba 3's ``Bitmap`` does (PNG,
-  JPEG, BMP, TGA through Pillow, 16-bit PNG decoded here, EXR), and
+  JPEG, BMP, TGA through Pillow, 16-bit PNG decoded here, EXR, Radiance HDR and PFM), and
   :func:`srgb_decode` is the sRGB transfer curve's inverse.
 * ``rel_mse(img, ref) = mean((img - ref)^2 / (ref^2 + 0.01))`` (relative MSE as used in
   rendering papers, e.g. Rousselle et al. 2011).
@@ -166,7 +166,7 @@ def load_image(path: str | Path, name: str = "path") -> np.ndarray:
 
 # -- texture files (Mitsuba 3's Bitmap reader, src/core/bitmap.cpp) ---------------------------
 
-BITMAP_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tga", ".exr")
+BITMAP_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tga", ".exr", ".hdr", ".pfm")
 
 
 class Bitmap(NamedTuple):
@@ -197,7 +197,8 @@ def read_bitmap(path: str | Path, name: str = "filename") -> Bitmap:
     """The pixels of a texture file (:class:`Bitmap`), read as Mitsuba 3 does: PNG (1 to 16
     bits; palette expanded to RGB, a tRNS key to alpha), JPEG, BMP and TGA through Pillow,
     16-bit PNG decoded here (Pillow keeps 8 of the 16 bits of colour PNGs), EXR through
-    ``OpenEXR`` (channels R, G, B [A] or Y [A]).  ``ValueError`` naming ``name`` for a
+    ``OpenEXR`` (channels R, G, B [A] or Y [A]), Radiance ``.hdr`` and ``.pfm``
+    (:mod:`vrlab.render.image_hdr`; linear, 32-bit float).  ``ValueError`` naming ``name`` for a
     missing file, another suffix, or a pixel layout Mitsuba refuses (CMYK, ...)."""
     p = checks.file_path(path, name, BITMAP_SUFFIXES, write=False)
     if not p.is_file():
@@ -205,6 +206,11 @@ def read_bitmap(path: str | Path, name: str = "filename") -> Bitmap:
     if p.suffix.lower() == ".exr":
         data, channels, bits = _read_exr(p, name)
         return Bitmap(data.astype(float), channels, False, bits)
+    if p.suffix.lower() in (".hdr", ".pfm"):              # linear float formats (vrlab.render.image_hdr)
+        from .image_hdr import read_pfm, read_rgbe
+
+        data, channels = (read_rgbe(p, name), "RGB") if p.suffix.lower() == ".hdr" else read_pfm(p, name)
+        return Bitmap(data.astype(float), channels, False, 32)
     with open(p, "rb") as fh:
         head = fh.read(33)
     if head[:8] == b"\x89PNG\r\n\x1a\n" and len(head) == 33 and head[24] == 16:

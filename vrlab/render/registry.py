@@ -14,8 +14,8 @@ branches.  A user registers an element of their own the same way::
         ...
 
 after which ``<bsdf type="halfdiffuse">`` loads.  Kinds are those of Mitsuba 3:
-``shape``, ``emitter``, ``bsdf``, ``texture``, ``sensor``, ``film``, ``rfilter``,
-``sampler`` and ``integrator``.
+``shape``, ``emitter``, ``bsdf``, ``texture``, ``volume`` (3D grids that the ``volume``
+texture reads), ``sensor``, ``film``, ``rfilter``, ``sampler`` and ``integrator``.
 
 The registry is a table of classes (as Mitsuba's plugin manager), filled when the
 element packages are imported; it carries no job state.
@@ -30,10 +30,10 @@ from typing import Any, ClassVar
 
 __all__ = ["KINDS", "Element", "element_class", "lazy_package", "register", "registered"]
 
-KINDS = ("shape", "emitter", "bsdf", "texture", "sensor", "film", "rfilter", "sampler", "integrator")
+KINDS = ("shape", "emitter", "bsdf", "texture", "volume", "sensor", "film", "rfilter", "sampler", "integrator")
 
 # the package of each kind's built-in elements (imported on first lookup)
-_PACKAGES = {"shape": "shapes", "emitter": "emitters", "bsdf": "bsdfs", "texture": "textures",
+_PACKAGES = {"shape": "shapes", "emitter": "emitters", "bsdf": "bsdfs", "texture": "textures", "volume": "volumes",
              "sensor": "sensors", "film": "sensors", "rfilter": "sensors", "sampler": "sensors",
              "integrator": "integrators"}
 _TABLE: dict[str, dict[str, type]] = {k: {} for k in KINDS}

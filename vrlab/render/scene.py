@@ -5,7 +5,8 @@ Mitsuba 3 scene file, as registered element objects (:mod:`vrlab.render.registry
 they are: scene versions 2.x and 3.x, ``<default>`` and ``$name`` everywhere (the
 ``type`` of an element included), ``<path value>`` search folders, ``<include
 filename>``, ``id`` on any object with ``<ref id>`` anywhere (also as a named parameter,
-``<ref name="reflectance" id="tex"/>``).  Unknown elements, types or parameters are
+``<ref name="reflectance" id="tex"/>``); ``load_scene(path, params={...})`` and ``vrlab render
+-D name=value`` set ``$name`` as Mitsuba's ``-D`` does.  Unknown elements, types or parameters are
 refused with a :class:`SceneError` naming the file, the element and its line, and what
 is supported.
 
@@ -16,8 +17,9 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
   ``hide_emitters``), ``path``/``volpath`` with ``max_depth`` 1 or 2 (direct lighting;
   larger depths refused), ``moment`` around any of them;
 * sensors: ``perspective`` (``fov``/``focal_length`` (default 50 mm), ``fov_axis``,
-  ``principal_point_offset_x/y``, ``near_clip``, ``far_clip``, ``to_world``),
-  ``thinlens`` (the same with ``aperture_radius``, ``focus_distance``), ``orthographic``; film ``hdrfilm`` (``width``, ``height``, ``crop_*``,
+  ``principal_point_offset_x/y``, ``near_clip``, ``far_clip``, ``to_world``; ``focus_distance``
+  accepted and ignored, as in Mitsuba), ``thinlens`` (the same with ``aperture_radius``,
+  ``focus_distance`` used), ``orthographic``; film ``hdrfilm`` (``width``, ``height``, ``crop_*``,
   ``pixel_format`` rgb/rgba, ``file_format``, ``component_format``); rfilters ``box``,
   ``tent``, ``gaussian`` (the default); samplers ``independent``, ``stratified``,
   ``multijitter``, ``orthogonal``, ``ldsampler`` (``sample_count``, ``seed``; mapped to
@@ -62,7 +64,12 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
   emitter takes ``sampling_weight`` (:mod:`vrlab.render.emitters`);
 * textures: ``bitmap`` (``filename``, ``filter_type``, ``wrap_mode``, ``raw``, ``to_uv``,
   ``format``), ``checkerboard`` (``color0``, ``color1``, ``to_uv``), ``mesh_attribute``
-  (``name``, ``scale``) (:mod:`vrlab.render.textures`);
+  (``name``, ``scale``), ``volume`` (``volume``: a nested volume, read at the surface point's
+  world position) (:mod:`vrlab.render.textures`); image files PNG, JPEG, BMP, TGA, EXR,
+  Radiance ``.hdr`` and ``.pfm`` (:func:`vrlab.render.image.read_bitmap`);
+* volumes: ``gridvolume`` (``filename`` of a ``.vol`` file, ``filter_type``, ``wrap_mode``,
+  ``to_world``, ``use_grid_bbox``) and ``constvolume`` (``value``)
+  (:mod:`vrlab.render.volumes`);
 * colours: ``<rgb>``, ``<float>``, ``<spectrum value="v">`` and ``<spectrum
   value="400:0.1, 500:0.5, ...">`` (converted to linear sRGB as Mitsuba's RGB variants
   do, :mod:`vrlab.render.spectra`), ``<spectrum type="regular">``/``"irregular"`` (the

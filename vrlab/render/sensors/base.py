@@ -75,15 +75,19 @@ class Film(Element):
 class Sensor(Element):
     """Base of the sensor elements: ``to_world``, ``film`` (default: Mitsuba's ``hdrfilm``,
     768 x 576 with a gaussian filter), ``sampler`` (default ``independent``, 4 spp),
-    ``near_clip`` (default 0.01: rays start there) and ``far_clip`` (1e4).  Subclasses
-    implement ``local_rays(s)`` for normalised film positions ``s (..., 2)``."""
+    ``near_clip`` (default 0.01: rays start there), ``far_clip`` (1e4) and ``focus_distance``
+    (default: ``far_clip``; any finite number).  As in Mitsuba 3, whose ``ProjectiveCamera``
+    reads ``focus_distance`` for every projective sensor, a pinhole (``perspective``) or
+    ``orthographic`` camera accepts it and ignores it; ``thinlens`` focuses there.
+    Subclasses implement ``local_rays(s)`` for normalised film positions ``s (..., 2)``."""
 
     kind = "sensor"
     #: uniforms a camera sample takes: 2 for the sub-pixel offset, more for a lens (thinlens: 4)
     camera_dims = 2
 
     def __init__(self, *, to_world: Any = None, film: Any = None, sampler: Any = None,
-                 near_clip: float = 1e-2, far_clip: float = 1e4, id: str | None = None):
+                 near_clip: float = 1e-2, far_clip: float = 1e4, focus_distance: float | None = None,
+                 id: str | None = None):
         from ..registry import element_class
 
         self.to_world = matrix4(np.eye(4) if to_world is None else to_world, "to_world")
@@ -99,13 +103,16 @@ class Sensor(Element):
         if not self.far_clip > self.near_clip:
             raise ValueError(f"far_clip must be > near_clip, got near_clip={self.near_clip:g}, "
                              f"far_clip={self.far_clip:g}")
+        self.focus_distance = self.far_clip if focus_distance is None else checks.real(focus_distance,
+                                                                                       "focus_distance")
         self.id = id
 
     @staticmethod
     def common(p) -> dict:
         """Parameters of every sensor in a scene file."""
         return dict(to_world=p.transform("to_world"), film=p.child("film"), sampler=p.child("sampler"),
-                    near_clip=p.float("near_clip", 1e-2), far_clip=p.float("far_clip", 1e4))
+                    near_clip=p.float("near_clip", 1e-2), far_clip=p.float("far_clip", 1e4),
+                    focus_distance=p.float("focus_distance") if p.has("focus_distance") else None)
 
     @property
     def type(self) -> str:

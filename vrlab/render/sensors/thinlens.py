@@ -49,9 +49,7 @@ class ThinLensCamera(PerspectiveCamera):
         if not p.has("aperture_radius"):
             raise ValueError("aperture_radius: a thinlens sensor needs it (the radius of the aperture in scene "
                              "units; 0 is a pinhole)")
-        return cls(aperture_radius=p.float("aperture_radius"),
-                   focus_distance=p.float("focus_distance") if p.has("focus_distance") else None,
-                   **cls.view(p), **cls.common(p))
+        return cls(aperture_radius=p.float("aperture_radius"), **cls.view(p), **cls.common(p))
 
     @property
     def aperture(self) -> Disk:

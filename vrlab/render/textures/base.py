@@ -43,19 +43,22 @@ class SurfacePoints(NamedTuple):
       the point is (1 - b1 - b2) p0 + b1 p1 + b2 p2 (Mitsuba's ``prim_uv``; the order is that
       of the mesh's ``faces``, also for a shape with ``flip_normals``);
     * ``shape``: the mesh hit (an object with ``faces (F, 3)`` and ``vertex_attributes`` /
-      ``face_attributes`` dicts of arrays), for ``mesh_attribute``.
+      ``face_attributes`` dicts of arrays), for ``mesh_attribute``;
+    * ``p`` ``(N, 3)`` or None: the world-space position of the point (``si.p``), for the
+      ``volume`` texture.
     """
 
     uv: np.ndarray
     prim: np.ndarray | None = None
     bary: np.ndarray | None = None
     shape: Any = None
+    p: np.ndarray | None = None
 
 
 def surface_points(si: Any, name: str = "si") -> SurfacePoints:
     """``si`` checked as a :class:`SurfacePoints` (a bare array is taken as its ``uv``):
-    ``uv`` finite ``(N, 2)``, ``prim`` integers ``(N,)`` and ``bary`` finite ``(N, 2)`` when
-    given.  ``TypeError``/``ValueError`` naming ``name`` and the field."""
+    ``uv`` finite ``(N, 2)``, ``prim`` integers ``(N,)``, ``bary`` finite ``(N, 2)`` and ``p``
+    finite ``(N, 3)`` when given.  ``TypeError``/``ValueError`` naming ``name`` and the field."""
     if not isinstance(si, SurfacePoints):
         si = SurfacePoints(si)
     uv = checks.finite_array(si.uv, f"{name}.uv", ndim=2, last=2)
@@ -69,13 +72,19 @@ def surface_points(si: Any, name: str = "si") -> SurfacePoints:
         bary = checks.finite_array(si.bary, f"{name}.bary", ndim=2, last=2)
         if len(bary) != n:
             raise ValueError(f"{name}.bary must have shape ({n}, 2), got {bary.shape}")
-    return SurfacePoints(uv, prim, bary, si.shape)
+    p = None
+    if si.p is not None:
+        p = checks.finite_array(si.p, f"{name}.p", ndim=2, last=3)
+        if len(p) != n:
+            raise ValueError(f"{name}.p must have shape ({n}, 3), got {p.shape}")
+    return SurfacePoints(uv, prim, bary, si.shape, p)
 
 
 def take(si: SurfacePoints, index: np.ndarray) -> SurfacePoints:
     """The points ``index`` (a boolean mask or integer indices) of a checked ``si``."""
     return SurfacePoints(si.uv[index], None if si.prim is None else si.prim[index],
-                         None if si.bary is None else si.bary[index], si.shape)
+                         None if si.bary is None else si.bary[index], si.shape,
+                         None if si.p is None else si.p[index])
 
 
 def uv_transform(to_uv: Any, name: str = "to_uv") -> np.ndarray:
