@@ -96,12 +96,14 @@ def _shape(fn) -> list[tuple]:
 
 
 def protocol_problems(estimator, base: type | None = None) -> list[str]:
-    """What ``estimator`` overrides against the protocol of ``base`` (default
-    :class:`~vrlab.estimators.Estimator`) breaks: one line per problem, empty if none."""
-    from .base import Estimator
-
-    base = Estimator if base is None else base
+    """What ``estimator`` overrides against the protocol of ``base`` (default: the class in its
+    MRO that defines ``CORE``, :class:`~vrlab.estimators.Estimator`) breaks: one line per
+    problem, empty if none."""
     cls, out = type(estimator), []
+    if base is None:
+        base = next((c for c in reversed(cls.__mro__) if "CORE" in vars(c)), None)
+        if base is None:
+            return [f"{cls.__name__} is no vrlab.estimators.Estimator"]
     for name in CORE + RENDER_HOOKS:
         documented = inspect.getattr_static(base, name)
         if not callable(documented) or isinstance(documented, property):

@@ -12,8 +12,7 @@ import numpy as np
 
 from .. import checks
 from .._rng import as_generator
-from ..distributions.quadrature import (MAX_NODES, MAX_QUAD, bins_tuple, chart_like,  # noqa: F401
-                                       check_nodes, quad_orders, real_values)
+from ..distributions.quadrature import real_values
 
 #: Most samples ``chi2_gof`` draws.
 MAX_SAMPLES = 10**8

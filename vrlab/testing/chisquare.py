@@ -35,10 +35,10 @@ from scipy import stats
 
 from .. import checks
 from ..distributions.charts import Chart
-from ..distributions.quadrature import cell_integrals
+from ..distributions.quadrature import (bins_tuple, cell_integrals, chart_like, check_nodes, quad_orders,
+                                       real_values)
 from ..significance import sidak_threshold
-from ._args import (MAX_SAMPLES, bins_tuple, chart_like, check_nodes, draw_uniforms, quad_orders,
-                    real_values, sample_points, text)
+from ._args import MAX_SAMPLES, draw_uniforms, sample_points, text
 
 __all__ = ["GofResult", "assert_gof", "cell_integrals", "chi2_discrete", "chi2_gof", "histogram", "integrate",
            "pooled_chi2", "sidak_threshold"]
