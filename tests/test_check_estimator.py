@@ -36,6 +36,7 @@ def test_every_lab_recipe_passes_the_common_checks(name):
     concrete, integrand, est, points = _lab_case(name)
     out = check_estimator(est, integrand, points=points, render=False)
     assert out["unbiased"] == "ok" and out["params"] == "ok" and out["pickle"] == "ok", (concrete, out)
+    assert out["protocol"] == "ok", (concrete, out)
 
 
 @pytest.mark.filterwarnings("ignore")
@@ -98,6 +99,47 @@ class LocalDensity(MonteCarlo):
 def test_broken_estimators_fail_naming_the_check(broken, check):
     with pytest.raises(AssertionError, match=rf"check_estimator\[{check}\]"):
         check_estimator(broken())
+
+
+class EmittedDropped(MonteCarlo):
+    """A renderer hook overridden with other parameters than the documented ``(outputs, emitted)``."""
+
+    def add_emitted(self, outputs):
+        return outputs
+
+
+class RenamedCore(MonteCarlo):
+    """A core method whose parameter is renamed (``integrand`` -> ``f``: keyword callers break)."""
+
+    def unit_dim(self, f):
+        return super().unit_dim(f)
+
+
+class HalfSpatial(MonteCarlo):
+    """``spatial = True`` but only one of the three spatial hooks."""
+
+    spatial = True
+
+    def spatial_dim(self, integrand):
+        return 2
+
+
+class FractionalCandidates(MonteCarlo):
+    candidates_per_unit = 1.5
+
+
+@pytest.mark.parametrize("broken, says", [
+    (EmittedDropped, r"add_emitted\(self, outputs\): the renderer hook is documented as add_emitted\(self, outputs"),
+    (RenamedCore, r"unit_dim\(self, f\): the core method"),
+    (HalfSpatial, r"spatial = True but spatial_check, spatial_outputs not overridden"),
+    (FractionalCandidates, r"candidates_per_unit must be an integer >= 0"),
+])
+def test_overrides_off_the_documented_protocol_fail_the_protocol_check(broken, says):
+    """The estimator protocol's two parts (vrlab.estimators.hooks): overrides keep the documented
+    signatures and types; each of these mistakes fails check_estimator[protocol]."""
+    with pytest.raises(AssertionError, match=rf"check_estimator\[protocol\]: {broken.__name__} .*{says}"):
+        check_estimator(broken(), "sin", spawn=False, render=False)
+    assert check_estimator(MonteCarlo(), "sin", spawn=False, render=False)["protocol"] == "ok"
 
 
 def test_unpicklable_settings_fail_the_pickle_check():

@@ -18,6 +18,30 @@ from vrlab.estimators.regression import CoMoments
 ROOT = Path(vrlab.__file__).parent
 
 
+def _doc_table_names(heading: str) -> set[str]:
+    """The member names in the first column of the docs/design.md table after ``heading``."""
+    text = (ROOT.parent / "docs" / "design.md").read_text()
+    rows = text[text.index(heading):].split("\n\n")[1].splitlines()[2:]
+    return {m for row in rows for m in re.findall(r"`([a-z_]+)", row.split("|")[1])}
+
+
+def test_the_protocol_has_two_documented_parts():
+    """Every public member of Estimator is in exactly one part, the core on Estimator and the hooks
+    on RenderHooks, both written down in docs/design.md; the lab asks for no hook."""
+    from vrlab.estimators.hooks import CORE, RENDER_HOOKS, RenderHooks
+
+    public = {n for n in dir(Estimator) if not n.startswith("_")} - {"CORE", "RENDER_HOOKS"}
+    assert set(CORE) | set(RENDER_HOOKS) == public and not set(CORE) & set(RENDER_HOOKS)
+    assert Estimator.CORE == CORE and Estimator.RENDER_HOOKS == RENDER_HOOKS
+    assert all(n in Estimator.__dict__ for n in CORE) and all(n in RenderHooks.__dict__ for n in RENDER_HOOKS)
+    assert _doc_table_names("The core:") == set(CORE)
+    assert _doc_table_names("The renderer's hooks:") == set(RENDER_HOOKS)
+    asks = re.compile(r"\.(" + "|".join(RENDER_HOOKS) + r")\b")
+    lab = [str(p.relative_to(ROOT)) for p in (ROOT / "lab").rglob("*.py") if asks.search(p.read_text())]
+    assert not lab, lab
+    assert asks.search("est.spatial_dim(f)") and not asks.search("est.spatially")       # the scan can fail
+
+
 def test_moments_state_round_trip_and_concat():
     rng = np.random.default_rng(0)
     a, b = rng.normal(size=(3, 4, 50)), rng.normal(size=(3, 2, 50))

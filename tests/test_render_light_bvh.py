@@ -3,9 +3,13 @@ shading point; renders stay unbiased against uniform selection, P_j at a point s
 and the density of a sample is the density ``pdf`` reports (needed by MIS)."""
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+import vrlab
 from conftest import render_pair, run_cli
 from test_render import EMIT, FLOOR, RECT_LIGHT, SPHERE_LIGHT, bonferroni_z, scene
 from vrlab.render.direct import DirectLighting
@@ -176,3 +180,48 @@ def test_a_sheared_spot_bounds_every_direction():
 @pytest.mark.parametrize("strategy", ["light", "mis-power"])
 def test_spot_lights_bvh_is_unbiased_against_uniform(strategy):
     _assert_bvh_agrees_with_uniform(SPOTS, strategy, 128, seeds=(5, 6))
+
+
+# -- lighting code asks every element through its protocol (issue 34, part 4.3) ------------------
+LIGHTING = ("render/light_tree.py", "render/direct.py", "render/light_set.py", "render/lights.py",
+            "render/emitters/area.py")
+#: hasattr(x, ...) or getattr(x, "name", default): a probe of what an element is
+_PROBE = re.compile(r"\bhasattr\(|\bgetattr\([^,()]+,\s*[\"'][a-z_]+[\"']\s*,")
+
+
+def _probes(text: str) -> list[str]:
+    return [line.strip() for line in text.splitlines() if _PROBE.search(line)]
+
+
+def test_lighting_code_asks_elements_instead_of_probing_them():
+    """No hasattr / getattr-with-default in the lighting code: every emitter and shape answers
+    (light_bounds, emission_cone, is_delta, is_infinite, corners, barycentrics, has_barycentrics
+    have defaults on the base classes), and the scan finds a probe where there is one."""
+    from vrlab.render.emitters import Emitter
+    from vrlab.render.registry import registered
+    from vrlab.render.shapes import Shape
+
+    root = Path(vrlab.__file__).parent
+    found = {f: _probes((root / f).read_text()) for f in LIGHTING}
+    assert not any(found.values()), found
+    assert _probes('if getattr(l, "is_delta", False):') and _probes("ok = hasattr(s, 'corners')")
+    for name, cls in registered("emitter").items():
+        assert issubclass(cls, Emitter) and callable(cls.light_bounds) and callable(cls.emission_cone), name
+    for name, cls in registered("shape").items():
+        assert issubclass(cls, Shape) and callable(cls.corners) and isinstance(cls.has_barycentrics, bool), name
+
+
+def test_elements_answer_the_light_bvh_and_the_shading_points():
+    """The answers the lighting code reads: a point light its position (a box of size 0) and every
+    direction, an area emitter no bounds of its own; a rectangle its 4 corners, a sphere none;
+    only meshes give barycentrics."""
+    from vrlab.render.emitters.area import AreaEmitter
+    from vrlab.render.emitters.point import PointLight
+    from vrlab.render.shapes.rectangle import Rectangle
+    from vrlab.render.shapes.sphere import Sphere
+
+    lo, hi, w, cos_o, cos_e = PointLight(position=(1.0, 2.0, 3.0)).light_bounds()
+    assert np.array_equal(lo, [1, 2, 3]) and np.array_equal(hi, lo) and cos_o == -1.0
+    assert AreaEmitter(1.0).light_bounds() is None
+    assert Rectangle().corners().shape == (4, 3) and Sphere().corners() is None
+    assert not Rectangle().has_barycentrics and Rectangle().barycentrics(np.zeros((1, 3)), np.zeros(1, int)) is None

@@ -94,6 +94,78 @@ def test_the_circle_finder_finds_one():
     assert frozenset({"vrlab.cli_compare", "vrlab.cli_render"}) in _circles(graph)
 
 
+#: The layer table of docs/design.md ("Layers"), lowest first: a module imports (at module level or
+#: inside a function) only modules of its own layer, of lower layers, or shared helpers.
+LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("point sets", ("vrlab.points",)),
+    ("warps", ("vrlab.distributions",)),
+    ("integrands", ("vrlab.integrands",)),
+    ("estimators", ("vrlab.estimators", "vrlab.estimate")),
+    ("execution", ("vrlab.execution",)),
+    ("lab", ("vrlab.lab",)),
+    ("renderer", ("vrlab.render",)),
+    ("tools", ("vrlab.testing", "vrlab.bench")),
+    ("experiments", ("vrlab.experiments", "vrlab.notebooks")),
+    ("command line", ("vrlab.cli*", "vrlab.demo", "vrlab._demo_samplers", "vrlab.__main__")),
+)
+#: shared helpers: every layer may import them; they import only each other
+SHARED = ("vrlab.checks", "vrlab._rng", "vrlab._vec", "vrlab._lazy", "vrlab._alloc", "vrlab.limits", "vrlab.colour",
+          "vrlab.metrics", "vrlab.significance")
+#: the package root re-exports a few names (``vrlab.Estimate``, ``vrlab.AliasTable``) and stands above the table
+ROOT = "vrlab"
+
+
+def _layer(module: str) -> int | None:
+    """The layer's index in ``LAYERS`` (-1 for a shared helper), None for a module the table misses."""
+    from fnmatch import fnmatchcase
+
+    if module in SHARED:
+        return -1
+    for k, (_, packages) in enumerate(LAYERS):
+        if any(fnmatchcase(module, p) or module.startswith(p + ".") for p in packages):
+            return k
+    return None
+
+
+def _layer_violations(graph: dict[str, set[str]]) -> list[str]:
+    """Every import that goes up the table (or from a shared helper into a layer), and every module
+    the table does not place."""
+    out = []
+    for name in sorted(graph):
+        if name == ROOT:
+            continue
+        here = _layer(name)
+        if here is None:
+            out.append(f"{name}: in no layer of the table")
+            continue
+        for dep in sorted(graph[name]):
+            there = _layer(dep)
+            if there is None or there > here or (here == -1 and there != -1):
+                where = "a shared helper" if here == -1 else LAYERS[here][0]
+                to = "no layer" if there is None else "the shared helpers" if there == -1 else LAYERS[there][0]
+                out.append(f"{name} ({where}) imports {dep} ({to})")
+    return out
+
+
+def test_imports_only_go_down_the_layer_table():
+    """docs/design.md's layer table holds with no exception, lazy imports included."""
+    bad = _layer_violations(_imports(_modules()))
+    assert not bad, "\n".join(bad)
+
+
+def test_the_layer_check_finds_an_up_arrow():
+    """The mutations: mc_variance borrowing the harness's charts again (the old exception), the
+    lab's trust flags importing vrlab.testing, a shared helper importing a layer, and a module the
+    table misses are each reported."""
+    graph = _imports(_modules())
+    assert not _layer_violations(graph)
+    for name, dep in (("vrlab.integrands.theory", "vrlab.testing.charts"), ("vrlab.lab.trust", "vrlab.testing"),
+                      ("vrlab.checks", "vrlab.points"), ("vrlab.distributions.charts", "vrlab.integrands")):
+        mutated = {**graph, name: graph[name] | {dep}}
+        assert [v for v in _layer_violations(mutated) if v.startswith(name + " ") and dep in v], (name, dep)
+    assert _layer_violations({**graph, "vrlab.stray": set()}) == ["vrlab.stray: in no layer of the table"]
+
+
 def test_compare_and_gradient_depend_on_shared_settings_not_on_cli_render():
     graph = _imports(_modules())
     for name in ("vrlab.cli_compare", "vrlab.cli_gradient"):

@@ -46,7 +46,7 @@ alpha = 1 - 0.99^(1 / (2 rows)), so that with honest errors *any* flag in the sw
 chance of at most about 1 %:
 
 * ``!`` stderr too small, the error bars cannot be trusted: z_std above the upper end of
-  the chi-square band ``std_band(R, alpha)`` (:mod:`vrlab.testing.stats`), or
+  the chi-square band ``std_band(R, alpha)`` (:mod:`vrlab.significance`), or
   P(K <= k) < alpha for the observed count k (coverage below the smallest
   count that binomial chance allows).  Typical cause: a heavy tail that R samples of n
   rarely reach (``is:brdf`` on ``glossy-light`` misses the small bright light), so the

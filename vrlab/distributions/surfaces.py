@@ -75,6 +75,8 @@ class Surface(Distribution):
     measure = "area"
     max_hits: int = 1
     area: float
+    #: the unit normal of a planar surface (3,), None for curved ones
+    unit_normal: np.ndarray | None = None
 
     def normal(self, x: np.ndarray) -> np.ndarray:  # pragma: no cover - interface
         raise NotImplementedError  # abstract

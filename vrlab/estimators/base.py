@@ -21,6 +21,7 @@ from .._rng import RNGLike, as_generator
 from ..distributions.base import checked_pdf
 from ..estimate import Estimate, Moments
 from ..integrands.lookup import as_integrand
+from .hooks import CORE, RENDER_HOOKS, RenderHooks
 
 DEFAULT_CHUNK = 1 << 18  # sample units per chunk: bounded memory for any n
 
@@ -101,19 +102,20 @@ def independent_points(points: Any) -> bool:
     return is_independent(points)
 
 
-class Estimator:
+class Estimator(RenderHooks):
     """Base class, the estimator protocol, and the extension hook for a user's own estimator.
 
     Everything the lab, the renderer, checkpoints and ``--compare`` ask of an estimator is
-    here, with a default (``docs/design.md``, "The estimator protocol"):
+    here, with a default (``docs/design.md``, "The estimator protocol"), in two parts.  The
+    **core** (``Estimator.CORE``), which the lab and the renderer share:
 
     =========================  ===============================================================
     ``dim_u(integrand)``       uniforms per sample unit (abstract)
     ``unit_values(f, u)``      ``u (*batch, m, dim_u)`` -> m independent unbiased unit values
                                ``(*batch, m)`` (abstract for averaging estimators)
+    ``check``, ``unit_dim``    validation against an integrand; a unit's uniforms (``dim_u``)
     ``unit_outputs(f, u)``     columns per unit ``(*batch, m, c)``, column 0 the value
                                (default: the unit values as one column)
-    ``add_emitted(out, e)``    the renderer's directly seen light added (default: to column 0)
     ``accumulate(outputs)``    mergeable statistics of m units (default :class:`Moments` of
                                column 0); statistics have ``count``, ``merge``, ``state()``,
                                ``from_state``, ``concat``
@@ -121,19 +123,22 @@ class Estimator:
     ``details(stats)``         extra fields of an ``Estimate`` (per-unit ``variance``, fitted
                                coefficients...)
     ``statistics_from_state``  the statistics of a saved ``state()`` (checkpoints)
+    ``fold``, ``units_for``,   the fold of unit outputs, units for n evaluations, the whole
+    ``estimate``,              estimate and its ``Estimate``
+    ``to_estimate``
     ``evals_per_unit``         integrand evaluations per unit: the cost ``n`` counts
-    ``traced_per_unit()``      evaluations the renderer traces a ray for (default
-                               ``evals_per_unit``)
-    ``candidates_per_unit``    cheap candidate evaluations per unit without a ray (RIS's m)
-    ``closed_form_per_unit``   True when each unit also evaluates a closed-form control
     ``min_units``              units one fold needs (a pixel's spp at least this)
     ``per_unit``               True when the estimate is the fold of independent units, so
                                it can run one unit at a time (the renderer's shading points)
-    ``spatial``                True for reuse across the pixels of a block (ReSTIR): the renderer
-                               calls ``spatial_check``/``spatial_dim``/``spatial_outputs(view,
-                               u (N, B, dim))`` (N units over B pixels, ``view`` a
-                               :class:`vrlab.render.reuse.BlockPixels`) -> ``(3, N, B, c)``
+    ``get_params``/``clone``   settings (scikit-learn's convention); ``label``: the name
     =========================  ===============================================================
+
+    and the **renderer's hooks** (``Estimator.RENDER_HOOKS``, inherited from
+    :class:`~vrlab.estimators.hooks.RenderHooks`, which documents them): ``add_emitted``,
+    ``traced_per_unit()``, ``candidates_per_unit``, ``closed_form_per_unit`` (the renderer's
+    cost model) and ``spatial`` with ``spatial_check``/``spatial_dim``/``spatial_outputs``
+    (reuse across the pixels of a block, ReSTIR).  The lab asks for no hook.
+
     ``estimate`` goes through ``unit_outputs`` -> ``accumulate`` -> ``merge`` ->
     ``summarize``, the same code the renderer runs per pixel.  Estimators that are not a fold
     of independent units (stratified, RQMC, Metropolis chains, pairs of integrands) set
@@ -152,13 +157,8 @@ class Estimator:
     per_unit: bool = True
     #: sample units one fold needs (fitted coefficients need more than one)
     min_units: int = 1
-    #: cheap evaluations per unit that trace no ray (RIS candidates against an unshadowed target)
-    candidates_per_unit: int = 0
-    #: True when a unit also evaluates a closed-form control integral (the renderer's cost model)
-    closed_form_per_unit: bool = False
-    #: True when a unit reuses samples across the pixels of a block (ReSTIR): the renderer
-    #: calls the ``spatial_*`` hooks, not one unit per shading point
-    spatial: bool = False
+    #: the two parts of the protocol, by name (:mod:`vrlab.estimators.hooks`)
+    CORE, RENDER_HOOKS = CORE, RENDER_HOOKS
 
     # -- scikit-learn style settings ----------------------------------------------------
     def get_params(self) -> dict:
@@ -196,37 +196,11 @@ class Estimator:
         unit holds several samples of different techniques, as in MIS)."""
         return int(self.dim_u(integrand))
 
-    def spatial_check(self, integrand) -> None:
-        """Spatial hook (class docstring): validate settings against the renderer's integrand."""
-        raise TypeError(f"estimator: {self.label} is not spatial (spatial = False)")
-
-    def spatial_dim(self, integrand) -> int:
-        """Spatial hook: uniforms per pixel sample of one spatial unit."""
-        raise TypeError(f"estimator: {self.label} is not spatial (spatial = False)")
-
-    def spatial_outputs(self, view, u: np.ndarray) -> np.ndarray:
-        """Spatial hook: outputs ``(3, N, B, c)`` of N independent units over B pixels."""
-        raise TypeError(f"estimator: {self.label} is not spatial (spatial = False)")
-
-    def traced_per_unit(self) -> int:
-        """Integrand evaluations per unit that the renderer traces a shadow ray for
-        (default ``evals_per_unit``; a one-sample mixture traces one direction but weighs it
-        with every technique)."""
-        return int(self.evals_per_unit)
-
     def unit_outputs(self, integrand, u: np.ndarray) -> np.ndarray:
         """What :meth:`accumulate` combines, per unit: ``(*batch, m, c)``, column 0 the unit's
         value (terms common to every technique, like a pixel's emitted light, are added
         there).  Default: the unit values as one column."""
         return self.unit_values(integrand, u)[..., None]
-
-    def add_emitted(self, outputs: np.ndarray, emitted: np.ndarray) -> np.ndarray:
-        """The renderer's unit outputs ``(..., m, c)`` with the light the pixel sample sees
-        directly, ``emitted (..., m)`` (a term common to every technique), added: by default to
-        column 0.  An estimator that fits coefficients may keep it apart (a last column) so
-        that the fit is not driven by it."""
-        outputs[..., 0] += emitted
-        return outputs
 
     def accumulate(self, outputs: np.ndarray):
         """Mergeable statistics of the unit outputs ``(*batch, m, c)`` of m units (``merge``

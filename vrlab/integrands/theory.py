@@ -2,8 +2,9 @@
 
 For importance sampling with density p, one term f(X)/p(X) has
 Var = int f^2 / p dmu - I^2 (Veach 1997, eq. 2.8 ff.).  ``mc_variance`` evaluates
-that integral with composite Gauss–Legendre on the domain's chart (the same
-quadrature the chi-square harness uses).  Where p = 0 but f != 0 the estimator is
+that integral with composite Gauss–Legendre on the domain's chart
+(:mod:`vrlab.distributions.charts`, :mod:`vrlab.distributions.quadrature`: the same quadrature the
+chi-square harness uses).  Where p = 0 but f != 0 the estimator is
 biased and the variance is reported as ``inf``.
 
 With point masses (``integrand.atoms``, weights c_k at a_k) the integral is over the mixed
@@ -17,13 +18,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..distributions.charts import BoxChart, DiskChart, HemisphereChart, SphereChart
+from ..distributions.quadrature import cell_integrals
 from .base import Integrand
 
 
 def chart_for(integrand: Integrand):
     """The chart that parameterises the integrand's domain."""
-    from ..testing.charts import BoxChart, DiskChart, HemisphereChart, SphereChart  # scipy.stats: lazy
-
     if integrand.bounds is not None:
         if integrand.dim > 2:
             raise ValueError("quadrature of predicted variances is available for 1D and 2D boxes only")
@@ -34,8 +35,6 @@ def chart_for(integrand: Integrand):
 def mc_variance(integrand: Integrand, distribution=None, *, bins: int | None = None, quad: int = 8,
                 sub: int = 2) -> float:
     """Var of f(X)/p(X) for X ~ ``distribution`` (default uniform), by quadrature."""
-    from ..testing.chisquare import cell_integrals  # scipy.stats: imported on use
-
     dist = integrand.uniform() if distribution is None else distribution
     chart = chart_for(integrand)
     nb = bins or (400 if chart.p == 1 else 96)

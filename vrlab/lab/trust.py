@@ -7,7 +7,7 @@ gets two tests at the Sidak level alpha = 1 - 0.99^(1 / (2 rows)), so that with 
 *any* flag in the table has a chance of at most about 1 %:
 
 * ``!`` stderr too small, the error bars cannot be trusted: z_std above the upper end of the
-  chi-square band ``std_band(R, alpha)`` (:mod:`vrlab.testing.stats`), or P(K <= k) < alpha
+  chi-square band ``std_band(R, alpha)`` (:mod:`vrlab.significance`), or P(K <= k) < alpha
   for the observed count k.  Typical cause: a heavy tail that R samples of n rarely reach.
 * ``~`` stderr far too large: z_std below the band's lower end (safe but uninformative
   intervals: jittered and Latin hypercube errors reported as if i.i.d.).
@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .. import testing as T
+from ..significance import sidak_threshold, std_band
 
 __all__ = ["FLAG_FAMILY_ALPHA", "flag_notes", "stderr_flags", "trust_thresholds"]
 
@@ -35,9 +35,7 @@ def trust_thresholds(reps: int, tests: int, family_alpha: float = FLAG_FAMILY_AL
     as a share of R, that binomial chance allows at level alpha)."""
     from scipy import stats
 
-    from ..testing.stats import std_band
-
-    alpha = T.sidak_threshold(family_alpha, tests)
+    alpha = sidak_threshold(family_alpha, tests)
     z_lo, z_hi = std_band(reps, alpha)
     k = np.arange(reps + 1)
     allowed = k[stats.binom.cdf(k, reps, 0.95) >= alpha]

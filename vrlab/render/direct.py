@@ -59,7 +59,7 @@ class DirectLighting:
         checks.choice(light_selection, "light_selection", LIGHT_SELECTIONS)
         self.light_selection = light_selection
         # hits need their triangle only on meshes with smooth normals or textures
-        prim = any(hasattr(s, "barycentrics") and (s.has_shading_normals or s.bsdf.textures or
+        prim = any(s.has_barycentrics and (s.has_shading_normals or s.bsdf.textures or
                                                    (s.emitter is not None and s.emitter.texture is not None))
                    for s in scene.shapes)
         self.geometry = SceneGeometry(scene, track_prim=prim)
@@ -218,7 +218,7 @@ class DirectLighting:
 
         s = self.shapes[k]
         prim = np.zeros(len(p), np.int64) if prim is None else prim
-        bary = s.barycentrics(p, prim) if hasattr(s, "barycentrics") else None
+        bary = s.barycentrics(p, prim)
         return SurfacePoints(s.uv(p, prim), prim, bary, s, p)
 
     def textured_radiance(self, shape: np.ndarray, p: np.ndarray, prim: np.ndarray | None,

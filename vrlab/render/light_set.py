@@ -70,16 +70,15 @@ class LightSet:
         self.radiance = np.array([l.radiance for l in self.lights])
         self.radiance32 = self.radiance.astype(np.float32)
         self.is_sphere = np.array([l.sphere is not None for l in self.lights])
-        self.is_delta = np.array([getattr(l, "is_delta", False) for l in self.lights])
+        self.is_delta = np.array([l.is_delta for l in self.lights], bool)
         self.is_emitter = np.array([isinstance(l, EmitterLight) for l in self.lights])
-        self.is_infinite = np.array([getattr(l, "is_infinite", False) for l in self.lights])
+        self.is_infinite = np.array([l.is_infinite for l in self.lights], bool)
         self.centers = np.array([l.sphere[0] if l.sphere is not None else np.zeros(3) for l in self.lights])
         self.radii = np.array([l.sphere[1] if l.sphere is not None else 1.0 for l in self.lights])
         self.signs = np.array([l.sign for l in self.lights])
         self.centers32, self.radii32 = self.centers.astype(np.float32), self.radii.astype(np.float32)
         #: lights whose triangles are leaves of the light BVH (``"bvh"``: every mesh light)
-        self.split = np.array([selection == "bvh" and isinstance(l, Light) and "method" in getattr(l, "directions", {})
-                               for l in self.lights], bool)
+        self.split = np.array([selection == "bvh" and "method" in l.directions for l in self.lights], bool)
         #: every light gives its first point y along a sampled w (spheres, planar and non-shape
         #: lights, and split meshes: a point on one triangle)
         self.simple = all(l.sphere is not None or l.planar or s for l, s in zip(self.lights, self.split))
@@ -277,5 +276,5 @@ class LightSet:
         for i in np.flatnonzero(~self.is_sphere):
             out[:, i], valid[:, i] = self.lights[i].cos_integral(ref, n)
         valid[:, self.is_emitter] = False
-        valid[:, [getattr(l, 'textured', False) for l in self.lights]] = False
+        valid[:, [l.textured for l in self.lights]] = False
         return out, valid

@@ -45,19 +45,21 @@ __all__ = ["BVHSelection"]
 def _bounds(light) -> tuple:
     """(lo, hi, w, cos_o, cos_e) of one light of a :class:`~vrlab.render.light_set.LightSet`."""
     up = np.array([0.0, 0.0, 1.0])
-    if getattr(light, "emitter", None) is not None and not hasattr(light, "shape"):    # point, spot, projector
-        pos = np.asarray(light.emitter.position, float)
-        cone = light.emitter.emission_cone()
-        return (pos, pos, up, -1.0, 0.0) if cone is None else (pos, pos, *cone)
+    own = light.emitter.light_bounds()            # point, spot, projector: their position and cone
+    if own is not None:
+        return own
     if light.sphere is not None:
         c, r = np.asarray(light.sphere[0], float), float(light.sphere[1])
         return c - r, c + r, up, -1.0, 0.0
     shape = light.shape
-    if light.planar and hasattr(shape, "corners"):
-        pts = shape.corners()
+    if shape is None:
+        raise ValueError(f"light_selection: 'bvh' needs bounds of every light not at infinity; the "
+                         f"{light.emitter.plugin_name!r} emitter gives none (light_bounds())")
+    pts = shape.corners() if light.planar else None
+    if pts is not None:
         return pts.min(0), pts.max(0), light.surface.normal(pts[:1])[0], 1.0, 0.0
     c, r = np.asarray(shape.center, float), float(shape.bound_radius)
-    if light.planar and hasattr(light.surface, "unit_normal"):
+    if light.planar and light.surface.unit_normal is not None:
         return c - r, c + r, np.asarray(light.surface.unit_normal, float), 1.0, 0.0
     return c - r, c + r, up, -1.0, 0.0
 
@@ -91,7 +93,7 @@ class BVHSelection:
     def __init__(self, lights: list, weights: np.ndarray, power: np.ndarray, split: np.ndarray | None = None):
         L = len(lights)
         split = np.zeros(L, bool) if split is None else np.asarray(split, bool)
-        inf = np.array([getattr(l, "is_infinite", False) for l in lights], bool)
+        inf = np.array([l.is_infinite for l in lights], bool)
         self.infinite = np.flatnonzero(inf)
         self.bounded = np.flatnonzero(~inf)
         self.split = split

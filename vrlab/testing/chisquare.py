@@ -16,6 +16,10 @@ Samples landing in cells whose expected count is zero fail immediately (the
 sampler produces points where its pdf says it cannot).  Several tests at once
 use a Šidák correction: reject when p < 1 - (1 - alpha)^(1/m).
 
+The charts and the cell quadrature (``cell_integrals``) live in the warps layer
+(:mod:`vrlab.distributions.charts`, :mod:`vrlab.distributions.quadrature`) and ``sidak_threshold``
+in :mod:`vrlab.significance`; this module re-exports them.
+
 Every entry point checks its arguments (``TypeError``/``ValueError`` naming them): ``n``
 and bin counts are integers >= 1, ``alpha`` lies in (0, 1), ``min_expected > 0``, and a
 test needs at least 2 pooled cells (else too few samples for any verdict).  A sampler
@@ -30,9 +34,14 @@ import numpy as np
 from scipy import stats
 
 from .. import checks
-from ._args import (MAX_SAMPLES, bins_tuple, chart_like, check_nodes, draw_uniforms, quad_orders,
-                    real_values, sample_points, text)
-from .charts import Chart
+from ..distributions.charts import Chart
+from ..distributions.quadrature import (bins_tuple, cell_integrals, chart_like, check_nodes, quad_orders,
+                                       real_values)
+from ..significance import sidak_threshold
+from ._args import MAX_SAMPLES, draw_uniforms, sample_points, text
+
+__all__ = ["GofResult", "assert_gof", "cell_integrals", "chi2_discrete", "chi2_gof", "histogram", "integrate",
+           "pooled_chi2", "sidak_threshold"]
 
 
 @dataclass
@@ -86,17 +95,6 @@ class _TooFewCells(ValueError):
         super().__init__(f"expected, min_expected: the expected counts (total {total:.3g}) pool into {pools} "
                          f"cell(s) of at least min_expected = {min_expected:g}; a chi-square test needs at "
                          "least 2 (more samples n, or a lower min_expected)")
-
-
-def _alpha(alpha) -> float:
-    return checks.real(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
-
-
-def sidak_threshold(alpha: float, m: int) -> float:
-    """Per-test level that keeps the family-wise error rate at ``alpha`` (in (0, 1)) over
-    ``m >= 1`` tests."""
-    alpha, m = _alpha(alpha), checks.integer(m, "m", low=1)
-    return 1.0 - (1.0 - alpha) ** (1.0 / m)
 
 
 def pooled_chi2(observed: np.ndarray, expected: np.ndarray, min_expected: float = 5.0,
@@ -163,69 +161,6 @@ def _pool_groups(e_sorted: np.ndarray, min_expected: float) -> np.ndarray:
     if acc > 0 and g > 0 and n_small == len(e_sorted):
         groups[groups == g] = g - 1  # last pool too small and nothing after it
     return groups
-
-
-def _gauss_cells(bins: Sequence[int], quad: int, sub: int = 1):
-    """Quadrature nodes and weights for every cell of a regular grid on [0,1]^p
-    (composite Gauss–Legendre: ``sub`` sub-intervals per cell, ``quad`` nodes each)."""
-    g, w = np.polynomial.legendre.leggauss(quad)
-    g = ((g + 1) / 2 + np.arange(sub)[:, None]).ravel() / sub  # nodes in [0, 1] of one cell
-    w = np.tile(w / 2, sub) / sub
-    axes_nodes, axes_weights = [], []
-    for b in bins:
-        lo = np.arange(b) / b
-        axes_nodes.append((lo[:, None] + g[None, :] / b))             # (b, q*sub)
-        axes_weights.append(np.broadcast_to(w / b, (b, len(w))))      # (b, q*sub)
-    return axes_nodes, axes_weights
-
-
-def cell_integrals(fn: Callable[[np.ndarray], np.ndarray], chart: Chart, bins: Sequence[int],
-                   quad: int = 6, sub: int = 1) -> np.ndarray:
-    """Integral of ``fn(x)`` (x = chart point) over each cell of a ``bins`` grid.
-
-    Returns an array of shape ``bins``.  ``fn`` must be vectorised over leading axes
-    and return one real value per point (NaN is refused; +-inf gives an infinite cell).
-    ``sub > 1`` splits each cell per axis (for densities with edges or kinks inside cells,
-    e.g. the solid-angle density of a polygon light at its outline).  ``bins``: one
-    integer >= 1 per chart parameter (or one for all); at most ``2**24`` nodes in all.
-    """
-    if not callable(fn):
-        raise TypeError(f"fn must be callable (x -> values), got {checks.describe(fn)}")
-    chart = chart_like(chart)
-    bins = bins_tuple(bins, chart.p)
-    quad, sub = quad_orders(quad, sub)
-    return _cell_integrals(fn, chart, bins, quad, sub, "fn")
-
-
-def _cell_integrals(fn, chart, bins, quad, sub, fname: str) -> np.ndarray:
-    check_nodes(bins, quad, sub)
-    nodes, weights = _gauss_cells(bins, quad, sub)
-    if chart.p == 1:
-        s = nodes[0][..., None]                      # (b, q, 1)
-        wt = weights[0]
-    else:
-        s0 = nodes[0][:, None, :, None]              # (b0, 1, q, 1)
-        s1 = nodes[1][None, :, None, :]              # (1, b1, 1, q)
-        s = np.stack(np.broadcast_arrays(s0, s1), -1)  # (b0, b1, q, q, 2)
-        wt = weights[0][:, None, :, None] * weights[1][None, :, None, :]
-    x = chart.from_param(s)
-    jac = np.asarray(chart.jacobian(s), dtype=float)
-    vals = real_values(fn(x), f"{fname}(x)")
-    try:
-        same = np.broadcast_shapes(vals.shape, jac.shape) == jac.shape
-    except ValueError:
-        same = False
-    if not same:
-        raise ValueError(f"{fname} must return one value per point: shape {jac.shape} for points {np.shape(x)}, "
-                         f"got {vals.shape}")
-    if np.isnan(vals).any():
-        where = tuple(int(i) for i in np.argwhere(np.isnan(np.broadcast_to(vals, jac.shape)))[0])
-        raise ValueError(f"{fname} returned NaN at the point {np.asarray(x)[where].tolist()}")
-    vals = np.where(wt > 0, vals * jac, 0.0) * wt
-    out = vals.sum(axis=(-1,) if chart.p == 1 else (-2, -1))
-    if np.isnan(out).any():
-        raise ValueError(f"{fname}: the cell integrals are NaN (+inf and -inf values in one cell)")
-    return out
 
 
 def histogram(param: np.ndarray, bins: Sequence[int]) -> tuple[np.ndarray, int]:
@@ -295,7 +230,7 @@ def chi2_gof(dist, chart: Chart, bins: Sequence[int], *, n: int = 200_000, rng=0
         prm = np.empty((0, chart.p))
     counts, _ = _histogram(prm, bins)
     outside = int(bad.sum()) + nonfinite
-    expected = n * _cell_integrals(dist.pdf, chart, bins, quad, sub, "dist.pdf")
+    expected = n * cell_integrals(dist.pdf, chart, bins, quad, sub, name="dist.pdf")
     if not np.all(np.isfinite(expected) & (expected >= 0)):
         raise ValueError("dist: pdf integrates to a negative or infinite value on some cells "
                          f"(min {np.min(expected):.3g}, max {np.max(expected):.3g}); check dist.pdf")
@@ -381,7 +316,7 @@ def assert_gof(results: GofResult | Iterable[GofResult], alpha: float = 0.01, m:
         if not isinstance(r, GofResult):
             raise TypeError(f"results[{k}] must be a GofResult (from chi2_gof, chi2_discrete, pooled_chi2), "
                             f"got {checks.describe(r)}")
-    alpha = _alpha(alpha)
+    alpha = checks.real(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
     m = len(results) if m is None else checks.integer(m, "m", low=len(results))
     level = sidak_threshold(alpha, m)
     failed = [r for r in results if not (r.pvalue >= level and r.n > 0)]

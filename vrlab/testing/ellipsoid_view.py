@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..distributions.frames import to_local, to_world
-from .charts import Chart
+from ..distributions.charts import Chart
 
 __all__ = ["EllipsoidViewChart"]
 

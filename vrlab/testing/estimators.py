@@ -3,6 +3,9 @@
 ``check_estimator(estimator)`` runs, in order, and raises ``AssertionError`` whose message
 starts with ``check_estimator[<check>]`` naming the first check that failed:
 
+``protocol``    what the estimator overrides keeps the documented protocol (the core and the
+                renderer's hooks, :mod:`vrlab.estimators.hooks`): methods their signatures,
+                counts integers, flags bools, a spatial estimator its three ``spatial_*``;
 ``params``      settings only in ``__init__``: every constructor argument is stored under its
                 name, ``get_params()`` round-trips through ``clone()`` (same ``repr``, same
                 estimate for the same seed), and ``estimate`` changes no setting;
@@ -41,64 +44,13 @@ from typing import Any
 
 import numpy as np
 
+from .closed_form import CLOSED_FORM_RADIANCE, FOOTPRINT_TOL, closed_form_scene
 from .main_guard import main_guard_advice, unguarded_main_script
 
 __all__ = ["check_estimator", "closed_form_scene", "CLOSED_FORM_RADIANCE"]
 
 DEFAULT_INTEGRANDS = ("sin", "smooth-2d", "cos-hemisphere")
 N_UNITS = 1 << 14            # sample units per unbiasedness check
-
-# -- the renderer's closed-form scene -----------------------------------------------------------
-_RHO = np.array([0.2, 0.5, 0.8])
-_L_E = 3.0
-# rectangle light [-0.3, 0.5] x {1} x [-0.25, 0.35] facing down onto a diffuse floor y = 0
-_LIGHT = np.array([[-0.3, 1.0, -0.25], [0.5, 1.0, -0.25], [0.5, 1.0, 0.35], [-0.3, 1.0, 0.35]])
-
-
-def closed_form_scene(width: int = 8, height: int = 6) -> str:
-    """Mitsuba 3 XML of the closed-form scene: a camera 0.5 above a diffuse floor (reflectance
-    :data:`_RHO`) looking straight down with a 2 degree field of view, under a rectangular
-    area light of radiance 3 at height 1.  Every pixel sees the floor within 0.009 of the
-    origin, whose radiance is :data:`CLOSED_FORM_RADIANCE`."""
-    rho = ", ".join(map(str, _RHO))
-    return f"""<scene version="3.0.0">
-  <integrator type="direct"/>
-  <sensor type="perspective">
-    <float name="fov" value="2"/>
-    <transform name="to_world"><lookat origin="0, 0.5, 0" target="0, 0, 0" up="0, 0, -1"/></transform>
-    <film type="hdrfilm"><integer name="width" value="{width}"/><integer name="height" value="{height}"/>
-      <rfilter type="box"/></film>
-  </sensor>
-  <shape type="rectangle">
-    <transform name="to_world"><scale value="10"/><rotate x="1" angle="-90"/></transform>
-    <bsdf type="diffuse"><rgb name="reflectance" value="{rho}"/></bsdf>
-  </shape>
-  <shape type="rectangle">
-    <transform name="to_world"><scale x="0.4" y="0.3"/><rotate x="1" angle="90"/>
-      <translate x="0.1" y="1" z="0.05"/></transform>
-    <emitter type="area"><rgb name="radiance" value="{_L_E}"/></emitter>
-  </shape>
-</scene>"""
-
-
-def _polygon_irradiance(x: np.ndarray, normal: np.ndarray, verts: np.ndarray, radiance: float) -> float:
-    """Lambert's formula for a uniformly emitting polygon: E = L/2 |sum_k theta_k N . unit(v_k x v_k+1)|,
-    v_k the unit vectors from x to the vertices (Lambert 1760; Arvo 1995, "Applications of
-    irradiance tensors", eq. 5)."""
-    v = verts - x
-    v /= np.linalg.norm(v, axis=-1, keepdims=True)
-    w = np.roll(v, -1, axis=0)
-    theta = np.arccos(np.clip(np.sum(v * w, -1), -1, 1))
-    c = np.cross(v, w)
-    c /= np.linalg.norm(c, axis=-1, keepdims=True)
-    return float(radiance / 2 * abs(np.sum(theta * (c @ normal))))
-
-
-#: radiance (RGB) of the floor at the origin: rho / pi x E (a Lambertian surface)
-CLOSED_FORM_RADIANCE = _RHO / np.pi * _polygon_irradiance(np.zeros(3), np.array([0.0, 1.0, 0.0]), _LIGHT, _L_E)
-#: the floor radiance varies by less than this (relative) over the 2 degree footprint
-_FOOTPRINT_TOL = 1e-3
-
 
 # -- helpers ----------------------------------------------------------------------------------------
 def _fail(check: str, message: str) -> AssertionError:
@@ -184,6 +136,14 @@ def _drop_pool() -> None:
 
 
 # -- the checks --------------------------------------------------------------------------------------
+def _check_protocol(est) -> str:
+    from ..estimators.hooks import protocol_problems
+
+    if bad := protocol_problems(est):
+        raise _fail("protocol", f"{type(est).__name__} breaks the estimator protocol: {'; '.join(bad)}")
+    return "ok"
+
+
 def _check_params(est, integrand, points) -> str:
     sig = inspect.signature(type(est).__init__)
     names = [k for k, p in sig.parameters.items()
@@ -313,7 +273,7 @@ def _check_render(est, z: float) -> str:
     # a spatial estimator's pixels are correlated (samples reused between neighbours): the
     # image mean's standard error is then bounded by the pixels' mean one (Minkowski), not pooled
     se_mean = se.mean(0) if est.spatial else np.sqrt(np.sum(se**2, 0)) / len(value)
-    tol = np.sqrt(se_mean**2 + (_FOOTPRINT_TOL * CLOSED_FORM_RADIANCE) ** 2)
+    tol = np.sqrt(se_mean**2 + (FOOTPRINT_TOL * CLOSED_FORM_RADIANCE) ** 2)
     scores = np.abs(mean - CLOSED_FORM_RADIANCE) / tol
     if not np.all(np.isfinite(scores)) or np.any(scores > z):
         raise _fail("render", f"the closed-form scene renders {np.round(mean, 5).tolist()} where the exact radiance "
@@ -380,7 +340,7 @@ def check_estimator(estimator, integrand=None, *, points: Any = None, z: float =
         integrands = [i for i in integrands if _applies(estimator, i) is None]
     integrands = [i for i in integrands if i.exact is not None]
     first = integrands[0] if integrands else None
-    out = {"params": _check_params(estimator, first, points),
+    out = {"protocol": _check_protocol(estimator), "params": _check_params(estimator, first, points),
            "pickle": _check_pickle(estimator, first, points, spawn)}
     out["unbiased"] = (_check_unbiased(estimator, integrands, points, z) if integrands
                        else "skipped: applies to no closed-form integrand")

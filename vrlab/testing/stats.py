@@ -1,9 +1,8 @@
 """Small statistical helpers for tests of estimators.
 
-* ``std_band(r, alpha)``: for r independent N(0, 1) values the sample standard
-  deviation s satisfies (r - 1) s^2 ~ chi^2_{r-1}; the band [sqrt(q_lo), sqrt(q_hi)]
-  with q = chi2.ppf([alpha/2, 1 - alpha/2], r - 1) / (r - 1) holds with probability
-  1 - alpha.  Used to check that z-scores of an estimator have spread 1 (calibrated stderr).
+* ``std_band(r, alpha)``: the chi-square band of the sample standard deviation of r
+  standard normal values (defined in :mod:`vrlab.significance`, which the lab's trust flags
+  share).  Used to check that z-scores of an estimator have spread 1 (calibrated stderr).
 * ``u_nodes(d, cells, quad)``: composite Gauss–Legendre nodes and weights on [0, 1]^d
   (d = 1, 2), for predicting variances as integrals over the uniforms.
 
@@ -13,18 +12,12 @@ Arguments are checked (errors name them): ``r >= 2``, ``alpha`` in (0, 1), ``d``
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
 
 from .. import checks
-from ._args import MAX_NODES, MAX_QUAD
+from ..distributions.quadrature import MAX_NODES, MAX_QUAD
+from ..significance import std_band
 
-
-def std_band(r: int, alpha: float = 1e-3) -> tuple[float, float]:
-    """Band for the sample std of ``r`` standard normal values (chi-square, r - 1 dof)."""
-    r = checks.integer(r, "r", low=2)
-    alpha = checks.real(alpha, "alpha", low=0.0, high=1.0, low_open=True, high_open=True)
-    q = stats.chi2.ppf([alpha / 2, 1 - alpha / 2], r - 1) / (r - 1)
-    return float(np.sqrt(q[0])), float(np.sqrt(q[1]))
+__all__ = ["std_band", "u_nodes"]
 
 
 def u_nodes(d: int, cells: int = 96, quad: int = 6) -> tuple[np.ndarray, np.ndarray]:

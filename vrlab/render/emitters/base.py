@@ -30,7 +30,12 @@ An emitter that is not attached to a shape implements, for reference points ``re
 * ``power(radius)``: an estimate of the emitted power for light selection by power
   (``radius``: of a sphere around the scene, for lights at infinity);
 * ``is_delta``, ``is_infinite``; ``sampling_weight`` (Mitsuba's: selection probabilities are
-  proportional to it, for every emitter).
+  proportional to it, for every emitter);
+* ``emission_cone()`` and ``light_bounds()``: what the light BVH (``light_selection="bvh"``)
+  reads, with defaults (every direction; no bounds of its own).
+
+Every emitter answers every one of these (the base class holds the defaults): lighting code
+asks, it never probes with ``hasattr``.
 """
 from __future__ import annotations
 
@@ -66,4 +71,11 @@ class Emitter(Element):
         """``(w, cos_theta_o, cos_theta_e)``: pbrt-v4's orientation bounds of the directions a
         light at a point emits into (w the axis; it emits nowhere beyond theta_o + theta_e from
         w; the light BVH reads them), or None: every direction (the default)."""
+        return None
+
+    def light_bounds(self) -> tuple | None:
+        """``(lo, hi, w, cos_theta_o, cos_theta_e)``: the light BVH's bounds of an emitter that has
+        a place of its own (point, spot, projector: their position twice and
+        :meth:`emission_cone`), or None (the default): an area emitter is bounded by its shape,
+        a light at infinity by nothing."""
         return None

@@ -37,6 +37,12 @@ class DeltaPositionLight(Emitter):
     def pdf(self, ref, w):
         return np.zeros(len(ref))
 
+    def light_bounds(self) -> tuple:
+        """Its position (a box of size 0) and its ``emission_cone`` (every direction if None)."""
+        pos = np.asarray(self.position, float)
+        cone = self.emission_cone()
+        return (pos, pos, np.array([0.0, 0.0, 1.0]), -1.0, 0.0) if cone is None else (pos, pos, *cone)
+
 
 @register("emitter", "point")
 class PointLight(DeltaPositionLight):

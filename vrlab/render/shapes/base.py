@@ -189,6 +189,19 @@ class Shape(Element):
         the shape, unoccluded, where a closed form applies (default: none)."""
         return np.zeros(len(ref)), np.zeros(len(ref), bool)
 
+    def corners(self) -> np.ndarray | None:
+        """World corners ``(k, 3)`` of a planar polygon (the light BVH bounds a planar light by
+        them), or None (the default: no corners; the bounding sphere is used)."""
+        return None
+
+    #: whether :meth:`barycentrics` answers (triangle meshes): hits then keep their triangle
+    has_barycentrics = False
+
+    def barycentrics(self, p: np.ndarray, prim: np.ndarray) -> np.ndarray | None:
+        """``(b1, b2)`` of world points ``p`` on triangles ``prim`` (meshes), or None (the default:
+        a shape without triangles)."""
+        return None
+
     has_shading_normals = False
 
     def uv(self, p: np.ndarray, prim: np.ndarray) -> np.ndarray:

@@ -55,6 +55,7 @@ class Mesh(Shape):
     As Mitsuba, a mesh without vertex normals read from a file gets its angle-weighted
     vertex normals (smooth shading) unless ``face_normals``: :meth:`from_file`."""
 
+    has_barycentrics = True
     #: Mitsuba's default ``flip_tex_coords`` of the file format (None: no such parameter)
     FLIP_TEX_COORDS: bool | None = False
     FORMAT = ""
