@@ -8,7 +8,7 @@ the child's tree, workers included) and the whole-process wall time (interpreter
 imports, loading, rendering, saving the image):
 
 * vrlab (``--workers 1`` and the default, the CPUs available): ``load_scene`` (load), then
-  the render's set-up up to its first sample (build: ``vrlab.render.film.plan``, i.e. the
+  the render's set-up up to its first sample (build: ``vrlab.render.plan`` and the job, i.e. the
   scene's geometry, acceleration structures, lights, and with one worker Embree's own BVH,
   which it builds on first use), then the samples (render: ``vrlab.render.film.execute``;
   with several workers each builds its Embree BVH there), as ``vrlab render`` runs them;
@@ -52,16 +52,21 @@ def _child_vrlab(scene: str, spp: int, workers: int | None, out: str) -> dict:
 
     from vrlab._alloc import keep_freed_memory
     from vrlab.render import load_scene
-    from vrlab.render.film import execute, plan
+    from vrlab.render import film
 
     keep_freed_memory()                      # as vrlab render does
     t = time.perf_counter()
     sc = load_scene(scene)
     t_load = time.perf_counter() - t
     t = time.perf_counter()
-    job, _, workers = plan(sc, spp, settings=dict(estimator="mis-power", units=None, light_selection="uniform",
-                                                  emitter_samples=None, bsdf_samples=None, ris_candidates=8),
-                           points=None, rng=0, workers=workers, chunk_pixels=None, width=None, height=None)
+    if hasattr(film, "build_job"):           # the render plan (vrlab.render.plan)
+        p = film.plan(sc, spp, "mis-power", workers=workers)
+        (job, _), workers = film.build_job(p, 0), p.workers
+    else:                                    # an older checkout (--vrlab-root)
+        job, _, workers = film.plan(sc, spp, settings=dict(estimator="mis-power", units=None,
+                                                           light_selection="uniform", emitter_samples=None,
+                                                           bsdf_samples=None, ris_candidates=8),
+                                    points=None, rng=0, workers=workers, chunk_pixels=None, width=None, height=None)
     if workers == 1:         # Embree builds its BVH on first use: before the first sample, in this process
         lit = job.integrand.lighting
         for geo in {id(g): g for g in (lit.geometry, lit.blocker_geometry, lit.emitter_geometry)}.values():
@@ -69,7 +74,7 @@ def _child_vrlab(scene: str, spp: int, workers: int | None, out: str) -> dict:
                 geo.accel.embree.scene
     t_build = time.perf_counter() - t
     t = time.perf_counter()
-    ((value, _),) = execute(job, workers)
+    ((value, _),) = film.execute(job, workers)
     t_render = time.perf_counter() - t
     np.save(out, value)
     return {"load": t_load, "build": t_build, "render": t_render, "workers": workers, "vrlab": vrlab.__file__}

@@ -107,9 +107,10 @@ def test_render_cli_pixel_sampler_is_render_points(name, points, tmp_path, capsy
     assert main(argv + ([] if name is None else ["--pixel-sampler", name])) == 0
     capsys.readouterr()
     (args, kwargs), = calls
-    assert args[2] == "cosine" and kwargs["points"] == points and "pixel_sampler" not in kwargs
+    plan = args[0]                                    # the command's render plan, resolved once
+    assert plan.strategy == "cosine" and plan.points == points and plan.workers == 1 and kwargs["rng"] == 7
     monkeypatch.undo()
-    expected = real_render(args[0], 2, "cosine", rng=kwargs["rng"], points=points, workers=1)
+    expected = real_render(plan.scene, 2, "cosine", rng=kwargs["rng"], points=points, workers=1)
     np.testing.assert_array_equal(np.load(out), expected.value)
 
 

@@ -25,20 +25,20 @@ def test_each_sampling_flag_reaches_each_compared_render(capsys, monkeypatch):
     calls = []
     real = cmp.render
 
-    def spy(scene, spp, strategy, **kw):
-        calls.append((spp, strategy, kw))
-        return real(scene, spp, strategy, **kw)
+    def spy(plan, **kw):                 # each render gets its resolved plan
+        calls.append((plan, kw))
+        return real(plan, **kw)
     monkeypatch.setattr(cmp, "render", spy)
     compare_json(capsys, "--compare", "light,ris", "--light-selection", "power", "--ris-candidates", "3",
                  "--pixel-sampler", "stratified", "--emitter-samples", "2", "--bsdf-samples", "3",
                  "--spp-batch", "2", "--seed", "5", "--workers", "2")
-    ref, *renders = calls
-    assert ref[1] == "mis-power" and ref[0] == 8 and ref[2]["light_selection"] == "power"
-    assert [(spp, s) for spp, s, _ in renders] == [(4, "light"), (4, "ris")]
-    for _, _, kw in renders:
-        assert kw["points"] == "stratified" and kw["light_selection"] == "power" and kw["ris_candidates"] == 3
-        assert kw["emitter_samples"] == 2 and kw["bsdf_samples"] == 3 and kw["workers"] == 2
-        assert kw["spp_batch"] == 2 and kw["rng"].entropy == [5, 0]
+    (ref, _), *renders = calls
+    assert ref.strategy == "mis-power" and ref.spp == 8 and ref.light_selection == "power"
+    assert [(p.spp, p.strategy) for p, _ in renders] == [(4, "light"), (4, "ris")]
+    for p, kw in renders:
+        assert p.points == "stratified" and p.light_selection == "power" and p.ris_candidates == 3
+        assert p.emitter_samples == 2 and p.bsdf_samples == 3 and p.workers == 2
+        assert p.spp_batch == 2 and kw["rng"].entropy == [5, 0]
 
 
 def test_sampling_flags_change_the_results(capsys):

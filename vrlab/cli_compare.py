@@ -67,7 +67,7 @@ def run_compare(p: RenderSettings) -> int:
 
     res = compare(scene, p.compare, p.spp, rng=p.seed, reference=p.reference, ref_spp=p.reference_spp,
                   ref_strategy=REF_STRATEGY, equal_time=p.equal_time, workers=workers,
-                  progress=progress if show else None, **p.sampling())
+                  progress=progress if show else None, kernels=p.kernels, **p.sampling())
     spp = res["spp"] if isinstance(res["spp"], dict) else {s: res["spp"] for s in res["images"]}
     ref = res["reference_render"]
     reference = {"source": "file", "file": str(p.reference_path)} if ref is None else {"source": "rendered", **ref}

@@ -115,9 +115,9 @@ def run_gradient(args: argparse.Namespace) -> int:
     scene = p.scene
     workers = p.resolved_workers()
     t0 = time.perf_counter()
-    gd = render_gradient_domain(scene, p.spp, p.strategy, rng=p.seed, workers=workers, common=p.common,
+    gd = render_gradient_domain(p.plan(workers=workers), rng=p.seed, common=p.common,
                                 progress=progress_callback(p.show_progress, "gradient-domain"),
-                                checkpoint=p.checkpoint, **p.sampling())
+                                checkpoint=p.checkpoint)
     seconds = time.perf_counter() - t0
     primal = gd.primal.value
     bad = int(np.count_nonzero(~np.isfinite(primal)))

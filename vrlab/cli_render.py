@@ -121,6 +121,9 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
                            "one uninterrupted render)")
     rend.add_argument("--spp-batch", help=f"samples per pixel of one work unit, 1 .. {SPP_MAX}: the image depends "
                                           "on it, not on how units run (default: 64)")
+    rend.add_argument("--kernels", choices=["auto", "numba", "numpy"], default="auto",
+                      help="kernels of the per-sample path: auto (default: compiled where they exist and can run), "
+                           "numba, or numpy (the reference implementation); --json reports which ran")
     rend.add_argument("--scheduler", metavar="ADDRESS",
                       help="render the units on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (needs "
                            "vrlab[distributed]; same image as a local render; not with --workers; an address that "
@@ -236,10 +239,10 @@ def _run_one(args: argparse.Namespace, p: RenderSettings) -> int:
         # geometry, acceleration structure and lights, up to the first finished samples (the bar's first report)
         setup = stack.enter_context(Phase(p.show_progress, "setting up the render (geometry, acceleration "
                                                            "structure, lights)"))
+        plan = p.plan(workers=2 if client is not None else workers)      # resolved and checked once
         try:
-            est = render(scene, p.spp, p.strategy, rng=p.seed, workers=2 if client is not None else workers,
-                         executor=client, progress=progress_callback(p.show_progress, "render", first=setup.stop),
-                         checkpoint=p.checkpoint, **p.sampling())
+            est = render(plan, rng=p.seed, executor=client, checkpoint=p.checkpoint,
+                         progress=progress_callback(p.show_progress, "render", first=setup.stop))
         except ValueError as exc:
             if str(exc).startswith("checkpoint"):      # another render's file: choose another name
                 raise A.UsageError("--" + str(exc)) from None
@@ -257,7 +260,8 @@ def _run_one(args: argparse.Namespace, p: RenderSettings) -> int:
            # samples rendered by this run: a resumed --checkpoint's stored samples are not counted
            "samples_per_second": scene.sensor.width * scene.sensor.height * (p.spp - resumed) / seconds,
            # spp = 1 has no standard error: null in JSON rather than NaN
-           "mean_stderr": float(finite_err.mean()) if finite_err.size else None}
+           "mean_stderr": float(finite_err.mean()) if finite_err.size else None,
+           "kernels": est.extra["kernels"], "plan": repr(plan)}
     if p.checkpoint is not None:
         out["spp_resumed"] = resumed
         if resumed:

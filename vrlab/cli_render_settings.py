@@ -81,6 +81,7 @@ class RenderSettings:
     reference: Any
     show_progress: bool
     json: bool
+    kernels: str = "auto"
     compare: list[str] | None = None
     equal_time: bool = False
     reference_spp: int | None = None
@@ -96,6 +97,16 @@ class RenderSettings:
         return {"points": self.pixel_sampler, "light_selection": self.light_selection,
                 "emitter_samples": self.emitter_samples, "bsdf_samples": self.bsdf_samples,
                 "ris_candidates": self.ris_candidates, "spp_batch": self.spp_batch}
+
+    def plan(self, strategy: str | None = None, spp: int | None = None, workers: int | None = None):
+        """The :class:`vrlab.render.RenderPlan` of this command (``strategy``, ``spp``: another
+        strategy or spp than the command's, for ``--compare``; ``workers``: default
+        :meth:`resolved_workers`): every render setting resolved and checked once."""
+        from .render import plan
+
+        return plan(self.scene, self.spp if spp is None else spp, strategy or self.strategy,
+                    workers=self.resolved_workers() if workers is None else workers, kernels=self.kernels,
+                    **self.sampling())
 
     def resolved_workers(self) -> int:
         """``workers``, or the CPUs available when none was given."""
@@ -355,4 +366,5 @@ def settings_from_args(args: argparse.Namespace) -> RenderSettings:
                           bsdf_samples=bsdf_samples, ris_candidates=ris_candidates, workers=workers,
                           spp_batch=spp_batch, exposure=exposure, exposure_auto=exposure_auto, output=output,
                           stderr_out=stderr_out, checkpoint=checkpoint, scheduler=scheduler, reference_path=ref_path,
-                          reference=reference, show_progress=bool(show), json=bool(args.json), **cmp)
+                          reference=reference, show_progress=bool(show), json=bool(args.json),
+                          kernels=getattr(args, "kernels", "auto"), **cmp)

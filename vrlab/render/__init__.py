@@ -13,6 +13,7 @@ from .builtin import (builtin_scene_path, describe_builtin_scene, export_builtin
 from .loader import load_scene
 from .scene import Scene, SceneError
 from .film import render
+from .plan import RenderPlan, plan
 from .gradient import GradientDomainImage, render_gradient_domain
 from .pixels import PixelIntegrand
 from .presets import PRESETS, preset
@@ -24,6 +25,7 @@ __all__ = ["BSDFModel", "Diffuse", "Element", "Emitter", "Phong", "RoughConducto
            "Integrator", "Scene", "register", "registered",
            "SceneError", "Sensor", "Shape", "builtin_scene_path", "describe_builtin_scene", "export_builtin_scene",
            "keep_freed_memory", "list_builtin_scenes", "list_mitsuba_references", "mitsuba_reference", "load_scene", "read_obj", "render", "PixelIntegrand", "PRESETS", "preset",
+           "RenderPlan", "plan",
            "GradientDomainImage", "render_gradient_domain",
            "ShadingIntegrand", "screened_poisson",
            "transforms"]

@@ -43,7 +43,8 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from .. import checks
-from .film import MAX_SPP, _as_scene, default_workers, plan, render
+from .film import MAX_SPP, _as_scene, render
+from .plan import default_workers, plan
 from .image import _image, auto_exposure, rel_mse, srgb_encode
 from .pixels import PixelIntegrand
 from .presets import PRESETS
@@ -92,7 +93,7 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
             equal_time: bool = False, points: Any = None, light_selection: str = "uniform",
             emitter_samples: int | None = None, bsdf_samples: int | None = None, ris_candidates: int = 8,
             workers: int | None = 1, spp_batch: int | None = None,
-            progress: Callable[[str, int, int], None] | None = None) -> dict:
+            progress: Callable[[str, int, int], None] | None = None, kernels: str = "auto") -> dict:
     """Render ``scene`` with each strategy; ``{"images", "seconds", "rel_mse", "reference",
     "spp", "cost", "reference_render", "settings"}``: ``spp`` an int (equal spp) or a dict
     per strategy (equal time), ``cost`` the modelled cost per pixel sample of each strategy
@@ -118,19 +119,17 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
     workers = default_workers() if workers is None else workers
     sampling = dict(light_selection=light_selection, emitter_samples=emitter_samples, bsdf_samples=bsdf_samples,
                     ris_candidates=ris_candidates)
-    common = dict(points=points, workers=workers, spp_batch=spp_batch, chunk_pixels=None, width=None, height=None)
-    cost = {}
-    for s in strategies:                       # every render's arguments checked before the first one runs
-        job, _, _ = plan(scene, spp, settings=dict(estimator=s, units=None, **sampling), rng=0, **common)
-        cost[s] = _cost(job.integrand)
+    common = dict(points=points, workers=workers, spp_batch=spp_batch, kernels=kernels)
+    # every render's plan is built, and so checked, before the first one runs
+    plans = {s: plan(scene, spp, s, **common, **sampling) for s in strategies}
+    cost = {s: _cost(p.integrand) for s, p in plans.items()}
     counts = {s: spp for s in strategies}
     if equal_time:
         counts = {s: int(min(MAX_SPP, max(1, round(spp * cost[strategies[-1]] / cost[s])))) for s in strategies}
+        plans = {s: p if counts[s] == spp else plan(scene, counts[s], s, **common, **sampling) for s, p in plans.items()}
     ref_seed = np.random.SeedSequence([rng, 1])
-    ref_settings = dict(light_selection=light_selection, workers=workers, spp_batch=spp_batch)
-    if reference is None:
-        plan(scene, ref_spp, settings=dict(estimator=ref_strategy, units=None, light_selection=light_selection),
-             rng=0, **{**common, "points": None})
+    ref_plan = None if reference is not None else plan(scene, ref_spp, ref_strategy, light_selection=light_selection,
+                                                       workers=workers, spp_batch=spp_batch, kernels=kernels)
 
     def report(name):
         return None if progress is None else (lambda done, total: progress(name, done, total))
@@ -138,17 +137,15 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
     images, seconds, errors, ref_info = {}, {}, {}, None
     if reference is None:
         t0 = time.perf_counter()
-        reference = render(scene, ref_spp, ref_strategy, rng=ref_seed, progress=report("reference"),
-                           **ref_settings).value
+        reference = render(ref_plan, rng=ref_seed, progress=report("reference")).value
         ref_info = {"strategy": ref_strategy, "spp": ref_spp, "seed": [rng, 1],
                     "seconds": time.perf_counter() - t0}
     for s in strategies:
         t0 = time.perf_counter()
-        images[s] = render(scene, counts[s], s, rng=np.random.SeedSequence([rng, 0]), points=points,
-                           workers=workers, spp_batch=spp_batch, progress=report(s), **sampling).value
+        images[s] = render(plans[s], rng=np.random.SeedSequence([rng, 0]), progress=report(s)).value
         seconds[s] = time.perf_counter() - t0
         errors[s] = rel_mse(images[s], reference)
-    settings = dict(points=points, workers=workers, spp_batch=spp_batch, seed=rng, **sampling)
+    settings = dict(points=points, workers=workers, spp_batch=spp_batch, seed=rng, kernels=kernels, **sampling)
     return {"images": images, "seconds": seconds, "rel_mse": errors, "reference": reference,
             "spp": counts if equal_time else spp, "cost": cost, "reference_render": ref_info, "settings": settings}
 

@@ -24,6 +24,7 @@ veach_mis than with the tuning (2.9-3.3 s against 2.1-2.6 s at 128x96, 16 spp, o
 """
 from __future__ import annotations
 
+import inspect
 import os
 import pickle
 import time
@@ -36,39 +37,14 @@ from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Estimate
 from ..execution import check_executor, check_picklable, run_units
 from .pixels import PixelIntegrand
+from .plan import (MAX_PIXEL_WORK, SPP_BATCH, TILE_PIXELS, RenderPlan, _as_scene, check_work,  # noqa: F401
+                   default_workers, plan)
 from .scene import Scene
 
 __all__ = ["TILE_PIXELS", "default_workers", "render"]
 
-TILE_PIXELS = 1024           # pixels per work unit (fixed: it defines the random streams)
-_RAYS_PER_CHUNK = 5 << 14    # block size budget (1024 pixels x 64 spp of mis-power: one block per tile)
-#: one pixel's block (spp x (rays + uniforms/4) per sample) may be at most 32 default blocks (~1 GB)
-MAX_PIXEL_WORK = 32 * 4 * _RAYS_PER_CHUNK
-SPP_BATCH = 64               # samples per pixel of one work unit (a batch); more spp: more batches
 TASKS_PER_WORKER = 4         # tasks (groups of tiles) per worker process and batch: balances the load
 MAX_SPP = limits.MAX_SPP       # samples per pixel of one render (vrlab.limits, shared with the CLI)
-
-
-def _as_scene(scene: Any) -> Scene:
-    """A :class:`Scene`, or one loaded from an XML path, an XML string or a built-in name."""
-    if isinstance(scene, Scene):
-        return scene.validate()
-    if not isinstance(scene, (str, os.PathLike)) or isinstance(scene, bytes):
-        raise TypeError("scene must be a vrlab.render.Scene, a path to a scene XML file or a built-in "
-                        f"scene name, got {type(scene).__name__}")
-    from .builtin import builtin_scene_path, list_builtin_scenes
-    from .loader import load_scene
-    if isinstance(scene, str) and not scene.lstrip().startswith("<") and not os.path.exists(scene):
-        stem = scene[:-4] if scene.endswith(".xml") else scene
-        if stem in list_builtin_scenes():
-            return load_scene(builtin_scene_path(stem))
-        raise ValueError(f"scene: {scene!r} is neither a scene file nor a built-in scene; built-in: "
-                         f"{', '.join(list_builtin_scenes())}")
-    return load_scene(scene)
-
-
-def _optional_int(value: Any, name: str, low: int, high: int | None = None) -> int | None:
-    return None if value is None else checks.integer(value, name, low=low, high=high)
 
 
 def _concat(stats: list):
@@ -92,12 +68,11 @@ class _Job:
     #: the estimates a render returns (one statistics object each per unit)
     estimates = ("image",)
 
-    def __init__(self, scene: Scene, settings: dict, samplers: dict, spp: int, batch: int, root, chunk: int,
-                 integrand: PixelIntegrand | None = None):
-        self.scene, self.settings, self.samplers = scene, settings, samplers
-        self.spp, self.batch, self.root, self.chunk = spp, batch, root, chunk
-        self.width, self.n_pixels = scene.sensor.width, scene.sensor.width * scene.sensor.height
-        self.integrand = PixelIntegrand(scene, **settings) if integrand is None else integrand
+    def __init__(self, plan: RenderPlan, samplers: dict, root, chunk: int):
+        self.plan, self.samplers, self.root, self.chunk = plan, samplers, root, chunk
+        self.scene, self.integrand = plan.scene, plan.integrand
+        self.spp, self.batch = plan.spp, plan.spp_batch
+        self.width, self.n_pixels = self.scene.sensor.width, self.scene.sensor.width * self.scene.sensor.height
 
     @property
     def n_batches(self) -> int:
@@ -138,16 +113,43 @@ def _units(job: _Job | bytes, units: list[tuple[int, int]]) -> list:
     return [job.unit(t, k) for t, k in units]
 
 
-def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: Any = "mis-power", *,
+_PLAN_SETTINGS = ("spp", "estimator", "points", "units", "light_selection", "emitter_samples", "bsdf_samples",
+                  "ris_candidates", "chunk_pixels", "width", "height", "spp_batch", "workers", "kernels")
+
+
+def as_plan(scene: Any, given: dict) -> RenderPlan:
+    """``scene`` if it is a :class:`RenderPlan` (then every setting in ``given`` must keep
+    :func:`plan`'s default: a ``ValueError`` names the first that does not), else :func:`plan`
+    of the scene with the ``given`` settings."""
+    if not isinstance(scene, RenderPlan):
+        return plan(scene, **given)
+    defaults = {k: v.default for k, v in inspect.signature(plan).parameters.items()}
+    for key, value in given.items():
+        default = defaults[key]
+        same = value is default or (type(value) is type(default) and isinstance(value, (str, int))
+                                    and value == default)
+        if not same:
+            raise ValueError(f"{key}: the plan fixes it; build another plan with vrlab.render.plan(..., {key}=...) "
+                             "instead")
+    return scene
+
+
+def render(scene: Any, spp: int | None = None, estimator: Any = "mis-power", *,
            points: Any = None, rng: RNGLike = None, workers: int | None = 1, executor: Any = None,
-           units: int | None = None,
-           light_selection: str = "uniform", emitter_samples: int | None = None,
+           units: int | None = None, light_selection: str = "uniform", emitter_samples: int | None = None,
            bsdf_samples: int | None = None, ris_candidates: int = 8, chunk_pixels: int | None = None,
            progress: Callable[[int, int], None] | None = None, width: int | None = None,
-           height: int | None = None, spp_batch: int | None = None, checkpoint: Any = None) -> Estimate:
+           height: int | None = None, spp_batch: int | None = None, checkpoint: Any = None,
+           kernels: str = "auto") -> Estimate:
     """Render ``scene`` with direct lighting: an :class:`~vrlab.Estimate` whose ``value``
     (the image) and ``stderr`` (the per-pixel standard error) are ``(H, W, 3)`` float32,
     with ``n`` = spp.
+
+    ``scene``: a :class:`~vrlab.render.RenderPlan` (:func:`vrlab.render.plan`: every setting
+    resolved and checked once; then only ``rng``, ``executor``, ``progress`` and
+    ``checkpoint`` may be given here, the other settings keep their defaults), or a
+    :class:`Scene`, a path to a scene XML file, an XML string or a built-in scene name, with
+    the settings below (``plan``'s):
 
     ``estimator``: an estimator object of :mod:`vrlab.estimators` (``MIS(["light",
     "bsdf"], heuristic=...)``, ``MonteCarlo("cosine")``, ``OneSampleMIS``, ``Antithetic``,
@@ -157,7 +159,7 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     point on the :class:`~vrlab.render.shading.ShadingIntegrand`, whose techniques are
     ``"bsdf"``, ``"light"``, ``"cosine"`` and ``"uniform"``; ``units`` of it per camera ray
     (default 1; a preset's from ``emitter_samples``/``bsdf_samples``, which default to
-    the scene's integrator settings; ``ris_candidates`` = M of ``"ris"``).
+    the scene's integrator settings; ``ris_candidates`` = M of ``"ris"``, default 8).
 
     ``points``: the pixels' primary-sample-space uniforms: None (the scene's sampler:
     i.i.d. for Mitsuba's ``independent``, see :mod:`vrlab.render.sensors.samplers`), any vrlab
@@ -166,36 +168,37 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
     jittered strata, others a shared set with a Cranley-Patterson shift per pixel).
     ``stderr`` is only a valid error bar for i.i.d. points (``extra["stderr_note"]`` says so
     otherwise).  ``rng`` seeds everything (see the module docstring); ``workers``
-    processes render tiles in parallel with the same result (None: :func:`default_workers`);
-    ``executor``: a ``concurrent.futures.Executor`` of the caller's (e.g. a process pool
-    with the spawn start method) to run the tiles on instead, in max(64, 4 x ``workers``) tasks per batch,
-    also with the same result;
+    processes render tiles in parallel with the same result (None: :func:`default_workers`); ``executor``: a ``concurrent.futures.Executor`` of the caller's
+    (e.g. a process pool with the spawn start method, a Dask client) to run the tiles on
+    instead, in max(64, 4 x ``workers``) tasks per batch, also with the same result;
     ``progress(done, total)`` is called after each unit (tile x spp batch) with the pixel
     samples done and their total, H x W x spp; ``light_selection``:
-    ``"uniform"``, ``"power"`` or ``"bvh"``.  ``spp_batch``: samples per pixel of one work unit
-    (default 64; the image depends on it, not on how units are run).  ``checkpoint``: a
-    ``.npz`` path where the per-pixel statistics are saved after each batch; an existing
-    checkpoint of the same render resumes it, or extends it to a larger ``spp``
-    (:mod:`vrlab.render.checkpoint`).  ``scene`` may be a :class:`Scene`, a path to a scene XML
-    file, an XML string or a built-in scene name; ``width``/``height`` override its sensor.
+    ``"uniform"`` (default), ``"power"`` or ``"bvh"``.  ``spp_batch``: samples per pixel of one
+    work unit (default 64; the image depends on it, not on how units are run).
+    ``checkpoint``: a ``.npz`` path where the per-pixel statistics are saved after each batch;
+    an existing checkpoint of the same render resumes it, or extends it to a larger ``spp``
+    (:mod:`vrlab.render.checkpoint`).  ``width``/``height`` override the scene's sensor.
+    ``kernels``: ``"auto"`` (default), ``"numba"`` or ``"numpy"``: the kernels of the
+    per-sample path (``extra["kernels"]`` says which ran).
 
-    Checked once per call, with errors naming the argument: the scene, the estimator
-    (and its technique names against the shading integrand), ``points``, ``spp``,
-    ``chunk_pixels``, ``workers`` (at most :func:`vrlab.limits.max_workers`), ``units`` and the sample
-    counts; one pixel's block must fit :data:`MAX_PIXEL_WORK` (about 1 GB); with
+    Checked once, by :func:`~vrlab.render.plan`, with errors naming the argument: the scene,
+    the estimator (and its technique names against the shading integrand), ``points``,
+    ``spp``, ``chunk_pixels``, ``workers`` (at most :func:`vrlab.limits.max_workers`), ``units``
+    and the sample counts; one pixel's block must fit :data:`MAX_PIXEL_WORK` (about 1 GB); with
     ``workers > 1`` the estimator must be picklable (a heuristic defined at module level,
     not a lambda).
     """
     t0 = time.perf_counter()
-    job, sampler, workers = plan(scene, spp, settings=dict(
-        estimator=estimator, units=units, light_selection=light_selection, emitter_samples=emitter_samples,
-        bsdf_samples=bsdf_samples, ris_candidates=ris_candidates), points=points, rng=rng, workers=workers,
-        chunk_pixels=chunk_pixels, width=width, height=height, spp_batch=spp_batch)
+    p = as_plan(scene, dict(spp=spp, estimator=estimator, points=points, units=units, light_selection=light_selection,
+                            emitter_samples=emitter_samples, bsdf_samples=bsdf_samples, ris_candidates=ris_candidates,
+                            chunk_pixels=chunk_pixels, width=width, height=height, spp_batch=spp_batch,
+                            workers=workers, kernels=kernels))
+    job, sampler = build_job(p, rng)
     loaded: list[int] = []
-    ((value, stderr),) = execute(job, workers, executor, progress, checkpoint, resumed=loaded.append)
+    ((value, stderr),) = execute(job, p.workers, executor, progress, checkpoint, resumed=loaded.append)
     integrand, spp = job.integrand, job.spp
     est = integrand.estimator
-    extra = {"units": integrand.units, "points": sampler.label, "spp_batch": job.batch}
+    extra = {"units": integrand.units, "points": sampler.label, "spp_batch": job.batch, "kernels": p.kernels}
     if checkpoint is not None:            # samples per pixel read from the checkpoint, not rendered now
         extra["spp_resumed"] = loaded[0]
     if not sampler.iid:
@@ -206,49 +209,18 @@ def render(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: 
                     est.label, extra)
 
 
-def plan(scene: Any, spp: int | None, *, settings: dict, points: Any, rng: RNGLike, workers: int | None,
-         chunk_pixels: int | None, width: int | None, height: int | None, spp_batch: int | None = None,
-         job_class: type = _Job, cost: int = 1) -> tuple[_Job, Any, int]:
-    """Check the arguments of a render and build its job: ``(job, point sampler, workers)``.
-    ``cost``: pixel-integrand evaluations per sample (3 for the gradient-domain renders)."""
-    scene = _as_scene(scene)
-    spp = checks.integer(scene.sensor.spp if spp is None else spp, "spp", low=1, high=MAX_SPP)
-    batch = min(spp, SPP_BATCH if spp_batch is None else checks.integer(spp_batch, "spp_batch", low=1))
-    chunk_pixels = _optional_int(chunk_pixels, "chunk_pixels", 1)
-    limit = limits.max_workers()
-    workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1, high=limit)
-    if width is not None or height is not None:
-        scene = scene.with_size(width, height)
-    settings = dict(settings)
-    integrand = PixelIntegrand(scene, **settings)
-    est = integrand.estimator
-    need = int(est.min_units)
-    if spp < need:
-        raise ValueError(f"spp: {est.label} fits its coefficients per pixel and needs spp >= {need}, got {spp}")
-    work = integrand.work_per_sample * cost
-    if batch * work > MAX_PIXEL_WORK:
-        raise ValueError(f"spp_batch: {batch} samples per pixel and batch x {work} (rays + uniforms/4 per sample, "
-                         f"for {est.label} with {integrand.units} unit(s) per shading point) exceeds the per-pixel "
-                         f"block limit {MAX_PIXEL_WORK}; use spp_batch <= {MAX_PIXEL_WORK // work}")
-    if chunk_pixels is None:
-        # spatial estimators (ReSTIR) reuse among the pixels of a block: a whole tile, whatever
-        # the work (they bound their memory by steps of sample indices, vrlab.render.reuse)
-        chunk_pixels = TILE_PIXELS if est.spatial else max(1, (4 * _RAYS_PER_CHUNK) // (batch * work))
-    elif min(chunk_pixels, TILE_PIXELS) * batch * work > MAX_PIXEL_WORK:
-        raise ValueError(f"chunk_pixels: a block of {chunk_pixels} pixels x {batch} spp x {work} (rays + "
-                         f"uniforms/4 per sample) exceeds the block limit {MAX_PIXEL_WORK}; use "
-                         f"chunk_pixels <= {MAX_PIXEL_WORK // (batch * work)} or None (automatic)")
+def build_job(p: RenderPlan, rng: RNGLike, job_class: type = _Job, cost: int = 1) -> tuple[_Job, Any]:
+    """The work of plan ``p`` seeded by ``rng``: ``(job, point sampler)``.  ``cost``: pixel
+    integrand evaluations per sample (3 for the gradient-domain renders: it sizes the blocks)."""
     from ..points import SetSampler
 
-    if points is None:                   # the scene's sampler plays its part (sensors.samplers)
-        points = scene.sensor.sampler.points
+    chunk = check_work(p.integrand, p.spp, p.spp_batch, p.chunk_pixels, cost)
     root = as_seed_sequence(rng)
-    samplers = {batch: SetSampler(points, integrand.dim, batch, rng=unit_seed(root, 0))}
-    if spp % batch:                                    # the last, partial batch has its own set
-        samplers[spp % batch] = SetSampler(points, integrand.dim, spp % batch, rng=unit_seed(root, 0, spp % batch))
-    settings["estimator"], settings["units"] = est, integrand.units
-    job = job_class(scene, settings, samplers, spp, batch, root, min(chunk_pixels, TILE_PIXELS), integrand)
-    return job, samplers[batch], workers
+    batch, dim = p.spp_batch, p.integrand.dim
+    samplers = {batch: SetSampler(p.points, dim, batch, rng=unit_seed(root, 0))}
+    if p.spp % batch:                                  # the last, partial batch has its own set
+        samplers[p.spp % batch] = SetSampler(p.points, dim, p.spp % batch, rng=unit_seed(root, 0, p.spp % batch))
+    return job_class(p, samplers, root, chunk), samplers[batch]
 
 
 def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[int, int], None] | None = None,
@@ -275,9 +247,9 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     stats: dict = {}
     start = 0
     if path is not None:
-        digest = render_hash(type(job).__name__, job.scene, repr(job.integrand.estimator), job.settings["units"],
-                             {k: v for k, v in job.settings.items() if k not in ("estimator", "units")},
-                             job.samplers[job.batch].label, (job.root.entropy, tuple(job.root.spawn_key)), job.batch)
+        digest = render_hash(type(job).__name__, job.scene, repr(job.integrand.estimator), job.plan.units,
+                             job.plan.sampling(), job.samplers[job.batch].label,
+                             (job.root.entropy, tuple(job.root.spawn_key)), job.batch)
         start, stats = load_checkpoint(path, digest, job.batch, job.spp,
                                        job.integrand.estimator.statistics_from_state)
     if path is not None and resumed is not None:
@@ -319,11 +291,3 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
             value[a:a + len(v)], stderr[a:a + len(e)] = v, e
         out.append((value.reshape(height, width, 3), stderr.reshape(height, width, 3)))
     return tuple(out)
-
-
-def default_workers() -> int:
-    """Worker processes to use by default: the CPUs this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not on Linux
-        return os.cpu_count() or 1

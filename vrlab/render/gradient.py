@@ -33,7 +33,8 @@ import numpy as np
 from .. import checks
 from .._rng import RNGLike
 from ..estimate import Estimate
-from .film import _Job, execute, plan
+from .film import _Job, as_plan, build_job, execute
+from .plan import RenderPlan
 from .scene import Scene
 
 __all__ = ["GradientDomainImage", "render_gradient_domain"]
@@ -83,39 +84,42 @@ class _GradientJob(_Job):
         return np.moveaxis(np.asarray(value), 0, -1), np.moveaxis(np.asarray(stderr), 0, -1)
 
 
-def render_gradient_domain(scene: Scene | str | os.PathLike, spp: int | None = None, estimator: Any = "mis-power",
-                           *, points: Any = None, rng: RNGLike = None, workers: int | None = 1,
-                           executor: Any = None, common: bool = True, units: int | None = None,
-                           light_selection: str = "uniform", emitter_samples: int | None = None,
-                           bsdf_samples: int | None = None, ris_candidates: int = 8,
-                           chunk_pixels: int | None = None, progress: Callable[[int, int], None] | None = None,
-                           width: int | None = None, height: int | None = None, spp_batch: int | None = None,
-                           checkpoint: Any = None) -> GradientDomainImage:
+def render_gradient_domain(scene: Scene | RenderPlan | str | os.PathLike, spp: int | None = None,
+                           estimator: Any = "mis-power", *, points: Any = None, rng: RNGLike = None,
+                           workers: int | None = 1, executor: Any = None, common: bool = True,
+                           units: int | None = None, light_selection: str = "uniform",
+                           emitter_samples: int | None = None, bsdf_samples: int | None = None,
+                           ris_candidates: int = 8, chunk_pixels: int | None = None,
+                           progress: Callable[[int, int], None] | None = None, width: int | None = None,
+                           height: int | None = None, spp_batch: int | None = None, checkpoint: Any = None,
+                           kernels: str = "auto") -> GradientDomainImage:
     """Render the primal image and its CRN gradients: a :class:`GradientDomainImage` with
     ``.primal`` (H, W, 3), ``.dx`` (H, W - 1, 3) = I(x + 1, y) - I(x, y) and ``.dy``
     (H - 1, W, 3), each a :class:`~vrlab.Estimate` with a per-pixel ``stderr``, and
     ``.reconstruct(alpha, norm)``.
 
     ``common``: the neighbour's sample uses the same uniforms as the pixel's (True, CRN)
-    or independent ones (False).  The other arguments are :func:`~vrlab.render.render`'s;
+    or independent ones (False).  The other arguments are :func:`~vrlab.render.render`'s
+    (``scene`` may be a :class:`~vrlab.render.RenderPlan`);
     the image depends on the seed only, as there (``spp_batch``, ``checkpoint`` too).  ``dx.extra`` / ``dy.extra`` hold
     ``common``.  The gradients' stderr is valid for i.i.d. ``points`` only.
     """
     t0 = time.perf_counter()
     common = checks.flag(common, "common")
-    job, sampler, workers = plan(scene, spp, settings=dict(
-        estimator=estimator, units=units, light_selection=light_selection, emitter_samples=emitter_samples,
-        bsdf_samples=bsdf_samples, ris_candidates=ris_candidates), points=points, rng=rng, workers=workers,
-        chunk_pixels=chunk_pixels, width=width, height=height, spp_batch=spp_batch, job_class=_GradientJob, cost=3)
-    if job.spp < 2:
-        raise ValueError(f"spp: gradient-domain rendering needs spp >= 2 (a standard error per pixel), got {job.spp}")
+    plan = as_plan(scene, dict(spp=spp, estimator=estimator, points=points, units=units,
+                               light_selection=light_selection, emitter_samples=emitter_samples,
+                               bsdf_samples=bsdf_samples, ris_candidates=ris_candidates, chunk_pixels=chunk_pixels,
+                               width=width, height=height, spp_batch=spp_batch, workers=workers, kernels=kernels))
+    if plan.spp < 2:
+        raise ValueError(f"spp: gradient-domain rendering needs spp >= 2 (a standard error per pixel), got {plan.spp}")
+    job, sampler = build_job(plan, rng, _GradientJob, cost=3)
     job.common = common
-    (p, pe), (dx, dxe), (dy, dye) = execute(job, workers, executor, progress, checkpoint)
+    (p, pe), (dx, dxe), (dy, dye) = execute(job, plan.workers, executor, progress, checkpoint)
     seconds = time.perf_counter() - t0
     spp, integ = job.spp, job.integrand
     label = integ.estimator.label
     evals = integ.units * int(integ.estimator.evals_per_unit)
-    extra = {"common": common, "points": sampler.label}
+    extra = {"common": common, "points": sampler.label, "kernels": plan.kernels}
 
     def estimate(value, stderr, method, n_evals):
         return Estimate(value, stderr, spp, n_evals, seconds, stderr.astype(np.float64) ** 2 * spp, method, dict(extra))

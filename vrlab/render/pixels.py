@@ -78,6 +78,9 @@ class PixelIntegrand:
         n_b = checks.integer(integ.bsdf_samples if bsdf_samples is None else bsdf_samples,
                              "bsdf_samples", low=0, high=MAX_SAMPLES)
         m = checks.integer(ris_candidates, "ris_candidates", low=1, high=MAX_CANDIDATES)
+        #: the sample counts the estimator was built with (the scene's integrator's by default)
+        self.emitter_samples, self.bsdf_samples, self.ris_candidates = n_l, n_b, m
+        self.light_selection = light_selection
         self.estimator, k = as_estimator(estimator, emitter_samples=n_l, bsdf_samples=n_b, ris_candidates=m)
         self.units = k if units is None else checks.integer(units, "units", low=1, high=MAX_SAMPLES)
         self.lighting = DirectLighting(scene, light_selection)
