@@ -317,7 +317,7 @@ def check_lobe_mixture(bsdf: BSDFModel, name: str) -> None:
 
 
 #: per-point values the renderer passes to every BSDF of a point (the tangent frame), not textures
-FRAME_VALUES = ("dp_du", "dp_dv", "dp_du_world", "n_geo")
+FRAME_VALUES = ("dp_du", "dp_dv", "n_geo")
 
 
 class NestedTextures:
