@@ -36,6 +36,7 @@ class BumpMap(NormalMap):
     ``bitmap``; the height), ``scale`` a real (see the module docstring)."""
 
     TEXTURED = OWN_TEXTURES = OWN_GRADIENTS = ("texture",)
+    SIGNED_PARAMS = ("scale",)       # a negative scale turns the bumps into dents
 
     def __init__(self, bsdf: BSDFModel, texture: Any, scale: float = 1.0):
         from ..textures import Texture

@@ -55,6 +55,7 @@ class NormalMap(NestedTextures, BSDFModel):
     normals (see the module docstring)."""
 
     needs_tangents = True
+    reciprocal = False               # the tilted frame depends on wo, the side test on wi
     TEXTURED = OWN_TEXTURES = ("normalmap",)
 
     def __init__(self, bsdf: BSDFModel, normalmap: Any):
