@@ -7,6 +7,7 @@ from .charts import (AtlasChart, BoxChart, CapChart, Chart, DiskChart, Ellipsoid
 from .ellipsoid_view import EllipsoidViewChart
 from .estimators import check_estimator
 from .bsdf_checks import check_bsdf
+from .emitter_checks import check_emitter
 from .chisquare import (GofResult, assert_gof, cell_integrals, chi2_discrete, chi2_gof, histogram,
                         integrate, pooled_chi2, sidak_threshold)
 
@@ -15,7 +16,7 @@ __all__ = [
     "HemisphereChart", "IntervalChart", "ParallelogramChart", "SphereChart", "TriangleChart",
     "box_surface_chart",
     "GofResult", "assert_gof", "cell_integrals", "chi2_discrete", "chi2_gof", "histogram", "integrate",
-    "pooled_chi2", "sidak_threshold", "check_estimator", "check_bsdf",
+    "pooled_chi2", "sidak_threshold", "check_estimator", "check_bsdf", "check_emitter",
 ]
 
 # Mitsuba 3 as the renderer's oracle (vrlab.testing.mitsuba): loaded on first use, it imports Mitsuba only to render

@@ -10,7 +10,8 @@ Mitsuba's element cannot be built from the parameters and that comparison is ski
 **params check.**  For every constructor parameter whose value (given, or the default) is a
 real number or a real array: NaN must be refused (``ValueError``/``TypeError`` naming the
 parameter), and so must -1 unless the class lists the parameter in ``SIGNED_PARAMS`` (a
-parameter that may be negative or is clamped, as Mitsuba clamps a mask's opacity); a string
+parameter that may be negative or is clamped, as Mitsuba clamps a mask's opacity) or it is a
+position, a direction or a transform (``POINT_PARAMS``, ``to_world``, ``to_uv``); a string
 parameter must refuse ``"no-such-value"``, a boolean one the string ``"yes"``.
 """
 from __future__ import annotations
@@ -25,6 +26,8 @@ from ..distributions import to_local, to_world
 __all__ = ["RotatedChart", "build_element", "check_params", "mitsuba_spec", "NoSpec", "unit_rows"]
 
 BAD_STRING = "no-such-value"
+#: parameters whose 3 numbers are a point or a vector for Mitsuba, not a colour
+POINT_PARAMS = ("position", "direction", "center", "origin", "target", "up")
 
 
 class NoSpec(ValueError):
@@ -131,7 +134,7 @@ def check_params(cls, params: dict, who: str) -> str:
     """The ``params`` check (module docstring); ``AssertionError`` starting ``who[params]``."""
     if cls is None:
         return "skipped: an instance was given, not a class and its parameters"
-    signed = tuple(getattr(cls, "SIGNED_PARAMS", ()))
+    signed = tuple(getattr(cls, "SIGNED_PARAMS", ())) + POINT_PARAMS + ("to_world", "to_uv")
     sig = inspect.signature(cls.__init__)
     tried = 0
     for name, p in sig.parameters.items():
@@ -173,7 +176,7 @@ def _spec_value(key: str, value: Any) -> Any:
     if a.ndim == 0:
         return float(a)
     if a.shape == (3,):
-        return {"type": "rgb", "value": a.tolist()}
+        return a.tolist() if key in POINT_PARAMS else {"type": "rgb", "value": a.tolist()}
     if a.shape == (4, 4):
         import mitsuba as mi
 
