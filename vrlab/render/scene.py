@@ -62,7 +62,8 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
   emitter takes ``sampling_weight`` (:mod:`vrlab.render.emitters`);
 * textures: ``bitmap`` (``filename``, ``filter_type``, ``wrap_mode``, ``raw``, ``to_uv``,
   ``format``), ``checkerboard`` (``color0``, ``color1``, ``to_uv``), ``mesh_attribute``
-  (``name``, ``scale``) (:mod:`vrlab.render.textures`);
+  (``name``, ``scale``), ``rawconstant`` (``value``: a ``<float>`` or ``<vector>`` kept as it
+  is, e.g. a constant normal map) (:mod:`vrlab.render.textures`);
 * colours: ``<rgb>``, ``<float>``, ``<spectrum value="v">`` and ``<spectrum
   value="400:0.1, 500:0.5, ...">`` (converted to linear sRGB as Mitsuba's RGB variants
   do, :mod:`vrlab.render.spectra`), ``<spectrum type="regular">``/``"irregular"`` (the
