@@ -1,5 +1,8 @@
-"""BSDFs: samplers match their pdfs (chi-square), pdfs integrate to 1, energy, reciprocity,
-closed forms, batching, and unbiased BSDF sampling through the estimator layer."""
+"""BSDFs: the common checks (``vrlab.testing.check_bsdf``: chi-square, pdf mass, weight = eval / pdf,
+reciprocity, energy) on the reflecting configurations below, transmitting samplers from both sides
+(chi-square, pdfs integrate to 1), one-sidedness, closed forms, batching, and unbiased BSDF sampling
+through the estimator layer.  Every registered BSDF with its defaults, and every wrapper, are in
+tests/test_element_checks.py."""
 import numpy as np
 import pytest
 from scipy import integrate as sint
@@ -20,6 +23,7 @@ from vrlab.testing import (
     SphereChart,
     assert_gof,
     chi2_gof,
+    check_bsdf,
     integrate,
     sidak_threshold,
 )
@@ -75,7 +79,7 @@ TRANSMITTING = {
 }
 THETAS = [0.0, 0.8, 1.45]  # normal, oblique, grazing
 INSIDE = [np.pi - 0.5, np.pi - 1.2]  # from inside: below and beyond the critical angle of glass
-GOF_CASES = [(k, t) for k in BSDFS for t in THETAS] + [(k, t) for k in TRANSMITTING for t in THETAS + INSIDE]
+GOF_CASES = [(k, t) for k in TRANSMITTING for t in THETAS + INSIDE]
 ALL = {**BSDFS, **TRANSMITTING}
 
 
@@ -93,6 +97,15 @@ def chart_for(name, wo):
         return sphere_chart(wo)
     _, cos_t, _, eta_ti = fresnel_dielectric(wo[2], b.eta)
     return RotatedChart(SphereChart(power=2.0), refract(wo, cos_t, eta_ti) if cos_t != 0 else -wo)
+
+
+@pytest.mark.parametrize("name", list(BSDFS))
+def test_reflecting_configurations_pass_the_common_checks(name):
+    """chi2 and mass at three incident directions, weight = eval / pdf, reciprocity (a normal map
+    declares itself non-reciprocal), energy (the albedo <= 1): what hand-kept tests did here."""
+    out = check_bsdf(BSDFS[name], samples=40_000)
+    assert out["chi2"] == out["mass"] == out["weight"] == out["energy"] == "ok"
+    assert out["reciprocity"] == ("skipped: the model declares reciprocal = False" if name == "normalmap" else "ok")
 
 
 @pytest.mark.parametrize("name, theta", GOF_CASES)
@@ -227,14 +240,7 @@ def test_microfacet_albedo_matches_independent_quadrature(kind, alpha):
 
 
 @pytest.mark.parametrize("name", list(BSDFS))
-def test_energy_conservation(name):
-    for t in [0.0, 0.5, 1.0, 1.3, 1.5]:
-        a = albedo(BSDFS[name], direction(t))
-        assert 0.0 <= a <= 1.0 + 2e-3
-
-
-@pytest.mark.parametrize("name", list(BSDFS))
-def test_reciprocity_and_one_sidedness(name):
+def test_one_sidedness(name):
     rng = np.random.default_rng(5)
     wo, wi = rng.normal(size=(2, 1000, 3))
     wo /= np.linalg.norm(wo, axis=-1, keepdims=True)
@@ -243,26 +249,10 @@ def test_reciprocity_and_one_sidedness(name):
     if name == "normalmap":
         pytest.skip("a normal map is neither reciprocal nor one-sided in the true frame (as in Mitsuba: its "
                     "frame and terminator term depend on wo and wi); tests/test_bsdf_families.py compares it")
-    np.testing.assert_allclose(b.f(wo, wi), b.f(wi, wo), rtol=1e-10, atol=1e-12)
     below = (wo[:, 2] <= 0) | (wi[:, 2] <= 0)
     assert np.all(b.f(wo, wi)[below] == 0) and np.all(b.eval(wo, wi)[below] == 0)
     assert np.any(b.f(wo, wi)[~below] > 0)
     np.testing.assert_allclose(b.eval(wo, wi), b.f(wo, wi) * np.clip(wi[:, 2:3], 0, None))
-
-
-@pytest.mark.parametrize("name", list(BSDFS))
-def test_sample_weight_is_eval_over_pdf(name):
-    b = BSDFS[name]
-    wo = direction(0.9)
-    u = np.random.default_rng(2).random((5000, 2))
-    wi, weight, pdf = b.sample(wo, u)
-    np.testing.assert_allclose(wi, b.distribution(wo).sample(u))
-    np.testing.assert_allclose(pdf, b.pdf(wo, wi))
-    np.testing.assert_allclose(np.linalg.norm(wi, axis=-1), 1.0)
-    ok = pdf > 0
-    assert ok.all()
-    np.testing.assert_allclose(weight, b.eval(wo, wi) / pdf[:, None], rtol=1e-10)
-    assert np.all(weight[wi[:, 2] <= 0] == 0)
 
 
 def test_closed_form_values():

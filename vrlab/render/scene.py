@@ -64,8 +64,9 @@ Supported elements (Mitsuba 3's plugin names and defaults unless marked *vrlab*;
   emitter takes ``sampling_weight`` (:mod:`vrlab.render.emitters`);
 * textures: ``bitmap`` (``filename``, ``filter_type``, ``wrap_mode``, ``raw``, ``to_uv``,
   ``format``), ``checkerboard`` (``color0``, ``color1``, ``to_uv``), ``mesh_attribute``
-  (``name``, ``scale``), ``volume`` (``volume``: a nested volume, read at the surface point's
-  world position) (:mod:`vrlab.render.textures`); image files PNG, JPEG, BMP, TGA, EXR,
+  (``name``, ``scale``), ``rawconstant`` (``value``: a ``<float>`` or ``<vector>`` kept as it
+  is, e.g. a constant normal map), ``volume`` (``volume``: a nested volume, read at the surface
+  point's world position) (:mod:`vrlab.render.textures`); image files PNG, JPEG, BMP, TGA, EXR,
   Radiance ``.hdr`` and ``.pfm`` (:func:`vrlab.render.image.read_bitmap`);
 * volumes: ``gridvolume`` (``filename`` of a ``.vol`` file, ``filter_type``, ``wrap_mode``,
   ``to_world``, ``use_grid_bbox``) and ``constvolume`` (``value``)

@@ -125,8 +125,7 @@ class ShadingIntegrand(Integrand):
     def _tangent_frame(ns, flip, dp_du, dp_dv) -> tuple[Frame, dict]:
         """Mitsuba's shading frame: s = dp_du made orthogonal to n (Gram-Schmidt), t = n x s
         (with the unflipped n for a twosided BSDF seen from the back: Mitsuba mirrors z only);
-        and the local ``dp_du``, ``dp_dv`` (and the world ``dp_du_world``, which Mitsuba's normal
-        map reads as if it were local) for the BSDF's ``at``."""
+        and the local ``dp_du``, ``dp_dv`` for the BSDF's ``at``."""
         from ..distributions.frames import tangent_towards
 
         n64 = np.asarray(ns, np.float64)
@@ -134,8 +133,7 @@ class ShadingIntegrand(Integrand):
         n_up = n64 if flip is None else n64 * flip[:, None]
         t = np.cross(n_up, s)
         frame = Frame._trusted(ns, s.astype(F32), t.astype(F32))
-        local = {"dp_du": frame.to_local(np.asarray(dp_du, F32)), "dp_dv": frame.to_local(np.asarray(dp_dv, F32)),
-                 "dp_du_world": np.asarray(dp_du, F32)}
+        local = {"dp_du": frame.to_local(np.asarray(dp_du, F32)), "dp_dv": frame.to_local(np.asarray(dp_dv, F32))}
         return frame, local
 
     # Techniques, controls and targets are built on access.  Stored, they would close reference

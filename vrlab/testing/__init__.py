@@ -1,10 +1,13 @@
-"""Test tools shipped with vrlab: chi-square goodness of fit on charts, and
-:func:`check_estimator`, the common checks every estimator must pass."""
+"""Test tools shipped with vrlab: chi-square goodness of fit on charts, and the common checks
+every estimator (:func:`check_estimator`), BSDF (:func:`check_bsdf`) and emitter
+(:func:`check_emitter`) must pass."""
 from .charts import (AtlasChart, BoxChart, CapChart, Chart, DiskChart, EllipsoidChart, HalfLineChart,
                      HemisphereChart, IntervalChart, ParallelogramChart, SphereChart, TriangleChart,
                      box_surface_chart)
 from .ellipsoid_view import EllipsoidViewChart
 from .estimators import check_estimator
+from .bsdf_checks import check_bsdf
+from .emitter_checks import check_emitter
 from .chisquare import (GofResult, assert_gof, cell_integrals, chi2_discrete, chi2_gof, histogram,
                         integrate, pooled_chi2, sidak_threshold)
 
@@ -13,7 +16,7 @@ __all__ = [
     "HemisphereChart", "IntervalChart", "ParallelogramChart", "SphereChart", "TriangleChart",
     "box_surface_chart",
     "GofResult", "assert_gof", "cell_integrals", "chi2_discrete", "chi2_gof", "histogram", "integrate",
-    "pooled_chi2", "sidak_threshold", "check_estimator",
+    "pooled_chi2", "sidak_threshold", "check_estimator", "check_bsdf", "check_emitter",
 ]
 
 # Mitsuba 3 as the renderer's oracle (vrlab.testing.mitsuba): loaded on first use, it imports Mitsuba only to render

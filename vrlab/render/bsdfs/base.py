@@ -175,6 +175,13 @@ class BSDFModel(Element):
     #: True when the BSDF needs Mitsuba's tangent frame (s along dp/du) at its points: then the
     #: renderer builds the local frame from it and passes the local ``dp_du``, ``dp_dv`` to :meth:`at`
     needs_tangents: bool = False
+    #: f(wo, wi) = f(wi, wo) (Helmholtz reciprocity; ``vrlab.testing.check_bsdf`` checks it where True):
+    #: False for transmission under radiance transport (the eta^2 of a refraction) and for normal/bump
+    #: maps (their frame and side test depend on wo), as in Mitsuba 3
+    reciprocal: bool = True
+    #: real parameters that may be negative or are clamped (``check_bsdf``'s ``params`` check then
+    #: tries only NaN on them)
+    SIGNED_PARAMS: tuple = ()
 
     @property
     def textures(self) -> dict:
@@ -317,7 +324,7 @@ def check_lobe_mixture(bsdf: BSDFModel, name: str) -> None:
 
 
 #: per-point values the renderer passes to every BSDF of a point (the tangent frame), not textures
-FRAME_VALUES = ("dp_du", "dp_dv", "dp_du_world", "n_geo")
+FRAME_VALUES = ("dp_du", "dp_dv", "n_geo")
 
 
 class NestedTextures:

@@ -159,6 +159,10 @@ class BlendBSDF(BSDFModel):
                                    for k in b.SCALAR_TEXTURES)
 
     @property
+    def reciprocal(self) -> bool:
+        return self.bsdf0.reciprocal and self.bsdf1.reciprocal
+
+    @property
     def needs_tangents(self) -> bool:
         return self.bsdf0.needs_tangents or self.bsdf1.needs_tangents
 

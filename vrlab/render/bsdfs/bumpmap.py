@@ -10,7 +10,7 @@ shading normal n; its tangents become
 (Mitsuba's form: the tangents' normal components are replaced by the gradient), the tilted
 normal is n' = normalize(dp_du' x dp_dv'), turned to the side of the geometric normal, and
 the nested BSDF is evaluated in the frame of n' exactly as :mod:`~vrlab.render.bsdfs.normalmap`
-does (s' from dp_du, the side test, the mirrored normal for back-facing views, the terminator
+does (s' from the local x axis, the side test, the mirrored normal for back-facing views, the terminator
 term).  All in the local shading frame, where n = +z: the renderer passes the local dp_du,
 dp_dv and geometric normal of every point (``needs_tangents``).
 """
@@ -36,6 +36,7 @@ class BumpMap(NormalMap):
     ``bitmap``; the height), ``scale`` a real (see the module docstring)."""
 
     TEXTURED = OWN_TEXTURES = OWN_GRADIENTS = ("texture",)
+    SIGNED_PARAMS = ("scale",)       # a negative scale turns the bumps into dents
 
     def __init__(self, bsdf: BSDFModel, texture: Any, scale: float = 1.0):
         from ..textures import Texture
@@ -47,7 +48,7 @@ class BumpMap(NormalMap):
         self.inner, self.texture = bsdf, texture
         self.scale = checks.real(scale, "scale")
         self.grad = np.zeros(2)                  # the renderer passes each point's gradient (``at``)
-        self.dp_du, self.dp_dv, self.n_geo, self.dp_du_world = _X, _Y, _Z, _X
+        self.dp_du, self.dp_dv, self.n_geo = _X, _Y, _Z
 
     @classmethod
     def from_props(cls, p) -> "BumpMap":
@@ -75,7 +76,7 @@ class BumpMap(NormalMap):
         out.texture, out.scale = self.texture, self.scale
         out.grad = values.get("texture", self.grad)
         out.dp_du, out.dp_dv = values.get("dp_du", self.dp_du), values.get("dp_dv", self.dp_dv)
-        out.n_geo, out.dp_du_world = values.get("n_geo", self.n_geo), values.get("dp_du_world", self.dp_du_world)
+        out.n_geo = values.get("n_geo", self.n_geo)
         return out
 
     def key(self) -> tuple:

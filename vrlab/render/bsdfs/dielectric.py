@@ -111,6 +111,8 @@ class Dielectric(SmoothInterface):
     """Smooth dielectric interface (see the module docstring): delta lobes ``"reflection"``
     (probability F) and ``"transmission"`` (1 - F), both sides."""
 
+    reciprocal = False               # radiance transport scales refraction by 1 / eta^2
+
     def _lobes(self, wo):
         F, cos_t, eta_it, eta_ti = fresnel_dielectric(wo[..., 2], self.eta)
         wi = refract(wo, cos_t, eta_ti).astype(wo.dtype, copy=False)

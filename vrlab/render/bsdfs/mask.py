@@ -42,6 +42,7 @@ class Mask(NestedTextures, BSDFModel):
     """``Mask(bsdf, opacity=0.5)`` (see the module docstring)."""
 
     TEXTURED = OWN_TEXTURES = OWN_SCALARS = ("opacity",)
+    SIGNED_PARAMS = ("opacity",)     # clamped to [0, 1], as Mitsuba does
 
     def __init__(self, bsdf: BSDFModel, opacity: Any = 0.5):
         if not isinstance(bsdf, BSDFModel):
@@ -72,6 +73,10 @@ class Mask(NestedTextures, BSDFModel):
     @property
     def dim_u(self) -> int:
         return int(self.inner.dim_u)
+
+    @property
+    def reciprocal(self) -> bool:
+        return self.inner.reciprocal
 
     @property
     def twosided(self) -> bool:

@@ -5,10 +5,14 @@ The texture ``normalmap`` (a ``bitmap`` read with ``raw=true``) holds, per point
 in the local shading frame (s along dp/du, t = n x s, n), encoded as c = (n' + 1) / 2.  The
 tilted frame is
 
-    n' = normalize(2 c - 1),  s' = normalize(dp_du - n' (n' . dp_du)),  t' = n' x s',
+    n' = normalize(2 c - 1),  s' = normalize(x - n' (n' . x)),  t' = n' x s',
 
-with dp_du the surface's *world* tangent read as local coordinates (Mitsuba 3's
-``NormalMap::frame`` does so; on a flat floor whose dp/du lies along world x the two agree),
+with x = (1, 0, 0) the shading frame's own s (dp/du made orthogonal to the shading normal):
+Mitsuba 3.9.1's ``PerturbedBSDF::frames`` (src/bsdfs/perturbed_bsdf.h) builds s' from the
+local x axis, not from the world dp/du (measured through its Python API: changing
+``si.dp_du`` leaves its values unchanged).  Only anisotropic nested BSDFs see s'; reading the
+world dp/du as local coordinates (Mitsuba 2's frame, vrlab's before) made an anisotropic
+rough conductor up to 8 % too bright.
 
 and the nested BSDF is evaluated with both directions expressed in it.  Light arriving from
 the other side of the true surface than of the tilted one is cut, as Mitsuba does: eval is 0
@@ -51,6 +55,7 @@ class NormalMap(NestedTextures, BSDFModel):
     normals (see the module docstring)."""
 
     needs_tangents = True
+    reciprocal = False               # the tilted frame depends on wo, the side test on wi
     TEXTURED = OWN_TEXTURES = ("normalmap",)
 
     def __init__(self, bsdf: BSDFModel, normalmap: Any):
@@ -58,7 +63,6 @@ class NormalMap(NestedTextures, BSDFModel):
             raise TypeError(f"bsdf must be a vrlab.render BSDF element, got {checks.describe(bsdf)}")
         self.inner = bsdf
         self.normalmap = color_param(normalmap, "normalmap")
-        self.dp_du_world = _X                   # the renderer passes each point's dp/du (``at``)
 
     @classmethod
     def from_props(cls, p) -> "NormalMap":
@@ -80,7 +84,7 @@ class NormalMap(NestedTextures, BSDFModel):
         below = np.sum(np.asarray(wo, np.float64) * n, -1) <= 0
         if np.any(below):
             n = np.where(below[..., None], n * np.array([-1.0, -1.0, 1.0]), n)
-        s = tangent_towards(n, self.dp_du_world)
+        s = tangent_towards(n, _X)
         t = np.cross(n, s)
         return Frame._trusted(*(np.broadcast_to(a, shape + (3,)) for a in (n, s, t)))
 
@@ -173,7 +177,6 @@ class NormalMap(NestedTextures, BSDFModel):
         out = NormalMap.__new__(NormalMap)
         out.inner = self.nested_at(values)
         out.normalmap = values.get("normalmap", self.normalmap)
-        out.dp_du_world = values.get("dp_du_world", self.dp_du_world)
         return out
 
     def key(self) -> tuple:

@@ -347,6 +347,12 @@ class PrincipledParams:
         """An anisotropic roughness is oriented along dp/du."""
         return bool(self.has["anisotropic"])
 
+    @property
+    def reciprocal(self) -> bool:
+        """Without specular transmission (which Mitsuba 3 scales by 1 / eta^2, and the thin model
+        evaluates with a roughness of its own), the lobes are reciprocal."""
+        return not self.has["spec_trans"]
+
     def _param_fields(self) -> dict:
         from .base import plain
 

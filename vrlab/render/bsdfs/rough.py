@@ -86,6 +86,8 @@ class RoughSurface:
         if (alpha_u is None) != (alpha_v is None):
             raise ValueError("alpha_u, alpha_v: an anisotropic roughness needs both alpha_u and alpha_v")
         if alpha_u is not None:
+            if not isinstance(alpha, Texture):
+                alpha_param(alpha)               # unused beside alpha_u, alpha_v, but never garbage
             self.alpha = None
             self.alpha_u, self.alpha_v = (v if isinstance(v, Texture) else alpha_param(v, name)
                                           for v, name in ((alpha_u, "alpha_u"), (alpha_v, "alpha_v")))

@@ -113,6 +113,7 @@ class RoughDielectric(RoughSurface, BSDFModel):
     ``"transmission"``, both sides."""
 
     LOBES = ("reflection", "transmission")
+    reciprocal = False               # radiance transport scales refraction by 1 / eta^2
     TEXTURED = ("specular_reflectance", "specular_transmittance", "alpha", "alpha_u", "alpha_v")
     SCALAR_TEXTURES = ("alpha", "alpha_u", "alpha_v")
     dim_u = 3

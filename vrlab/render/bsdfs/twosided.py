@@ -60,6 +60,10 @@ class TwoSided(BSDFModel):
         return self.inner.needs_tangents
 
     @property
+    def reciprocal(self) -> bool:
+        return self.inner.reciprocal
+
+    @property
     def dim_u(self) -> int:
         return int(self.inner.dim_u)
 

@@ -44,10 +44,10 @@ class ProjectorLight(DeltaPositionLight):
         self.scale = checks.real(scale, "scale", low=0)
         if fov is not None and focal_length is not None:
             raise ValueError("fov: give either fov or focal_length, not both")
+        checks.choice(fov_axis, "fov_axis", FOV_AXES)      # checked also where a focal length overrides it
         if fov is None:
             fov, fov_axis = focal_length_fov("50mm" if focal_length is None else focal_length), "diagonal"
         fov = checks.real(fov, "fov", low=0, high=180, low_open=True, high_open=True)
-        checks.choice(fov_axis, "fov_axis", FOV_AXES)
         self.tan_x = float(np.tan(np.deg2rad(fov_x(fov, fov_axis, self.aspect)) / 2))
         self.tan_y = self.tan_x / self.aspect
         m = matrix4(np.eye(4) if to_world is None else to_world, "to_world")

@@ -1,4 +1,4 @@
-"""Texture elements (``bitmap``, ``checkerboard``, ``mesh_attribute``, ``volume``); the base
+"""Texture elements (``bitmap``, ``checkerboard``, ``mesh_attribute``, ``rawconstant``, ``volume``); the base
 :class:`Texture`, the :class:`SurfacePoints` they are evaluated at, and
 :class:`ConstantTexture` (a plain colour as a texture).  Names are imported from their
 modules on first use."""
