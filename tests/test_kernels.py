@@ -165,7 +165,7 @@ def as_python(module, *changes: tuple[str, str]) -> dict:
     for old, new in changes:
         assert old in src, old
         src = src.replace(old, new)
-    src = src.replace("from numba import njit\n", "").replace("@njit(cache=True)\n", "")
+    src = src.replace("from numba import njit\n", "").replace('@njit(cache=True, error_model="numpy")\n', "")
     ns = {"__name__": module.__name__ + "_python"}
     exec(compile(src, module.__file__, "exec"), ns)
     return ns

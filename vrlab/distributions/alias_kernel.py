@@ -28,7 +28,7 @@ SIGNATURES = {"alias_build": ["int64(float64[::1], float64, float64, float64[::1
 COMPILE_SECONDS = 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _add(hi, lo, x):
     """``(hi, lo) + x`` for a sum kept as ``hi + lo``: ``hi`` the float sum, ``lo`` the sum of
     its rounding errors (Knuth's TwoSum; not renormalised, so the chain through ``hi`` is
@@ -38,7 +38,7 @@ def _add(hi, lo, x):
     return s, lo + ((hi - (s - bb)) + (x - bb))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _next_heavy(w, c_hi, c_lo, start):
     """The first index >= start with p > 1 (n if none) and its p."""
     n = len(w)
@@ -51,7 +51,7 @@ def _next_heavy(w, c_hi, c_lo, start):
     return n, 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _finish(w, c_hi, c_lo, f, q, alias, h, y_hi, y_lo, x_hi, x_lo):
     """Heavy h is done where the next light starts (Y): ``q_h = 1 - (Y - X_(h+1))``, its alias
     the next heavy h2, whose excess extends X.  Returns ``(h2, X_(h2+1))``."""
@@ -63,7 +63,7 @@ def _finish(w, c_hi, c_lo, f, q, alias, h, y_hi, y_lo, x_hi, x_lo):
     return h2, x_hi, x_lo
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def alias_build(w, c_hi, c_lo, q, alias):
     """Fill ``q (n,)`` and ``alias (n,)`` for weights ``w`` with ``n / W = c_hi + c_lo``.
     Returns the number of heavy items (0: every p == 1 up to rounding, every column full)."""
@@ -106,7 +106,7 @@ def alias_build(w, c_hi, c_lo, q, alias):
     return b
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def alias_pack(q, alias, bits):
     """In place, ``alias_j <- alias_j << bits | int(q_j (2^bits - 1) + 0.5)``: the packed words
     of ``discrete.AliasTable`` (the same operations as its NumPy packing)."""
