@@ -359,3 +359,46 @@ def test_bvh_parity_fails_on_a_mutated_kernel(mutant, monkeypatch):
     with pytest.raises(AssertionError):
         for scene in scenes:
             check_bvh_parity(scene, *bvh_points(scene, 400, 11))
+
+
+def test_the_renderers_light_selection_takes_the_compiled_walk():
+    """BVHSelection (light_selection="bvh") with kernels="numba": the same lights, triangles and
+    probabilities as the default NumPy walk, lights at infinity included."""
+    import copy
+
+    from test_render_light_bvh import ENV, _floor_points, _lights
+
+    sel = _lights(ENV).tree
+    b = sel.tree.bounds
+    fast = copy.copy(sel)
+    fast.tree = LightBVH(b.lo, b.hi, b.w, b.cos_o, b.cos_e, b.phi, b.two, kernels="numba")
+    p, n = _floor_points(3000, 7)
+    u = np.random.default_rng(8).random(len(p))
+    got, want = fast.sample(p, n, u), sel.sample(p, n, u)
+    assert np.mean(got[0] != want[0]) <= 1e-3
+    same = got[0] == want[0]
+    np.testing.assert_array_equal(got[2][same], want[2][same])
+    np.testing.assert_allclose(got[1][same], want[1][same], rtol=1e-6, atol=0)
+    np.testing.assert_allclose(fast.pmf(p, n, want[0], want[2]), sel.pmf(p, n, want[0], want[2]), rtol=1e-6, atol=0)
+
+
+def _in_a_forked_child(w, scene, p, n, u):
+    return AliasTable(w, kernels="numba").q.sum(), LightBVH(**scene, kernels="numba").sample(p, n, u)[0]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fork")
+def test_kernels_run_in_forked_workers():
+    """Loaded in the parent, the serial kernels run in forked children (a prange kernel under
+    Numba's OpenMP layer would hang there)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    w = np.random.default_rng(1).random(5000)
+    scene = bvh_scene(50, 9)
+    p, n, u = bvh_points(scene, 500, 9)
+    want = _in_a_forked_child(w, scene, p, n, u)
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork")) as pool:
+        futures = [pool.submit(_in_a_forked_child, w, scene, p, n, u) for _ in range(2)]
+        for f in futures:
+            got = f.result(timeout=120)
+            assert got[0] == want[0] and np.array_equal(got[1], want[1])
