@@ -46,7 +46,6 @@ from __future__ import annotations
 import functools
 import importlib
 import sys
-import time
 from typing import Any, Callable
 
 __all__ = ["KERNELS", "resolve_kernels", "numba_version", "load_kernel", "load_kernels"]
@@ -86,7 +85,7 @@ def resolve_kernels(value: Any, name: str = "kernels") -> str:
 
 def _notice(seconds: float, stream):
     """A numba event listener that prints the compile notice at the first compilation it sees
-    (once per process); ``.compiled`` tells whether it saw one."""
+    (once per process)."""
     from numba.core import event
 
     class Notice(event.Listener):
@@ -118,16 +117,13 @@ def load_kernels(*modules: str, stream=None) -> dict[str, Any]:
         from numba.core import event
 
         seconds = sum(float(getattr(m, "COMPILE_SECONDS", 1.0)) for m in mods)
-        listener = _notice(seconds, sys.stderr if stream is None else stream)
-        start = time.perf_counter()
-        with event.install_listener("numba:compile", listener):
+        with event.install_listener("numba:compile", _notice(seconds, sys.stderr if stream is None else stream)):
             for name, mod in zip(todo, mods):
                 for fname, sigs in mod.SIGNATURES.items():
-                    for sig in sigs:
-                        getattr(mod, fname).compile(sig)
+                    fn = getattr(mod, fname)
+                    for sig in sigs if hasattr(fn, "compile") else ():    # (NUMBA_DISABLE_JIT: plain Python)
+                        fn.compile(sig)
                 _loaded[name] = mod
-        if listener.compiled:
-            _state["compile_seconds"] = time.perf_counter() - start
     return {m: _loaded[m] for m in modules}
 
 
@@ -142,5 +138,5 @@ def load_kernel(module: str, name: str) -> Callable:
 
 #: kernel modules loaded in this process (a cache of compiled code, not a job's state)
 _loaded: dict[str, Any] = {}
-#: per process: whether the notice was printed; seconds the last compiling load took
-_state: dict[str, Any] = {"notice": False, "compile_seconds": 0.0}
+#: per process: whether the notice was printed
+_state: dict[str, Any] = {"notice": False}
