@@ -40,6 +40,8 @@ def test_resolve_kernels(raises_naming, monkeypatch):
         K.resolve_kernels("numba")
     with raises_naming(ValueError, "kernels"):
         AliasTable(np.ones(3) + np.arange(3), kernels="numba")
+    with raises_naming(ValueError, "name"):
+        K.load_kernel("vrlab.distributions.alias_kernel", "no_such_kernel")
 
 
 def test_auto_alias_table_uses_numpy_below_the_threshold():
@@ -135,11 +137,6 @@ def test_cache_goes_to_the_user_cache_folder_where_the_package_is_not_writable(t
     assert first.stderr.splitlines() == [NOTICE]
     assert list((tmp_path / "xdg" / "numba").rglob("toy_kernel.twice-*.nbi"))
     assert _run(LOAD, env).stderr == ""
-
-
-def test_load_kernel_names_a_missing_kernel(raises_naming):
-    with raises_naming(ValueError, "name"):
-        K.load_kernel("vrlab.distributions.alias_kernel", "no_such_kernel")
 
 
 def test_numba_requirement_leaves_out_platforms_without_wheels():
