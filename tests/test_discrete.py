@@ -1,6 +1,8 @@
 """Discrete distributions: alias table and CDF table.
 
-Chi-square fit of the indices, exactness of the table (the pmf it encodes against
+Every test runs with both builds of the alias table, the NumPy one and the compiled kernel
+(``kernels="numpy"`` / ``"numba"``, set as AliasTable's default by the ``alias_kernels``
+fixture; the CDF-table tests simply run twice).  Chi-square fit of the indices, exactness of the table (the pmf it encodes against
 w / sum(w), up to n = 10^7), zero weights never drawn, bad weights rejected with a
 message naming the problem, edge uniforms, batching, the remapped leftover uniform,
 and checks that the chi-square harness does reject a wrong table.
@@ -15,6 +17,13 @@ from vrlab.testing import assert_gof, chi2_discrete, pooled_chi2
 
 CLASSES = [AliasTable, CDFTable]
 ONE_MINUS = np.nextafter(1.0, 0.0)
+
+
+@pytest.fixture(autouse=True, params=["numpy", "numba"])
+def alias_kernels(request, monkeypatch):
+    """Every AliasTable built in a test of this module uses ``kernels=request.param``."""
+    monkeypatch.setitem(AliasTable.__init__.__kwdefaults__, "kernels", request.param)
+    return request.param
 
 
 def _weights(name):

@@ -51,8 +51,8 @@ import numpy as np
 
 from ..checks import describe as _describe
 from ._args import _checked, _flag, _outside, _uniforms
-from .alias_build import (_accurate_total, _diff, _heavy_q, _lights_per_heavy, _lights_per_heavy_exact, _prefix,
-                          _scale_bits, _value)
+from .alias_build import (_accurate_total, _alias_kernels, _build_compiled, _diff, _heavy_q, _lights_per_heavy,
+                          _lights_per_heavy_exact, _pack, _prefix, _scale_bits, _value)
 from .base import Distribution
 
 __all__ = ["AliasTable", "CDFTable", "check_discrete_weights"]
@@ -166,15 +166,18 @@ class AliasTable(_Discrete):
 
     O(n) vectorised build (prefix-sum sweeping construction, see the module notes),
     O(1) per draw: ``x = u n, j = floor(x), i = j if x - j < q_j else alias_j``.
+    ``kernels``: "numpy" builds as above, "numba" by the compiled serial sweep of ``alias_kernel``
+    (the same table, faster), "auto" (default) by numba where importable and ``n >= 2^18``.
 
     Attributes: ``n``, ``total`` (sum of the weights), ``q`` (column keep
     probabilities), ``alias`` (column aliases; irrelevant where ``q_j = 1``),
-    ``probabilities``; ``dim_u = 1``, measure "counting".
+    ``probabilities``, ``kernels`` (the resolved switch); ``dim_u = 1``, measure "counting".
     """
 
-    def __init__(self, weights: Any, *, _exact: bool = False):
+    def __init__(self, weights: Any, *, kernels: str = "auto", _exact: bool = False):
         super().__init__(weights)
         n = self.n
+        self.kernels = _alias_kernels(kernels, n)
         q, alias, scratch = self._build(_exact)
         q.flags.writeable = False
         self.q = q
@@ -194,15 +197,7 @@ class AliasTable(_Discrete):
             # a draw reads one random word (the cost at large n is that memory access).
             # B = min(52, 63 - bits(n)) >= 32: finer than u n resolves (n 2^-53 for 53-bit u)
             bits = min(52, 63 - max(1, (n - 1).bit_length()))
-            quant = np.multiply(q, float(2**bits - 1), out=scratch)  # <= 2^B - 1: never spills into alias
-            quant += 0.5
-            iquant = quant.view(np.int64)
-            np.copyto(iquant, quant, casting="unsafe")  # truncate in place: round(q (2^B - 1))
-            packed = np.left_shift(alias, bits, out=alias)  # the alias array becomes the table
-            packed |= iquant
-            del quant, iquant
-            self._bits, self._packed, self._alias = bits, packed, None
-        del scratch
+            self._bits, self._packed, self._alias = bits, _pack(q, alias, bits, scratch, self.kernels), None
 
     @property
     def alias(self) -> np.ndarray:
@@ -221,6 +216,8 @@ class AliasTable(_Discrete):
             return np.ones(n), np.arange(n), None
         # p = n w / W with n / W as a double-double: each p_i is rounded once, on its own
         c_hi, c_lo = self._scale_to(float(n))
+        if self.kernels == "numba":
+            return (*_build_compiled(w, c_hi, c_lo), None)
         p = w * c_hi
         scratch = np.multiply(w, c_lo)  # reused below: fewer fresh pages to fault in
         p += scratch

@@ -39,6 +39,11 @@ widest centroid axis.  Node bounds are the unions of their children's, bottom-up
 As pbrt-v4, the caller picks one of the ``n_inf`` of them (uniformly) with probability
 ``p_inf = n_inf / (n_inf + 1)`` (``n_inf / n_inf = 1`` for an empty tree) and the tree with
 ``1 - p_inf``, remapping u to ``(u - p_inf) / (1 - p_inf)``: see :meth:`LightBVH.infinite_probability`.
+
+**Kernels**: ``kernels="numba"`` walks each point down in one compiled serial loop
+(:mod:`vrlab.distributions.light_bvh_kernel`, the same operations per point, so the same
+lights and probabilities); "numpy" (the default for now) is the walk above, the reference;
+"auto" is numba where it can be imported (see :mod:`vrlab.kernels`).
 """
 from __future__ import annotations
 
@@ -46,6 +51,7 @@ import numpy as np
 
 from .. import checks
 from .._vec import dot
+from ..kernels import load_kernel, resolve_kernels
 from .light_bounds import Bounds, Prepared, empty_bounds, importance, importance_prepared, prepare, union
 from .light_bvh_build import split_sides
 
@@ -69,9 +75,13 @@ class LightBVH:
     ``light_bounds.Bounds`` with one row per node, root 0), ``children (M, 2)`` (-1 at
     leaves), ``light (M,)`` (the leaf's light, -1 inside), ``leaf (L,)`` (each light's
     node, -1 if phi = 0), ``depth (L,)`` and ``trail (L, D)`` (child taken at each depth).
+    ``kernels``: "numpy" (default), "numba" or "auto", the walk of ``sample`` and ``pmf``
+    (resolved here; attribute ``kernels`` is "numpy" or "numba").
     """
 
-    def __init__(self, lo, hi, w, cos_theta_o, cos_theta_e, phi, two_sided=None):
+    def __init__(self, lo, hi, w, cos_theta_o, cos_theta_e, phi, two_sided=None, *, kernels="numpy"):
+        self.kernels = resolve_kernels(kernels)
+        self._ktree = None
         lo = checks.finite_array(lo, "lo", ndim=2, last=3)
         L = len(lo)
         hi = _rows(hi, "hi", L, 3)
@@ -193,6 +203,12 @@ class LightBVH:
         if self.light[0] >= 0:                           # a single light: the root is a leaf
             ok = importance(self.nodes.take(np.zeros(N, np.int64)), p, n, self.floor2) > 0
             return np.where(ok, self.light[0], -1), ok.astype(float)
+        if self.kernels == "numba":
+            j = np.full(N, -1, np.int64)
+            p, n = np.ascontiguousarray(p, float), np.ascontiguousarray(n, float)
+            self._compiled("bvh_sample")(*self._kernel_tree(), p, n, dot(n, n) > 0, u.astype(float), self.floor2,
+                                         j, pmf)
+            return j, pmf
         pts, pt = _columns(p, n)
         rows, u = np.arange(N), u.astype(float)
         if len(pts[0][0]) < N:                           # repeated points: u ascending per point
@@ -235,6 +251,12 @@ class LightBVH:
             out[rows] = importance(self.nodes.take(np.zeros(len(rows), np.int64)), p[rows], n[rows], self.floor2) > 0
             return out
         if not len(rows):
+            return out
+        if self.kernels == "numba":
+            pr, nr, res = np.ascontiguousarray(p[rows], float), np.ascontiguousarray(n[rows], float), np.zeros(len(rows))
+            self._compiled("bvh_pmf")(*self._kernel_tree(), pr, nr, dot(nr, nr) > 0, self.trail, j[rows],
+                                      self.floor2, res)
+            out[rows] = res
             return out
         pts, pt = _columns(p[rows], n[rows])
         jj = j[rows]
@@ -282,6 +304,18 @@ class LightBVH:
         imp = importance_prepared(t, np.take(P, pt, axis=1), None if N is None else np.take(N, pt, axis=1),
                                   self.floor2, None if has_n is None else has_n[pt], positive=True)
         return imp if head is None else imp[:, np.cumsum(head) - 1]
+
+    def _kernel_tree(self) -> tuple:
+        """``(table (M, 11), two (M,), first, light)`` as the compiled walk reads them."""
+        if self._ktree is None:
+            two = np.zeros(len(self.light), bool) if self._two is None else self._two
+            self._ktree = (np.ascontiguousarray(self._table.T), np.ascontiguousarray(two, bool),
+                           np.ascontiguousarray(self._first, np.int64), np.ascontiguousarray(self.light, np.int64))
+        return self._ktree
+
+    @staticmethod
+    def _compiled(name: str):
+        return load_kernel("vrlab.distributions.light_bvh_kernel", name)
 
     def _points(self, p, n):
         p = _coordinates(checks.finite_array(p, "p", ndim=2, last=3), "p")

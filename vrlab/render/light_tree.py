@@ -88,9 +88,11 @@ def _triangle_bounds(light) -> tuple:
 class BVHSelection:
     """P(j, t | p, n) over the lights of a light set (see the module docstring): ``lights``
     the set's lights, ``weights (L,)`` their ``sampling_weight``, ``power (L,)`` their powers
-    (pi x mean radiance x area or the emitter's power), ``split (L,)`` bool: one leaf per triangle."""
+    (pi x mean radiance x area or the emitter's power), ``split (L,)`` bool: one leaf per triangle;
+    ``kernels``: the tree walk's, "numpy" (default), "numba" or "auto" (see :mod:`vrlab.kernels`)."""
 
-    def __init__(self, lights: list, weights: np.ndarray, power: np.ndarray, split: np.ndarray | None = None):
+    def __init__(self, lights: list, weights: np.ndarray, power: np.ndarray, split: np.ndarray | None = None, *,
+                 kernels: str = "numpy"):
         L = len(lights)
         split = np.zeros(L, bool) if split is None else np.asarray(split, bool)
         inf = np.array([l.is_infinite for l in lights], bool)
@@ -119,7 +121,7 @@ class BVHSelection:
         #: the light and triangle (-1: the whole light) of each entry (leaf) of the tree
         self.entry_light = np.concatenate(lights_of).astype(np.int64) if rows else np.zeros(0, np.int64)
         self.entry_triangle = np.concatenate(tris_of).astype(np.int64) if rows else np.zeros(0, np.int64)
-        self.tree = LightBVH(lo, hi, w, cos_o, cos_e, phi)
+        self.tree = LightBVH(lo, hi, w, cos_o, cos_e, phi, kernels=kernels)
         self.p_inf = self.tree.infinite_probability(len(self.infinite))
         #: each light's first entry (-1: a light at infinity)
         self.first_entry = np.full(L, -1)
