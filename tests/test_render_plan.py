@@ -74,3 +74,17 @@ def test_cli_json_reports_the_plan_and_the_kernels(capsys, tmp_path):
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["kernels"] == "numpy" and out["plan"].startswith("RenderPlan(film=6x4")
     assert "strategy='mis-power'" in out["plan"]
+
+
+def test_the_light_bvh_walk_runs_compiled_with_the_same_image():
+    """kernels="numba"/"auto" runs the compiled light-BVH walk (vrlab.distributions.light_bvh_kernel)
+    where the render selects lights by the BVH, with the NumPy walk's image bit for bit (its
+    oracle); a render without a compiled kernel reports numpy, and imports no numba for it."""
+    pytest.importorskip("numba")
+    kw = dict(light_selection="bvh", width=24, height=18, rng=1)
+    a = render("many_lights", 4, kernels="numpy", **kw)
+    b = render("many_lights", 4, kernels="numba", **kw)
+    c = render("many_lights", 4, kernels="auto", workers=2, **kw)
+    assert (a.extra["kernels"], b.extra["kernels"], c.extra["kernels"]) == ("numpy", "numba", "numba")
+    assert np.array_equal(a.value, b.value) and np.array_equal(a.value, c.value)
+    assert render("cornell_box", 2, kernels="auto", width=8, height=6, rng=0).extra["kernels"] == "numpy"

@@ -53,7 +53,7 @@ class DirectLighting:
     ``"light"`` technique to report.
     """
 
-    def __init__(self, scene: Scene, light_selection: str = "uniform"):
+    def __init__(self, scene: Scene, light_selection: str = "uniform", kernels: str = "numpy"):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
         checks.choice(light_selection, "light_selection", LIGHT_SELECTIONS)
@@ -112,7 +112,8 @@ class DirectLighting:
         self.env_light = -1                     # the light index of the environment, if any
         if emits.any() or free:
             try:
-                self.lights = LightSet(shapes, light_selection, free, radius=max(self.geometry.scale, 1e-6))
+                self.lights = LightSet(shapes, light_selection, free, radius=max(self.geometry.scale, 1e-6),
+                                       kernels=kernels)
             except ValueError as exc:            # an emitting shape without light sampling
                 self.light_error = str(exc)
         # split mesh lights ("bvh": a leaf per triangle) need the exact triangle of each hit

@@ -46,9 +46,10 @@ class LightSet:
     the emitting shapes (indices 0.. in shape order) then the other ``emitters`` (point, spot,
     directional, constant, envmap, ...); ``radius``: of a sphere around the scene (power of
     lights at infinity).  Selection weights are multiplied by each emitter's
-    ``sampling_weight``."""
+    ``sampling_weight``.  ``kernels``: the light BVH walk's (``"numpy"`` or ``"numba"``)."""
 
-    def __init__(self, shapes: list[Shape], selection: str = "uniform", emitters=(), radius: float = 1.0):
+    def __init__(self, shapes: list[Shape], selection: str = "uniform", emitters=(), radius: float = 1.0, *,
+                 kernels: str = "numpy"):
         checks.choice(selection, "light_selection", LIGHT_SELECTIONS)
         if isinstance(shapes, (str, bytes)) or not all(isinstance(s, Shape) for s in shapes):
             raise TypeError(f"shapes must be a list of vrlab.render.Shape, got {shapes!r:.60}")
@@ -95,7 +96,7 @@ class LightSet:
         if selection == "bvh":
             from .light_tree import BVHSelection
 
-            self.tree = BVHSelection(self.lights, weights, power, self.split)
+            self.tree = BVHSelection(self.lights, weights, power, self.split, kernels=kernels)
 
     def __len__(self) -> int:
         return len(self.lights)

@@ -69,7 +69,7 @@ class PixelIntegrand:
 
     def __init__(self, scene: Scene, estimator: Any = "mis-power", *, units: int | None = None,
                  light_selection: str = "uniform", emitter_samples: int | None = None,
-                 bsdf_samples: int | None = None, ris_candidates: int = 8):
+                 bsdf_samples: int | None = None, ris_candidates: int = 8, kernels: str = "numpy"):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
         integ = scene.integrator
@@ -83,7 +83,7 @@ class PixelIntegrand:
         self.light_selection = light_selection
         self.estimator, k = as_estimator(estimator, emitter_samples=n_l, bsdf_samples=n_b, ris_candidates=m)
         self.units = k if units is None else checks.integer(units, "units", low=1, high=MAX_SAMPLES)
-        self.lighting = DirectLighting(scene, light_selection)
+        self.lighting = DirectLighting(scene, light_selection, kernels)
         probe = self.shading(0, *(np.zeros((0, 3), np.float32) for _ in range(3)))
         if self.estimator.spatial:                  # reuse across pixels (ReSTIR): vrlab.render.reuse
             from .reuse import check_spatial

@@ -35,7 +35,7 @@ from .scene import Scene
 __all__ = ["RenderPlan", "plan", "KERNELS", "default_workers", "resolve_kernels"]
 
 #: the kernel choices of ``plan(kernels=...)``: ``"auto"`` is the compiled kernels where
-#: they exist and can run, else NumPy (the renderer's hot path is NumPy today: ``"numpy"``)
+#: they exist and can run, else NumPy (:func:`resolve_kernels`)
 KERNELS = ("auto", "numba", "numpy")
 TILE_PIXELS = 1024           # pixels per work unit (fixed: it defines the random streams)
 SPP_BATCH = 64               # samples per pixel of one work unit (a batch); more spp: more batches
@@ -53,12 +53,29 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
-def resolve_kernels(kernels: Any) -> str:
-    """``kernels`` in :data:`KERNELS` -> the kernels that run: ``"numpy"`` (the renderer's
-    per-sample path has no compiled kernel yet, so ``"auto"`` and ``"numba"`` run NumPy's;
-    ``Estimate.extra["kernels"]`` says so)."""
+#: the compiled kernels of the per-sample path, by the setting that uses them
+COMPILED = {"light_selection": {"bvh": "vrlab.distributions.light_bvh_kernel"}}
+
+
+def resolve_kernels(kernels: Any, light_selection: str) -> str:
+    """The kernels that run for ``kernels`` in :data:`KERNELS`: ``"numba"`` where this render
+    uses a compiled kernel (:data:`COMPILED`: the light BVH's walk) and ``kernels`` is
+    ``"numba"``, or ``"auto"`` with numba importable; else ``"numpy"``.  numba is imported
+    only then (``"numba"`` is checked everywhere: ``ValueError`` naming ``kernels`` where
+    numba cannot be imported), and the kernels are compiled or loaded from numba's cache here,
+    before any worker process starts (:func:`vrlab.kernels.load_kernels`)."""
+    from ..kernels import load_kernels
+    from ..kernels import resolve_kernels as resolve
+
     checks.choice(kernels, "kernels", KERNELS)
-    return "numpy"
+    module = COMPILED["light_selection"].get(light_selection)
+    if kernels == "numpy" or (module is None and kernels == "auto"):
+        return "numpy"
+    ran = resolve(kernels)
+    if module is None or ran == "numpy":
+        return "numpy"
+    load_kernels(module)
+    return ran
 
 
 @dataclasses.dataclass(frozen=True, repr=False, eq=False)
@@ -169,14 +186,14 @@ def plan(scene: Any, spp: int | None = None, estimator: Any = "mis-power", *, po
     chunk = None if chunk_pixels is None else checks.integer(chunk_pixels, "chunk_pixels", low=1)
     workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1,
                                                                       high=limits.max_workers())
-    ran = resolve_kernels(kernels)
+    ran = resolve_kernels(kernels, light_selection)
     if width is not None or height is not None:
         scene = scene.with_size(width, height)
     # the sample counts (the scene's integrator's by default) and the estimator are checked and
     # resolved here, once, by the pixel integrand (a preset name looked up once)
     integrand = PixelIntegrand(scene, estimator, units=units, light_selection=light_selection,
                                emitter_samples=emitter_samples, bsdf_samples=bsdf_samples,
-                               ris_candidates=ris_candidates)
+                               ris_candidates=ris_candidates, kernels=ran)
     check_work(integrand, spp, batch, chunk, 1)
     if points is None:                   # the scene's sampler plays its part (sensors.samplers)
         points = scene.sensor.sampler.points
