@@ -29,7 +29,7 @@ def test_render_import_loads_only_the_estimators_it_uses():
     loaded = ast.literal_eval(after)           # the printed list of module names
     assert [m for m in loaded if m.startswith("vrlab.estimators.")] == [
         "vrlab.estimators._recipe_tools", "vrlab.estimators.base", "vrlab.estimators.crossfit",
-        "vrlab.estimators.heuristics", "vrlab.estimators.mis",
+        "vrlab.estimators.heuristics", "vrlab.estimators.hooks", "vrlab.estimators.mis",
         "vrlab.estimators.registry", "vrlab.estimators.regression"], out
     assert not {"vrlab.points.sobol", "vrlab.points.halton", "vrlab.points.lhs"} & set(loaded), out
 

@@ -292,7 +292,7 @@ def test_optimal_per_unit_is_unbiased_with_the_optimal_variance(name, fractions)
     m, R = 400, 300
     u = np.random.default_rng(17).random((R, m, est.unit_dim(integrand)))
     out = est.unit_outputs(integrand, u)
-    assert out.shape == (R, m, 2) and est.min_units == 1
+    assert out.shape == (R, m, 2) and est.min_units == 2
     assert abs(out[..., 1].mean()) < 5 * out[..., 1].std() / np.sqrt(R * m)          # E[H_0] = 1
     value, stderr = est.fold(out)
     theory = optimal_variance(Quadrature(integrand, dists), dists, np.array(fractions) * m)

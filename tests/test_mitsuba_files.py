@@ -75,7 +75,8 @@ def test_compare_and_gradient_domain_load_the_scene_with_the_defines(capsys, mon
     path = tmp_path / "scene.xml"
     path.write_text(DEFINED)
     run_cli(capsys, ["render", str(path), "-D", "max_depth=2", "-Dspp=3", *mode, "--workers", "1", "--no-progress"])
-    assert len(seen) == 1 and seen[0].sensor.spp == 3 and seen[0].integrator.max_depth == 2
+    scene = getattr(seen[0], "scene", seen[0])          # a render plan (gradient domain) or a scene
+    assert len(seen) == 1 and scene.sensor.spp == 3 and scene.integrator.max_depth == 2
 
 
 @pytest.mark.parametrize("flags, names", [

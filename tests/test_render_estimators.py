@@ -147,8 +147,10 @@ def test_estimators_without_unit_values_and_bad_names_are_refused(raises_naming)
     # cross-fitted coefficients: too few units for a fit give the plain average, at any spp
     opt = render(SC, 2, MIS(["light", "bsdf"], heuristic="optimal"), rng=3)
     np.testing.assert_allclose(opt.value, render(SC, 2, "mis-balance", rng=3).value, rtol=1e-5, atol=1e-7)
-    one = render(SC, 1, ControlVariate("lambertian", distribution="light"), rng=3)
-    assert np.all(np.isfinite(one.value)) and np.all(np.isnan(one.stderr))       # one unit: no error bar
+    with raises_naming(ValueError, "spp"):                      # a fit's residuals need two units
+        render(SC, 1, ControlVariate("lambertian", distribution="light"), rng=3)
+    two = render(SC, 2, ControlVariate("lambertian", distribution="light"), rng=3)
+    assert np.all(np.isfinite(two.value)) and np.all(np.isfinite(two.stderr))
 
 
 def test_shading_integrand_techniques_are_distributions_with_exact_densities():

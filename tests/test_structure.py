@@ -110,7 +110,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
 )
 #: shared helpers: every layer may import them; they import only each other
 SHARED = ("vrlab.checks", "vrlab._rng", "vrlab._vec", "vrlab._lazy", "vrlab._alloc", "vrlab.limits", "vrlab.colour",
-          "vrlab.metrics", "vrlab.significance")
+          "vrlab.metrics", "vrlab.significance", "vrlab.kernels")
 #: the package root re-exports a few names (``vrlab.Estimate``, ``vrlab.AliasTable``) and stands above the table
 ROOT = "vrlab"
 

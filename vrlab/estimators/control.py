@@ -75,10 +75,11 @@ class _Regression(Estimator):
 
     @property
     def min_units(self) -> int:
-        """Sample units one fold needs: 1 (2 for a standard error, as any average).  Fitted
+        """Sample units one fold needs: 1 with a fixed alpha (a mean of unit values); 2 with a
+        fitted one, which has no unit values and needs two units for its residuals.  Fitted
         coefficients are cross-fitted (:mod:`~vrlab.estimators.crossfit`): with too few
-        units for a fit a fold uses alpha = 0, so every n stays unbiased."""
-        return 1
+        units for a fit a fold uses alpha = 0, so every n >= 2 stays unbiased."""
+        return 2 if self._fitted() else 1
 
     def _fitted(self) -> bool:
         return isinstance(self._alpha(), str) and self._n_controls() > 0

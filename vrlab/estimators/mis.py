@@ -223,10 +223,12 @@ class MIS(Estimator):
         return self._add_up(v for _, v in self.unit_terms(integrand, u))
 
     # -- optimal MIS per unit (the renderer's view): a regression on density controls ------
-    #: Units one fold needs: 1 (2 for a standard error).  ``optimal`` cross-fits its
-    #: coefficients and uses a = 0 (the balance heuristic) for a fold whose other folds
-    #: have too few units for a fit, so it accepts any count too.
-    min_units = 1
+    @property
+    def min_units(self) -> int:  # type: ignore[override]
+        """Units one fold needs: 1; ``optimal`` 2 (no unit values, residuals need two units).
+        It cross-fits its coefficients and uses a = 0 (the balance heuristic) for a fold whose
+        other folds have too few units for a fit, so every count >= 2 is unbiased."""
+        return 2 if self.heuristic == "optimal" else 1
 
     def unit_outputs(self, integrand, u: np.ndarray) -> np.ndarray:
         """Per unit, ``(*batch, m, c)``.  For the explicit heuristics one column, the unit value.
