@@ -12,10 +12,16 @@ the primitive's index within its shape come from the planar group.  ``t_min`` mo
 origins forward (Embree's rays start at t = 0).  Shadow queries use Embree's occlusion test
 (any hit before ``t_max``).
 
-The Embree scene is not pickled: a process that receives the geometry rebuilds it on first
-use (milliseconds for thousands of triangles).
+The Embree scene is not pickled: a process that receives the geometry builds it on first use
+(milliseconds for thousands of triangles, about a second for a million), under a lock (threads
+of one process build it once) and again in a forked child (Embree's threads do not survive a
+fork).  Worker processes receive a render's job once (:mod:`vrlab.execution`), so each builds
+its Embree scene once.
 """
 from __future__ import annotations
+
+import os
+import threading
 
 import numpy as np
 
@@ -57,24 +63,32 @@ class EmbreeTriangles:
         self.tri = np.ascontiguousarray(np.concatenate(tris), dtype=np.float32)
         self.group = np.concatenate(group).astype(np.int64)
         self.prim = np.concatenate(prim).astype(np.int64)
-        self._scene = None
+        self._scene, self._pid, self._lock = None, None, threading.Lock()
 
     def __len__(self) -> int:
         return len(self.tri)
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
-        state["_scene"] = None                   # Embree's scene does not pickle: rebuilt on use
+        state["_scene"] = state["_pid"] = state["_lock"] = None   # Embree's scene does not pickle: built on use
         return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
 
     @property
     def scene(self):
-        if self._scene is None:
-            from embreex import rtcore_scene
-            from embreex.mesh_construction import TriangleMesh
+        """Embree's scene of the triangles, built once per process (see the module docstring)."""
+        if self._scene is None or self._pid != os.getpid():
+            with self._lock:
+                if self._scene is None or self._pid != os.getpid():
+                    from embreex import rtcore_scene
+                    from embreex.mesh_construction import TriangleMesh
 
-            self._scene = rtcore_scene.EmbreeScene()
-            TriangleMesh(self._scene, self.tri)
+                    scene = rtcore_scene.EmbreeScene()
+                    TriangleMesh(scene, self.tri)
+                    self._scene, self._pid = scene, os.getpid()
         return self._scene
 
     @staticmethod
