@@ -184,3 +184,40 @@ def test_dask_workers_receive_the_job_once(mesh_scene, reference, tmp_path):
     finally:
         cluster.close()
     _check_once(log, 1)
+
+
+class CountingCubic:
+    """The integrand 3 x^2 on [0, 1] (integral 1), logging "load pid" when unpickled."""
+
+    def __init__(self, log: str):
+        self.log = log
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        with open(self.log, "a") as f:
+            f.write(f"load {os.getpid()}\n")
+
+    def __call__(self, x):
+        with open(self.log, "a") as f:
+            f.write(f"unit {os.getpid()} {id(self)}\n")
+        return 3 * x[..., 0] ** 2
+
+
+def test_lab_workers_receive_the_specs_once(tmp_path):
+    """A sweep sends its estimator and integrand specs once per worker process, too."""
+    import multiprocessing as mp
+
+    from vrlab import lab
+    from vrlab.integrands import Integrand
+
+    log = tmp_path / "log"
+    cubic = Integrand(CountingCubic(str(log)), [(0, 1)], 1.0, "cubic")
+    want = lab.run(["mc", "antithetic"], [cubic], [64], 8, rng=3)
+    log.write_text("")
+    with ProcessPoolExecutor(2, mp_context=mp.get_context("spawn")) as pool:
+        got = lab.run(["mc", "antithetic"], [cubic], [64], 8, rng=3, executor=pool)
+    assert got.drop(columns="seconds").equals(want.drop(columns="seconds"))
+    loads, units, _ = _counts(log)
+    workers = set(units)
+    assert os.getpid() not in workers and max(units.values()) >= 4, units     # 16 blocks of one repetition
+    assert {pid: loads[pid] for pid in workers} == dict.fromkeys(workers, 1), (loads, units)
