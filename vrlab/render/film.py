@@ -82,8 +82,9 @@ def _concat(stats: list):
 
 
 class _Job:
-    """Everything a process needs to render units, pickled to workers with the built
-    integrand (13-110 KB for the built-in scenes: cheaper to unpickle than to rebuild).
+    """Everything a process needs to render units, sent to each worker process once with the
+    built integrand (13-110 KB pickled for the built-in scenes, ~740 MB for a 1 M-triangle
+    mesh: cheaper to receive than to rebuild; :func:`vrlab.execution.run_units`' ``shared``).
 
     A unit is (tile t, spp batch k): the tile's pixels with samples [k B, (k + 1) B) of each
     (B = ``batch``), uniforms from the unit's own stream, child (t + 1, k) of the root seed.
