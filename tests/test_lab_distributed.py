@@ -121,7 +121,7 @@ def test_resume_runs_only_the_missing_units(reference, tmp_path, monkeypatch):
     assert 12 <= stored < len(reference)
     calls = []
     real = runner._run_block
-    monkeypatch.setattr(runner, "_run_block", lambda task: calls.append(len(task[4])) or real(task))
+    monkeypatch.setattr(runner, "_run_block", lambda jobs, task: calls.append(len(task[4])) or real(jobs, task))
     ticks, said = [], []
     again = _sweep(store=path, progress=lambda done, total: ticks.append(done),
                    resumed=lambda stored, total: said.append((stored, total, len(calls))))

@@ -236,13 +236,12 @@ def run(estimators: Sequence, integrands: Iterable, ns: Iterable[int], reps: int
         if results:
             tick(len(results), sum(key[2] for key in results))
 
-        def unit(t):
-            ij, key, n, rr = t
-            return (jobs[ij] if serial else wire[ij], seed_state, key, n, rr, chunk),
-
         fn = _run_block          # a local pool's processes tune their allocator (vrlab.execution.worker_init)
+        # a unit carries the key of its job; the jobs (objects here, their specs for workers: a
+        # user's integrand may hold large tables) reach each worker once, as run_units' shared input
         # units in flight: a few per worker; more on an executor, to hide its round trip (~ms)
-        for i, out in run_units(fn, [unit(t) for t in tasks], workers=workers, executor=pool,
+        for i, out in run_units(fn, [((ij, seed_state, key, n, rr, chunk),) for ij, key, n, rr in tasks],
+                                workers=workers, executor=pool, shared=jobs if serial else wire,
                                 window=max(8, 4 * parallel) if pool is None else max(32, 8 * parallel)):
             (ii, jj), _, n, rr = tasks[i]
             for r, res in zip(rr, out):

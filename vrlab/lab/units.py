@@ -3,8 +3,9 @@ the per-job metadata of the result table (split from :mod:`vrlab.lab.runner`).
 
 A unit runs repetitions ``reps`` of one (job, n), each from its own seed, the child
 ``(e, i, n, rep)`` of the run's root (see :mod:`vrlab.lab.runner`); it runs the same in this
-process and in a worker, which rebuilds the job from its specs (recipe and catalogue names
-are built once per worker process: :func:`_build_named`).
+process and in a worker, which rebuilds the job from its specs (received once per worker
+process with the run's other specs, :func:`vrlab.execution.run_units`; recipe and catalogue
+names are built once per worker process: :func:`_build_named`).
 """
 from __future__ import annotations
 
@@ -92,9 +93,11 @@ def _build_named(est_spec: str, int_spec: str) -> tuple:
     return _build(est_spec, int_spec)
 
 
-def _run_block(task) -> list[tuple]:
-    """Run repetitions ``reps`` of one (job, n): used both in-process and in workers."""
-    job, (entropy, spawn_key, pool_size), key, n, reps, chunk = task
+def _run_block(jobs: dict, task) -> list[tuple]:
+    """Run repetitions ``reps`` of one (job, n): used both in-process and in workers.  ``jobs``:
+    the run's jobs by key (a worker's: their specs, received once per worker process)."""
+    ij, (entropy, spawn_key, pool_size), key, n, reps, chunk = task
+    job = jobs[ij]
     if isinstance(job, tuple):        # in a worker: rebuild from specs
         label, est_spec, int_spec = job
         named = isinstance(est_spec, str) and isinstance(int_spec, str)

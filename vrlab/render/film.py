@@ -11,8 +11,11 @@ seeds the shared point set, if any), pixel after pixel; inside a tile pixels are
 processed in blocks of ``chunk_pixels``.  So the image depends on the seed only: not on
 the block size, the number of worker processes or the order in which tiles finish
 (seeds per work unit, never per worker).  Memory is bounded by the block size (rays x
-uniforms) plus the image accumulators.  Worker processes receive the job (scene,
-estimator, point sampler) by pickling, under any start method.
+uniforms) plus the image accumulators.  Worker processes receive the job (scene, its
+BVH, estimator, point sampler) once each, as the shared input of
+:func:`vrlab.execution.run_units` (inherited by forked local workers, pickled once per
+spawned one, scattered once to each Dask worker); a task carries its (tile, batch)
+indices only, and each worker builds Embree's scene once.
 
 ``render`` has no process-wide side effects on the calling process: the glibc allocator
 tuning of :mod:`vrlab._alloc` is applied only in the worker processes it starts (and by
@@ -26,7 +29,6 @@ from __future__ import annotations
 
 import inspect
 import os
-import pickle
 import time
 from typing import Any, Callable
 
@@ -56,8 +58,9 @@ def _concat(stats: list):
 
 
 class _Job:
-    """Everything a process needs to render units, pickled to workers with the built
-    integrand (13-110 KB for the built-in scenes: cheaper to unpickle than to rebuild).
+    """Everything a process needs to render units, sent to each worker process once with the
+    built integrand (13-110 KB pickled for the built-in scenes, ~740 MB for a 1 M-triangle
+    mesh: cheaper to receive than to rebuild; :func:`vrlab.execution.run_units`' ``shared``).
 
     A unit is (tile t, spp batch k): the tile's pixels with samples [k B, (k + 1) B) of each
     (B = ``batch``), uniforms from the unit's own stream, child (t + 1, k) of the root seed.
@@ -107,9 +110,8 @@ class _Job:
         return np.moveaxis(np.asarray(value), 0, -1), np.moveaxis(np.asarray(stderr), 0, -1)
 
 
-def _units(job: _Job | bytes, units: list[tuple[int, int]]) -> list:
-    if isinstance(job, bytes):              # pickled once by execute() for all of its tasks
-        job = pickle.loads(job)
+def _units(job: _Job, units: list[tuple[int, int]]) -> list:
+    """The units ``(tile, batch)`` of a task, on the job its worker received once."""
     return [job.unit(t, k) for t, k in units]
 
 
@@ -238,11 +240,10 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     executor = check_executor(executor)
     path = None if checkpoint is None else check_path(checkpoint)
     workers = min(workers, job.n_tiles)
-    payload: _Job | bytes = job
-    if workers > 1 or executor is not None:     # sent as bytes: pickled once, not once per task
-        payload = check_picklable(       # by pickle always: _units unpickles it
-            job, None, f"estimator: {job.integrand.estimator!r} cannot be sent to worker processes",
-            "define functions it uses (e.g. a heuristic) at module level, or use workers=1")
+    if workers > 1 or executor is not None:     # the job goes to each worker once (run_units' shared)
+        check_picklable(job, executor, f"estimator: {job.integrand.estimator!r} cannot be sent to worker "
+                        "processes", "define functions it uses (e.g. a heuristic) at module level, or use "
+                        "workers=1", keep=False)
     digest = None
     stats: dict = {}
     start = 0
@@ -265,10 +266,10 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
         groups = len(tiles)
     else:
         groups = min(len(tiles), TASKS_PER_WORKER * workers if executor is None else max(TASKS_PER_WORKER * workers, 64))
-    tasks = [(payload, [(t, k) for t in tiles[i::groups]]) for k in range(start, job.n_batches) for i in range(groups)]
+    tasks = [([(t, k) for t in tiles[i::groups]],) for k in range(start, job.n_batches) for i in range(groups)]
     new: dict = {}                          # batch -> {tile: statistics}, until the batch is merged
     k = start
-    for _, res in run_units(fn, tasks, workers=workers, executor=executor):
+    for _, res in run_units(fn, tasks, workers=workers, executor=executor, shared=job):
         for t, batch, st in res:
             new.setdefault(batch, {})[t] = st
             done += (min((t + 1) * TILE_PIXELS, job.n_pixels) - t * TILE_PIXELS) * min(job.batch,

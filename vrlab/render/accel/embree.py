@@ -14,11 +14,17 @@ the primitive's index within its shape come from the planar group.  ``t_min`` mo
 origins forward (Embree's rays start at t = 0).  Shadow queries use Embree's occlusion test
 (any hit before ``t_max``).
 
-The Embree scene is not pickled: a process that receives the geometry rebuilds it on first
-use (milliseconds for thousands of triangles; about 1.5 s for 2 million on this machine, most
-of it embreex copying the index buffer, 0.45 us per triangle).
+The Embree scene is not pickled: a process that receives the geometry builds it on first use
+(milliseconds for thousands of triangles; about 1.5 s for 2 million on this machine, most of it
+embreex copying the index buffer, 0.45 us per triangle), under a lock (threads of one process
+build it once) and again in a forked child (Embree's threads do not survive a fork).  Worker
+processes receive a render's job once (:mod:`vrlab.execution`), so each builds its Embree scene
+once.
 """
 from __future__ import annotations
+
+import os
+import threading
 
 import numpy as np
 
@@ -49,13 +55,14 @@ class EmbreeTriangles:
         sizes = [(2 if pl.para else 1) * len(pl) for pl in self.planar]
         self.first = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
         self._scene = None
+        self._pid, self._lock = None, threading.Lock()
 
     def __len__(self) -> int:
         return int(self.first[-1])
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
-        state["_scene"] = None                   # Embree's scene does not pickle: rebuilt on use
+        state["_scene"] = state["_pid"] = state["_lock"] = None   # Embree's scene does not pickle: built on use
         return state
 
     @staticmethod
@@ -71,18 +78,26 @@ class EmbreeTriangles:
             tri = np.concatenate([np.stack([v0, v0 + e1, far], 1), np.stack([v0, far, v0 + e2], 1)])
         return tri.reshape(-1, 3).astype(np.float32), np.arange(3 * len(tri), dtype=np.int32).reshape(-1, 3)
 
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
+
     @property
     def scene(self):
-        if self._scene is None:
-            from embreex import rtcore_scene
-            from embreex.mesh_construction import TriangleMesh
+        """Embree's scene of the triangles, built once per process (see the module docstring)."""
+        if self._scene is None or self._pid != os.getpid():
+            with self._lock:
+                if self._scene is None or self._pid != os.getpid():
+                    from embreex import rtcore_scene
+                    from embreex.mesh_construction import TriangleMesh
 
-            verts, index = zip(*(self._arrays(pl) for pl in self.planar))
-            if len(verts) > 1:
-                off = np.cumsum([0] + [len(v) for v in verts[:-1]])
-                index = [i + np.int32(o) for i, o in zip(index, off)]
-            self._scene = rtcore_scene.EmbreeScene()
-            TriangleMesh(self._scene, np.concatenate(verts), np.concatenate(index))
+                    verts, index = zip(*(self._arrays(pl) for pl in self.planar))
+                    if len(verts) > 1:
+                        off = np.cumsum([0] + [len(v) for v in verts[:-1]])
+                        index = [i + np.int32(o) for i, o in zip(index, off)]
+                    scene = rtcore_scene.EmbreeScene()
+                    TriangleMesh(scene, np.concatenate(verts), np.concatenate(index))
+                    self._scene, self._pid = scene, os.getpid()
         return self._scene
 
     @staticmethod
