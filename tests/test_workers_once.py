@@ -17,12 +17,10 @@ import numpy as np
 import pytest
 
 from vrlab import execution
-from vrlab.render.film import _Job, execute, plan
+from vrlab.render import plan
+from vrlab.render.film import _Job, build_job, execute
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="counts per pid, forks")
-
-SETTINGS = dict(estimator="mis-power", units=None, light_selection="uniform", emitter_samples=None,
-                bsdf_samples=None, ris_candidates=8)
 
 
 class CountingJob(_Job):
@@ -73,8 +71,7 @@ def mesh_scene(tmp_path_factory):
 
 def _job(scene, log, ballast: int = 0) -> CountingJob:
     """8 units (2 tiles x 4 spp batches), so 8 tasks on 2 workers; ``ballast`` float64s make it large."""
-    job, _, _ = plan(scene, 8, settings=SETTINGS, points=None, rng=7, workers=2, chunk_pixels=None, width=None,
-                     height=None, spp_batch=2, job_class=CountingJob)
+    job, _ = build_job(plan(scene, 8, "mis-power", workers=2, spp_batch=2), 7, CountingJob)
     job.log = str(log)
     job.ballast = np.zeros(ballast)
     return job
