@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import checks
-from .._vec import dot, scale, side
+from .._vec import dot, rows_by_key, scale, side
 from .accel.geometry import Hits, SceneGeometry
 from .light_set import LIGHT_SELECTIONS, LightSet
 from .scene import Scene
@@ -138,6 +138,11 @@ class DirectLighting:
         self.environment = envs[0] if envs else None
         self.radiance = np.concatenate([self.radiance, np.zeros((1, 3), F32)])      # + the environment's row
 
+    def build(self) -> None:
+        """Build the geometries' lazily built structures now (:meth:`SceneGeometry.build`)."""
+        for geo in {id(g): g for g in (self.geometry, self.blocker_geometry, self.emitter_geometry)}.values():
+            geo.build()
+
     def pixel_hits(self, sub: int = 4) -> np.ndarray:
         """(H*W, sub*sub): the shape hit by each of ``sub`` x ``sub`` camera rays through a pixel
         (stratum centres; pixels in raster order; negative where a ray leaves the scene). For
@@ -157,11 +162,9 @@ class DirectLighting:
         it (``cos_theta(si.wi) > 0`` in the shading frame), else by the geometric normal."""
         front = dot(hits.n, d) < 0
         if self.smooth_emitters:
-            for k in self.smooth_emitters:
-                rows = np.flatnonzero(hits.shape == k)
-                if len(rows):
-                    ns = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
-                    front[rows] = dot(ns, np.take(d, rows, axis=0)) < 0
+            for k, rows in rows_by_key(hits.shape, self.smooth_emitters):
+                ns = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
+                front[rows] = dot(ns, np.take(d, rows, axis=0)) < 0
         return front
 
     def shading_normals(self, hits: Hits) -> np.ndarray | None:
@@ -169,10 +172,8 @@ class DirectLighting:
         if not self.smooth:
             return None
         ns = hits.n.copy()
-        for k in self.smooth:
-            rows = np.flatnonzero(hits.shape == k)
-            if len(rows):
-                ns[rows] = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
+        for k, rows in rows_by_key(hits.shape, self.smooth):
+            ns[rows] = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
         return ns
 
     def tangents(self, group: int, hits: Hits, rows) -> tuple[np.ndarray, np.ndarray] | None:
@@ -186,8 +187,7 @@ class DirectLighting:
 
         shape, p, prim, n = hits.shape[rows], hits.p[rows], hits.prim[rows], hits.n[rows]
         du, dv = (np.empty((len(shape), 3)) for _ in range(2))
-        for k in np.unique(shape):
-            sel = np.flatnonzero(shape == k)
+        for k, sel in rows_by_key(shape, np.unique(shape)):
             try:
                 du[sel], dv[sel] = self.shapes[k].uv_derivatives(p[sel], prim[sel], n[sel])
             except ValueError:                           # no uv: Mitsuba's coordinate system of n
@@ -205,8 +205,7 @@ class DirectLighting:
         scalar, grad = bsdf.SCALAR_TEXTURES, bsdf.GRADIENT_TEXTURES
         shape, p, prim = hits.shape[rows], hits.p[rows], hits.prim[rows]
         out = {a: np.empty((len(shape),) if a in scalar else (len(shape), 2 if a in grad else 3)) for a in textures}
-        for k in np.unique(shape):
-            sel = np.flatnonzero(shape == k)
+        for k, sel in rows_by_key(shape, np.unique(shape)):
             si = self.surface_points(k, p[sel], prim[sel])
             for a, tex in textures.items():
                 out[a][sel] = tex.eval_1(si) if a in scalar else tex.eval_1_grad(si) if a in grad else tex.eval(si)

@@ -37,7 +37,7 @@ import numpy as np
 from .. import checks, limits
 from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Estimate
-from ..execution import check_executor, check_picklable, run_units
+from ..execution import check_executor, check_picklable, forks_workers, run_units
 from .pixels import PixelIntegrand
 from .plan import (MAX_PIXEL_WORK, SPP_BATCH, TILE_PIXELS, RenderPlan, _as_scene, check_work,  # noqa: F401
                    default_workers, plan)
@@ -98,6 +98,11 @@ class _Job:
             with np.errstate(invalid="ignore", divide="ignore"):
                 stats.append(self.block(pix, u, gen))
         return t, k, tuple(_concat(list(s)) for s in zip(*stats))
+
+    def build(self) -> None:
+        """Build the scene's lazily built structures here (:meth:`DirectLighting.build`):
+        before forking workers, so that they inherit them instead of each building its own."""
+        self.integrand.lighting.build()
 
     def block(self, pixels: np.ndarray, u: np.ndarray, gen: np.random.Generator) -> tuple:
         """Statistics of a block of pixels ``(P, 2)`` with uniforms ``(P, S, dim)``."""
@@ -255,6 +260,8 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
                                        job.integrand.estimator.statistics_from_state)
     if path is not None and resumed is not None:
         resumed(min(start * job.batch, job.spp))
+    if workers > 1 and executor is None and forks_workers():
+        job.build()                         # Embree's scene once, inherited by the forked workers
     tiles = list(range(job.n_tiles))
     # progress counts pixel samples: a unit (tile t, batch k) is its pixels x batch k's spp
     total, done = job.n_pixels * job.spp, min(start * job.batch, job.spp) * job.n_pixels
