@@ -44,7 +44,7 @@ import numpy as np
 
 from .. import checks
 from .film import MAX_SPP, _as_scene, render
-from .plan import default_workers, plan
+from .planning import default_workers, plan
 from .image import _image, auto_exposure, rel_mse, srgb_encode
 from .pixels import PixelIntegrand
 from .presets import PRESETS

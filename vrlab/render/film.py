@@ -39,7 +39,7 @@ from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Estimate
 from ..execution import check_executor, check_picklable, forks_workers, run_units
 from .pixels import PixelIntegrand
-from .plan import (MAX_PIXEL_WORK, SPP_BATCH, TILE_PIXELS, RenderPlan, _as_scene, check_work,  # noqa: F401
+from .planning import (MAX_PIXEL_WORK, SPP_BATCH, TILE_PIXELS, RenderPlan, _as_scene, check_work,  # noqa: F401
                    default_workers, plan)
 from .scene import Scene
 

@@ -34,7 +34,7 @@ from .. import checks
 from .._rng import RNGLike
 from ..estimate import Estimate
 from .film import _Job, as_plan, build_job, execute
-from .plan import RenderPlan
+from .planning import RenderPlan
 from .scene import Scene
 
 __all__ = ["GradientDomainImage", "render_gradient_domain"]
