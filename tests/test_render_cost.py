@@ -211,13 +211,21 @@ def test_cost_weights_check_their_input():
             parse_cost_weights(text)
 
 
-def test_render_json_holds_the_cost(capsys, tmp_path):
+def test_render_json_holds_the_cost(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)                              # --gradient-domain without -o writes nothing
     scene = tmp_path / "floor.xml"
     scene.write_text(OPEN_FLOOR)
     code, out, err = run_cli(capsys, ["render", str(scene), "--spp", str(SPP), "--strategy", "light", "--json"])
     assert code == 0, err
     cost = json.loads(out)["cost"]
     assert cost["totals"] == expected(**FLOOR_COUNTS["light"]) and cost["samples"] == N
+    code, out, err = run_cli(capsys, ["render", str(scene), "--spp", str(SPP), "--strategy", "light", "--json",
+                                      "--gradient-domain"])
+    assert code == 0, err
+    cost = json.loads(out)["cost"]                           # three pixel evaluations per sample
+    assert cost["totals"] == {k: 3 * v for k, v in expected(**FLOOR_COUNTS["light"]).items()}
+    code, out, err = run_cli(capsys, ["render", str(scene), "--spp", str(SPP), "--strategy", "light"])
+    assert code == 0 and "cost_per_sample=2.2" in out, out          # the text line: the weighted cost
 
 
 def test_equal_cost_ranks_by_rel_mse_times_weighted_counts(capsys, tmp_path):
