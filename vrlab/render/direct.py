@@ -263,14 +263,17 @@ class DirectLighting:
         hits.n[rows] = -np.take(d, rows, axis=0)
         hits.p[rows] = np.take(o, rows, axis=0) + 1e30 * np.take(d, rows, axis=0)
 
-    def trace(self, p: np.ndarray, n: np.ndarray, w: np.ndarray) -> tuple[Hits, np.ndarray]:
+    def trace(self, p: np.ndarray, n: np.ndarray, w: np.ndarray, cost=None) -> tuple[Hits, np.ndarray]:
         """The emitter seen by rays leaving surface points ``p`` (normal ``n``) along ``w``
         and its emission: ``(hits, L_e)`` with ``hits`` the first *emitter* hit of each ray
         (shape -1 where there is none or where a non-emitter blocks it, i.e. is closer by
         more than ``SHADOW_EPS`` relative).  Direct lighting needs nothing else from these
         rays, so only the emitters are intersected in full and the blockers only for rays
         that reach an emitter, without their hit data.  The origin is offset off the
-        surface to ``w``'s side."""
+        surface to ``w``'s side.  ``cost``: a :class:`~vrlab.render.cost.Cost` counting
+        one closest-hit ray per row (the emitter query and the blocker test are one ray)."""
+        if cost is not None:
+            cost.closest_rays += len(p)
         o = self._origin(p, n, w)
         hits = self.emitter_geometry.intersect(o, w)
         if self.environment is not None:         # rays that meet no emitter may reach the environment
@@ -298,14 +301,18 @@ class DirectLighting:
         offset *= side(dot(w, n))
         return p + scale(n, offset)
 
-    def unblocked(self, p: np.ndarray, n: np.ndarray, w: np.ndarray, y: np.ndarray, j: np.ndarray) -> np.ndarray:
+    def unblocked(self, p: np.ndarray, n: np.ndarray, w: np.ndarray, y: np.ndarray, j: np.ndarray,
+                  cost=None) -> np.ndarray:
         """Whether light ``j`` is the first thing seen from ``p`` along ``w`` when ``y`` is its
         first point along w (``LightSet.sample`` with ``simple`` lights): no non-emitter is
         closer than y by more than ``SHADOW_EPS`` (relative; a distance query without hit
         data) and the first emitter met is light j itself (decided by index, not distance:
         near a sphere's silhouette its float32 t is too rough to compare).  For split mesh
         lights (a triangle per light-BVH leaf) y must be the first point of the mesh itself:
-        no emitter, j included, is closer than y by more than ``SHADOW_EPS``."""
+        no emitter, j included, is closer than y by more than ``SHADOW_EPS``.  ``cost``: a
+        :class:`~vrlab.render.cost.Cost` counting one shadow (any-hit) ray per row."""
+        if cost is not None:
+            cost.shadow_rays += len(p)
         o = self._origin(p, n, w)
         t_max = dot(y - o, w)
         t_max *= 1.0 - SHADOW_EPS
