@@ -106,6 +106,7 @@ class BlockPixels:
     def __init__(self, integrand, pixels: np.ndarray, hits, d: np.ndarray, group: np.ndarray, N: int):
         lit = integrand.lighting
         self.lighting, self.lights, self.N, self.B = lit, lit.lights, int(N), len(pixels)
+        self.kernels = lit.kernels          # the estimator's compiled helpers run where "numba"
         self.shape = (self.B,)
         self.coords = np.asarray(pixels, np.int64)
         self.group, self.p = group, hits.p
