@@ -238,11 +238,15 @@ class LightSet:
         where it faces); zeros for the other rows (non-shape lights, j = -1)."""
         out = np.zeros(np.shape(y), np.float64)
         y = np.asarray(y, np.float64)
-        for i, m in _rows_by_light(j, ~self.is_emitter):
+        j = np.asarray(j)
+        sphere = (j >= 0) & self.is_sphere[np.maximum(j, 0)]
+        if sphere.any():                  # every sphere light at once: sign (y - centre) / radius
+            m = np.flatnonzero(sphere)
+            js = j[m]
+            out[m] = self.signs[js][:, None] * (y[m] - self.centers[js]) / self.radii[js][:, None]
+        for i, m in _rows_by_light(j, ~self.is_emitter & ~self.is_sphere):
             light = self.lights[i]
-            if light.sphere is not None:
-                out[m] = light.sign * (y[m] - light.sphere[0]) / light.sphere[1]
-            elif self.split[i] and t is not None:           # the triangle is known: O(1)
+            if self.split[i] and t is not None:           # the triangle is known: O(1)
                 out[m] = light.triangle_normals(y[m], np.maximum(np.asarray(t)[m], 0), shading)
             else:
                 out[m] = light.surface.normal(y[m])

@@ -136,9 +136,10 @@ class BlockPixels:
                              None if values is None else {a: v[k] for a, v in values.items()},
                              None if tangents is None else (tangents[0][k], tangents[1][k]))
 
-    def _G(self, y: np.ndarray, j: np.ndarray, tri: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    def _G(self, y: np.ndarray, j: np.ndarray, normals: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """G_b(y) = |cos theta_y| / |y - p_b|^2 at camera rows ``rows`` (1 for delta lights and
-        lights at infinity; 0 where there is no light or no shading point)."""
+        lights at infinity; 0 where there is no light or no shading point); ``normals``: the
+        lights' normals at y (``LightSet.point_normals``)."""
         out = np.zeros(len(rows))
         ok = (j >= 0) & (self.group[rows] >= 0)
         if self.lights is None or not ok.any():
@@ -150,7 +151,7 @@ class BlockPixels:
             m = np.flatnonzero(area)
             v = y[m] - np.asarray(self.p[rows[m]], np.float64)
             d2 = dot(v, v)
-            cos = np.abs(dot(self.lights.point_normals(y[m], jj[m], tri[m]), v))
+            cos = np.abs(dot(normals[m], v))
             out[m] = np.divide(cos, d2 * np.sqrt(d2), out=np.zeros(len(m)), where=d2 > 0)
         return out
 
@@ -233,7 +234,9 @@ class BlockPixels:
         lead = x.shape[:-1]
         xf = x.reshape(-1, 5)
         y, j, tri = xf[:, :3], np.rint(xf[:, 3]).astype(np.int64), np.rint(xf[:, 4]).astype(np.int64)
-        gs, gd = self._G(y, j, tri, self._rows(lead, src)), self._G(y, j, tri, self._rows(lead, dst))
+        # the light's normal at y, once for both pixels (zeros where j is not a shape light)
+        normals = np.zeros_like(y) if self.lights is None else self.lights.point_normals(y, j, tri)
+        gs, gd = self._G(y, j, normals, self._rows(lead, src)), self._G(y, j, normals, self._rows(lead, dst))
         return x, np.divide(gd, gs, out=np.zeros(len(gs)), where=gs > 0).reshape(lead)
 
     def neighbours(self, un: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
