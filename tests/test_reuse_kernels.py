@@ -1,5 +1,6 @@
 """Compiled reservoir streaming and ReSTIR reuse (vrlab/estimators/restir_kernel.py, issue 31)
-against their NumPy oracle (Reservoir._stream, ReSTIR._reuse / _mis_weights).
+against their NumPy oracle (Reservoir._stream, ReSTIR._reuse / _mis_weights), and the
+renderer's compiled reconnection Jacobian (vrlab/render/reuse_kernel.py; BlockPixels._G).
 
 Parity: the same kept samples and picks, sums within 1e-12 relative, on random and
 adversarial inputs (zero weights and targets, M = 0, every neighbour missing, one candidate or
@@ -18,11 +19,14 @@ from test_kernels import as_python
 import vrlab.estimators.restir as restir_mod
 import vrlab.estimators.ris as ris_mod
 import vrlab.kernels as K
+import vrlab.render.reuse as reuse_mod
 from vrlab.estimators import ReSTIR, restir_kernel
 from vrlab.estimators.restir import PixelView
 from vrlab.estimators.ris import Reservoir
-from vrlab.render import render
+from vrlab.render import plan, render, reuse_kernel
 from vrlab.render.planning import resolve_kernels
+from vrlab.render.reuse import BlockPixels
+from vrlab.testing.battery import BIAS_Z, battery_scenes, reference_mean, seed_battery
 
 RTOL = 1e-12
 
@@ -268,3 +272,91 @@ def test_render_with_balance_and_passes_equals_numpy():
     ref, got = (render("cornell_box", 2, est, kernels=kern, **kw) for kern in ("numpy", "numba"))
     assert got.extra["kernels"] == "numba"
     np.testing.assert_array_equal(got.value, ref.value)
+
+
+# -- the reconnection Jacobian (vrlab.render.reuse_kernel) ----------------------------------------
+@pytest.fixture(scope="module")
+def scenes(tmp_path_factory):
+    return battery_scenes(tmp_path_factory.mktemp("battery"), width=16, height=12)
+
+
+def block_views(scene, selection: str = "uniform", N: int = 3, seed: int = 0) -> list:
+    """BlockPixels of every pixel of ``scene`` (N units), kernels numpy and numba, same camera."""
+    views = []
+    for kern in ("numpy", "numba"):
+        integ = plan(scene, 2, "restir", light_selection=selection, kernels=kern).integrand
+        w, h = scene.sensor.width, scene.sensor.height
+        pixels = np.stack(np.unravel_index(np.arange(w * h), (h, w)), -1)
+        u = np.random.default_rng(seed).random((len(pixels), N, integ.dim))
+        hits, d, _, group = integ.camera(pixels, u)
+        views.append((BlockPixels(integ, pixels, hits, d, group, N), u[..., integ.camera_dims:]))
+    return views
+
+
+def jacobian_inputs(view, u, seed: int = 1):
+    """Light points ``(N, B, k, 5)`` (each pixel's first candidate, some with no light, some at a
+    shading point itself) and pixels src, dst ``(N, B, k)``."""
+    rng = np.random.default_rng(seed)
+    N, B, k = u.shape[1], view.B, 4
+    x = view.candidates(np.moveaxis(u[..., :3], 1, 0)[:, :, None, :])[0][:, :, 0]         # (N, B, 5)
+    x = np.repeat(x[:, :, None], k, 2)
+    src, dst = rng.integers(0, B, (N, B, k)), rng.integers(0, B, (N, B, k))
+    x[rng.random((N, B, k)) < 0.1, 3] = -1.0                                         # no light
+    at = rng.random((N, B, k)) < 0.1                                                 # y = p_src: G_src = 0
+    rows = (src * N + np.arange(N)[:, None, None])[at]
+    x[at, :3] = view.p[rows]
+    return x, src, dst
+
+
+def check_jacobian(views) -> None:
+    (v0, u), (v1, _) = views
+    x, src, dst = jacobian_inputs(v0, u)
+    J0, J1 = v0.shift(x, src, dst)[1], v1.shift(x, src, dst)[1]
+    assert np.any(J0 > 0) and np.any(J0 == 0)
+    np.testing.assert_allclose(J1, J0, rtol=RTOL, atol=0)
+
+
+@pytest.mark.parametrize("name", ["delta_lights", "cornell_box", "veach_mis", "envmap"])
+def test_jacobian_matches_numpy(scenes, name):
+    """Sphere, rectangle, point, spot and environment lights; pixels without a shading point."""
+    check_jacobian(block_views(scenes[name]))
+
+
+def test_jacobian_matches_numpy_on_split_triangles(tmp_path):
+    from vrlab.render import load_scene
+    from vrlab.testing.triangle_field import write_triangle_field
+
+    scene = load_scene(write_triangle_field(tmp_path, width=16, height=12))
+    check_jacobian(block_views(scene, "bvh"))
+
+
+JACOBIAN_MUTANTS = {
+    "cos without its absolute value": ("return abs(c) / (d2", "return c / (d2"),
+    "distance squared, not cubed": ("(d2 * math.sqrt(d2))", "d2"),
+    "src and dst swapped": ("out[r] = gd / gs if gs > 0.0 else 0.0", "out[r] = gs / gd if gd > 0.0 else 0.0"),
+    "delta lights reconnected as shapes": ("    if is_emitter[j[r]]:\n        return 1.0\n", ""),
+}
+
+
+@pytest.mark.parametrize("mutant", [None, *JACOBIAN_MUTANTS])
+def test_jacobian_parity_fails_on_a_mutated_kernel(scenes, mutant, monkeypatch):
+    ns = as_python(reuse_kernel, *([JACOBIAN_MUTANTS[mutant]] if mutant else []))
+    monkeypatch.setattr(reuse_mod, "load_kernel", lambda module, name: ns[name])
+    views = block_views(scenes["delta_lights"], N=1)
+    if mutant is None:
+        check_jacobian(views)
+        return
+    with pytest.raises(AssertionError):
+        check_jacobian(views)
+
+
+# -- unbiased through the compiled path -------------------------------------------------------------
+def test_restir_unbiased_with_compiled_helpers(scenes):
+    """The bias battery's check (24 seeds against a high-spp reference) with kernels "numba":
+    pairwise ReSTIR keeps its image mean; 1/M weights, biased, are caught."""
+    scene = scenes["delta_lights"]
+    ref = reference_mean(scene)
+    fair = seed_battery(scene, "restir", 16, ref, kernels="numba")
+    assert abs(fair["z"]) < BIAS_Z, fair
+    naive = seed_battery(scene, ReSTIR(candidates=8, neighbours=5, radius=3.0, mis="1/M"), 16, ref, kernels="numba")
+    assert naive["z"] < -BIAS_Z, naive

@@ -24,7 +24,8 @@ solid-angle measures of the two pixels is
 
 (theta_y,b the angle at the light between its normal at y and p_b - y; the solid angle at p_b
 is G_b dA_y).  J = 1 for delta lights and lights at infinity (the shift is the identity in
-their counting / direction measure).  At the receiving pixel c both the target (the
+their counting / direction measure).  With kernels "numba" J is computed by a compiled loop
+(:mod:`vrlab.render.reuse_kernel`, the same operations; the lights' normals stay NumPy).  At the receiving pixel c both the target (the
 unshadowed contribution, luminance of f_r |cos| times that of L_e, where the light faces p_c:
 RIS's ``"unshadowed"``) and f_c itself (with a shadow ray from p_c to y:
 :meth:`~vrlab.render.direct.DirectLighting.unblocked`) are re-evaluated.
@@ -44,6 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._vec import dot
+from ..kernels import load_kernel, load_kernels
 from .lights import EmitterLight
 from .shading import ShadingIntegrand, checked_outputs
 from .techniques import F32
@@ -52,6 +54,8 @@ __all__ = ["BlockPixels", "check_spatial", "spatial_outputs"]
 
 #: light-point evaluations (candidates or reuse) per step of sample indices: bounds memory
 ROWS_PER_STEP = 1 << 17
+#: the compiled reconnection Jacobian (kernels "numba")
+KERNEL_MODULE = "vrlab.render.reuse_kernel"
 
 
 def check_spatial(integrand, probe: ShadingIntegrand) -> None:
@@ -63,6 +67,8 @@ def check_spatial(integrand, probe: ShadingIntegrand) -> None:
                          f"and more spp, got {integrand.units}")
     est.spatial_check(probe)
     integrand.unit_dim = int(est.spatial_dim(probe))
+    if integrand.lighting.kernels == "numba":           # loaded here, before any worker forks
+        load_kernels(KERNEL_MODULE)
     lights = integrand.lighting.lights
     if lights is not None and not lights.simple:
         names = sorted({lights[i].type for i in range(len(lights))
@@ -106,7 +112,10 @@ class BlockPixels:
     def __init__(self, integrand, pixels: np.ndarray, hits, d: np.ndarray, group: np.ndarray, N: int):
         lit = integrand.lighting
         self.lighting, self.lights, self.N, self.B = lit, lit.lights, int(N), len(pixels)
-        self.kernels = lit.kernels          # the estimator's compiled helpers run where "numba"
+        self.kernels = lit.kernels          # compiled helpers (estimator's, the Jacobian's) run where "numba"
+        if self.kernels == "numba":         # the compiled Jacobian's inputs, once per block
+            self._p64 = np.ascontiguousarray(hits.p, np.float64)
+            self._group64 = np.ascontiguousarray(group, np.int64)
         self.shape = (self.B,)
         self.coords = np.asarray(pixels, np.int64)
         self.group, self.p = group, hits.p
@@ -236,6 +245,12 @@ class BlockPixels:
         y, j, tri = xf[:, :3], np.rint(xf[:, 3]).astype(np.int64), np.rint(xf[:, 4]).astype(np.int64)
         # the light's normal at y, once for both pixels (zeros where j is not a shape light)
         normals = np.zeros_like(y) if self.lights is None else self.lights.point_normals(y, j, tri)
+        if self.kernels == "numba" and self.lights is not None:         # the same operations, compiled
+            J = np.empty(len(y))
+            load_kernel(KERNEL_MODULE, "reconnection_jacobian")(
+                np.ascontiguousarray(y, np.float64), j, normals, self.lights.is_emitter, self._p64, self._group64,
+                self._rows(lead, src).astype(np.int64), self._rows(lead, dst).astype(np.int64), J)
+            return x, J.reshape(lead)
         gs, gd = self._G(y, j, normals, self._rows(lead, src)), self._G(y, j, normals, self._rows(lead, dst))
         return x, np.divide(gd, gs, out=np.zeros(len(gs)), where=gs > 0).reshape(lead)
 
