@@ -29,28 +29,31 @@ COMPILE_SECONDS = 1.0
 
 
 @njit(cache=True, error_model="numpy")
-def _g(y, normals, j, is_emitter, p, group, r, row):
-    """G_b(y_r) at camera row ``row`` (module docstring)."""
-    if j[r] < 0 or group[row] < 0:
-        return 0.0
-    if is_emitter[j[r]]:
-        return 1.0
-    v0, v1, v2 = y[r, 0] - p[row, 0], y[r, 1] - p[row, 1], y[r, 2] - p[row, 2]
-    d2 = v0 * v0
-    d2 += v1 * v1
-    d2 += v2 * v2
-    c = normals[r, 0] * v0
-    c += normals[r, 1] * v1
-    c += normals[r, 2] * v2
-    return abs(c) / (d2 * math.sqrt(d2)) if d2 > 0.0 else 0.0
-
-
-@njit(cache=True, error_model="numpy")
 def reconnection_jacobian(y, j, normals, is_emitter, p, group, src, dst, out):
     """``out[r]`` = G_dst(y_r) / G_src(y_r) for light points ``y (R, 3)`` of lights ``j (R,)``
     with normals ``normals (R, 3)``, camera rows ``src``, ``dst (R,)`` of shading points
-    ``p (rows, 3)`` and BSDF groups ``group (rows,)``; ``is_emitter (L,)``: not a shape light."""
+    ``p (rows, 3)`` and BSDF groups ``group (rows,)``; ``is_emitter (L,)``: not a shape light.
+    (One loop body, no helper taking the arrays: a call per row passing arrays costs more than
+    the arithmetic.)"""
     for r in range(len(out)):
-        gs = _g(y, normals, j, is_emitter, p, group, r, src[r])
-        gd = _g(y, normals, j, is_emitter, p, group, r, dst[r])
+        gs = gd = 0.0
+        for side in range(2):
+            row = src[r] if side == 0 else dst[r]
+            g = 0.0
+            if j[r] >= 0 and group[row] >= 0:
+                if is_emitter[j[r]]:
+                    g = 1.0
+                else:
+                    v0, v1, v2 = y[r, 0] - p[row, 0], y[r, 1] - p[row, 1], y[r, 2] - p[row, 2]
+                    d2 = v0 * v0
+                    d2 += v1 * v1
+                    d2 += v2 * v2
+                    c = normals[r, 0] * v0
+                    c += normals[r, 1] * v1
+                    c += normals[r, 2] * v2
+                    g = abs(c) / (d2 * math.sqrt(d2)) if d2 > 0.0 else 0.0
+            if side == 0:
+                gs = g
+            else:
+                gd = g
         out[r] = gd / gs if gs > 0.0 else 0.0
