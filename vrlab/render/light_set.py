@@ -241,9 +241,15 @@ class LightSet:
         j = np.asarray(j)
         sphere = (j >= 0) & self.is_sphere[np.maximum(j, 0)]
         if sphere.any():                  # every sphere light at once: sign (y - centre) / radius
-            m = np.flatnonzero(sphere)
+            m = slice(None) if sphere.all() else np.flatnonzero(sphere)
             js = j[m]
-            out[m] = self.signs[js][:, None] * (y[m] - self.centers[js]) / self.radii[js][:, None]
+            sign, centre, radius, ym = self.signs[js], self.centers[js], self.radii[js], y[m]
+            n = np.empty_like(ym)
+            for k in range(3):            # column by column (vrlab._vec): (y - c) sign / r
+                np.subtract(ym[:, k], centre[:, k], out=n[:, k])
+                n[:, k] *= sign
+                n[:, k] /= radius
+            out[m] = n
         for i, m in _rows_by_light(j, ~self.is_emitter & ~self.is_sphere):
             light = self.lights[i]
             if self.split[i] and t is not None:           # the triangle is known: O(1)
