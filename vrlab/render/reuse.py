@@ -14,9 +14,11 @@ error bar of an image region is not its pixels' errors combined as if independen
 image depends on the block size (``chunk_pixels``), not on how blocks are run.
 
 Samples are light points.  A candidate of pixel b is a ``"light"`` technique sample at its
-shading point p_b (any ``light_selection``), kept as x = (y, j, t): the point y on light j
-(the light's position for delta lights, a direction for lights at infinity) and, for a mesh
-light split into triangles by the light BVH, the triangle t (its normal without a search).  A sample of pixel s
+shading point p_b (any ``light_selection``), kept as x = (y, j, t, i): the point y on light j
+(the light's position for delta lights, a direction for lights at infinity), for a mesh
+light split into triangles by the light BVH the triangle t (its normal without a search), and
+its index i among the block's candidates (the light's normals at y are computed once per
+candidate, however many pixels read it).  A sample of pixel s
 moves to pixel c by *reconnection*, w_c = normalize(y - p_c), whose Jacobian between the
 solid-angle measures of the two pixels is
 
@@ -104,8 +106,10 @@ def spatial_outputs(integrand, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
 class BlockPixels:
     """The camera samples of a block as the pixels of N independent spatial units: pixel b of
     unit n is the camera ray of pixel b with sample index n (row b N + n of ``hits``).  Points
-    are light points x = (y_x, y_y, y_z, j, t) ``(N, ..., 5)`` (first axis: the unit; t the
-    triangle of a split mesh light, -1 otherwise), pixel
+    are light points x = (y_x, y_y, y_z, j, t, i) ``(N, ..., 6)`` (first axis: the unit; t the
+    triangle of a split mesh light, -1 otherwise; i the candidate's index in the block, which
+    keeps the light's normals at y, computed once per candidate: every later point is a copy of
+    a candidate), pixel
     indices broadcast to ``x.shape[:-1]`` (the interface of ``vrlab.estimators.restir.PixelView``).
     """
 
@@ -130,6 +134,7 @@ class BlockPixels:
             self.groups[int(g)] = (rows, hits.p[rows], hits.n[rows], -d[rows], ns, lit.bsdf_values(g, hits, rows),
                                    lit.tangents(g, hits, rows))
         self._last: tuple | None = None
+        self._normals: dict = {}            # shading (bool) -> the candidates' light normals (NaN: not yet)
 
     # -- geometry -------------------------------------------------------------------------
     def _rows(self, lead: tuple, pix) -> np.ndarray:
@@ -170,7 +175,9 @@ class BlockPixels:
         ``uc (N, B, c, 3)`` as light points, their densities (solid angle x lights, P_j for a
         delta light) and the pixels' unshadowed targets there (no ray)."""
         N, B, c, dd = uc.shape
-        x, p, t = np.zeros((N * B, c, 5)), np.zeros((N * B, c)), np.zeros((N * B, c))
+        x, p, t = np.zeros((N * B, c, 6)), np.zeros((N * B, c)), np.zeros((N * B, c))
+        x[..., 5] = np.arange(N * B * c).reshape(N * B, c)
+        self._normals = {flag: np.full((N * B * c, 3), np.nan) for flag in (False, True)}
         ue = uc.reshape(N * B, c, dd)
         for g, (rows, *_) in (self.groups.items() if self.lights is not None else ()):
             entries = (rows % N) * B + rows // N            # unit-major (n, b) of camera row b N + n
@@ -182,8 +189,22 @@ class BlockPixels:
             r = sh.rows(xs)
             y = np.where(self.lights.is_infinite[np.maximum(r.j, 0)][:, None], r.w, r.y)
             tri = np.full(len(r.j), -1) if r.tri is None else r.tri
-            x[entries] = np.concatenate([y, r.j[:, None], tri[:, None]], -1).reshape(len(rows), c, 5)
-        return x.reshape(N, B, c, 5), p.reshape(N, B, c), t.reshape(N, B, c)
+            x[entries, :, :5] = np.concatenate([y, r.j[:, None], tri[:, None]], -1).reshape(len(rows), c, 5)
+        return x.reshape(N, B, c, 6), p.reshape(N, B, c), t.reshape(N, B, c)
+
+    def _light_normals(self, xl: np.ndarray, j: np.ndarray, shading: bool) -> np.ndarray:
+        """``LightSet.point_normals`` of light points ``xl (R, 6)`` of lights ``j``: computed for
+        the candidates not seen yet, then read from the block's table (a row's normals depend
+        on its y, j, t only, so the values are those of a direct call)."""
+        y, tri = xl[:, :3], np.rint(xl[:, 4]).astype(np.int64)
+        table = self._normals.get(shading)
+        if table is None:
+            return self.lights.point_normals(y, j, tri, shading=shading)
+        ids = np.rint(xl[:, 5]).astype(np.int64)
+        need = np.flatnonzero(np.isnan(table[ids, 0]))
+        if len(need):
+            table[ids[need]] = self.lights.point_normals(y[need], j[need], tri[need], shading=shading)
+        return table[ids]
 
     def _evaluate(self, x: np.ndarray, pix) -> tuple[np.ndarray, np.ndarray]:
         """``(f (3, ...), p̂ (...))`` of light points x at pixels ``pix`` (the last call cached:
@@ -193,7 +214,7 @@ class BlockPixels:
             return last[2], last[3]
         lead = x.shape[:-1]
         rows = self._rows(lead, pix)
-        xf = x.reshape(-1, 5)
+        xf = x.reshape(-1, 6)
         f, t = np.zeros((3, len(rows)), F32), np.zeros(len(rows))
         grp = self.group[rows]
         for g in self.groups:
@@ -211,7 +232,7 @@ class BlockPixels:
         """Shading points ``(R, 1, 5)`` reconnecting each shading point of ``sh`` to its light
         point, with the rows' light point, facing and (no ray yet) cached."""
         lights = self.lights
-        y, j, tri = xl[:, :3], np.rint(xl[:, 3]).astype(np.int64), np.rint(xl[:, 4]).astype(np.int64)
+        y, j = xl[:, :3], np.rint(xl[:, 3]).astype(np.int64)
         jj = np.maximum(j, 0)
         p = np.asarray(sh.p, np.float64)
         inf = lights.is_infinite[jj]
@@ -219,7 +240,7 @@ class BlockPixels:
         dist = np.sqrt(dot(v, v))
         valid = (j >= 0) & (dist > 0)
         w = np.divide(v, dist[:, None], out=np.tile([0.0, 0.0, 1.0], (len(v), 1)), where=valid[:, None])
-        front = valid & (lights.is_emitter[jj] | (dot(p - y, lights.point_normals(y, jj, tri, shading=True)) > 0))
+        front = valid & (lights.is_emitter[jj] | (dot(p - y, self._light_normals(xl, jj, True)) > 0))
         x5, r = sh.new_points(w.astype(F32), np.where(valid, j, -1), (len(w), 1))
         r.y = np.where(inf[:, None], p + EmitterLight.FAR * w, y).astype(F32)
         r.front = front
@@ -241,10 +262,10 @@ class BlockPixels:
         """Reconnection from pixel src to pixel dst: the same light point, Jacobian
         J = G_dst(y) / G_src(y) (module docstring)."""
         lead = x.shape[:-1]
-        xf = x.reshape(-1, 5)
-        y, j, tri = xf[:, :3], np.rint(xf[:, 3]).astype(np.int64), np.rint(xf[:, 4]).astype(np.int64)
+        xf = x.reshape(-1, 6)
+        y, j = xf[:, :3], np.rint(xf[:, 3]).astype(np.int64)
         # the light's normal at y, once for both pixels (zeros where j is not a shape light)
-        normals = np.zeros_like(y) if self.lights is None else self.lights.point_normals(y, j, tri)
+        normals = np.zeros_like(y) if self.lights is None else self._light_normals(xf, j, False)
         if self.kernels == "numba" and self.lights is not None:         # the same operations, compiled
             J = np.empty(len(y))
             load_kernel(KERNEL_MODULE, "reconnection_jacobian")(
