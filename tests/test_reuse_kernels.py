@@ -294,7 +294,7 @@ def block_views(scene, selection: str = "uniform", N: int = 3, seed: int = 0) ->
 
 
 def jacobian_inputs(view, u, seed: int = 1):
-    """Light points ``(N, B, k, 5)`` (each pixel's first candidate, some with no light, some at a
+    """Light points ``(N, B, k, 6)`` (each pixel's first candidate, some with no light, some at a
     shading point itself) and pixels src, dst ``(N, B, k)``."""
     rng = np.random.default_rng(seed)
     N, B, k = u.shape[1], view.B, 4
@@ -305,6 +305,7 @@ def jacobian_inputs(view, u, seed: int = 1):
     at = rng.random((N, B, k)) < 0.1                                                 # y = p_src: G_src = 0
     rows = (src * N + np.arange(N)[:, None, None])[at]
     x[at, :3] = view.p[rows]
+    x[..., 5] = -1.0               # points of the test's own, not the block's candidates (no cached normals)
     return x, src, dst
 
 
@@ -360,3 +361,46 @@ def test_restir_unbiased_with_compiled_helpers(scenes):
     assert abs(fair["z"]) < BIAS_Z, fair
     naive = seed_battery(scene, ReSTIR(candidates=8, neighbours=5, radius=3.0, mis="1/M"), 16, ref, kernels="numba")
     assert naive["z"] < -BIAS_Z, naive
+
+
+# -- the lights' normals, once per candidate (BlockPixels._light_normals) ---------------------------
+def check_cached_normals(view, u) -> None:
+    """Gathered copies of the block's candidates (as reuse reads them): the cached normals are
+    the direct ``LightSet.point_normals`` of each row, geometric and shading."""
+    N = u.shape[1]
+    x = view.candidates(np.moveaxis(u[..., :12], 1, 0).reshape(N, view.B, 4, 3))[0]          # (N, B, 4, 6)
+    rng = np.random.default_rng(5)
+    for _ in range(3):
+        pick = x.reshape(-1, 6)[rng.integers(0, x.size // 6, 2000)]
+        j = np.rint(pick[:, 3]).astype(np.int64)
+        tri = np.rint(pick[:, 4]).astype(np.int64)
+        jj = np.maximum(j, 0)
+        np.testing.assert_array_equal(view._light_normals(pick, j, False),
+                                      view.lights.point_normals(pick[:, :3], j, tri))
+        np.testing.assert_array_equal(view._light_normals(pick, jj, True),
+                                      view.lights.point_normals(pick[:, :3], jj, tri, shading=True))
+
+
+def test_light_normals_cached_per_candidate(scenes, tmp_path):
+    from vrlab.render import load_scene
+    from vrlab.testing.triangle_field import write_triangle_field
+
+    check_cached_normals(*block_views(scenes["delta_lights"])[0])
+    check_cached_normals(*block_views(load_scene(write_triangle_field(tmp_path, width=16, height=12)), "bvh")[0])
+
+
+def test_cached_normals_fail_when_keyed_by_the_light(tmp_path, monkeypatch):
+    """A cache keyed by the light j instead of the candidate (a mutant) gives stale normals."""
+    from vrlab.render import load_scene
+    from vrlab.testing.triangle_field import write_triangle_field
+
+    real = BlockPixels._light_normals
+
+    def by_light(self, xl, j, shading):
+        xl = xl.copy()
+        xl[:, 5] = np.maximum(j, 0)
+        return real(self, xl, j, shading)
+
+    monkeypatch.setattr(BlockPixels, "_light_normals", by_light)
+    with pytest.raises(AssertionError):
+        check_cached_normals(*block_views(load_scene(write_triangle_field(tmp_path, width=16, height=12)), "bvh")[0])

@@ -195,12 +195,13 @@ class BlockPixels:
     def _light_normals(self, xl: np.ndarray, j: np.ndarray, shading: bool) -> np.ndarray:
         """``LightSet.point_normals`` of light points ``xl (R, 6)`` of lights ``j``: computed for
         the candidates not seen yet, then read from the block's table (a row's normals depend
-        on its y, j, t only, so the values are those of a direct call)."""
+        on its y, j, t only, so the values are those of a direct call); points with i < 0 (not
+        a candidate of this block) directly."""
         y, tri = xl[:, :3], np.rint(xl[:, 4]).astype(np.int64)
         table = self._normals.get(shading)
-        if table is None:
-            return self.lights.point_normals(y, j, tri, shading=shading)
         ids = np.rint(xl[:, 5]).astype(np.int64)
+        if table is None or len(ids) and (ids.min() < 0 or ids.max() >= len(table)):
+            return self.lights.point_normals(y, j, tri, shading=shading)
         need = np.flatnonzero(np.isnan(table[ids, 0]))
         if len(need):
             table[ids[need]] = self.lights.point_normals(y[need], j[need], tri[need], shading=shading)
