@@ -266,6 +266,16 @@ def test_render_numba_equals_numpy(strategy, selection):
     np.testing.assert_array_equal(got.stderr, ref.stderr)
 
 
+def test_render_on_forked_workers_equals_numpy():
+    """The plan loads the compiled helpers before the workers fork: 2 workers, kernels numba,
+    give the 1-worker NumPy image."""
+    kw = dict(rng=2, light_selection="bvh", width=40, height=30)
+    ref = render("many_lights", 2, "restir", kernels="numpy", workers=1, **kw)
+    got = render("many_lights", 2, "restir", kernels="numba", workers=2, **kw)
+    assert got.extra["kernels"] == "numba"
+    np.testing.assert_array_equal(got.value, ref.value)
+
+
 def test_render_with_balance_and_passes_equals_numpy():
     est = ReSTIR(candidates=4, neighbours=3, radius=2.0, passes=2, mis="balance")
     kw = dict(rng=5, workers=1, width=24, height=16)

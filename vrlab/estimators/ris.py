@@ -54,7 +54,8 @@ def kernels_of(integrand) -> str:
     """The kernels an estimator runs on ``integrand``: its ``kernels`` attribute (a renderer's
     integrand carries the render plan's resolved choice, which loaded the compiled helpers
     before any worker started), "numpy" where it has none (the lab's integrands)."""
-    return "numba" if getattr(integrand, "kernels", "numpy") == "numba" else "numpy"
+    kernels = getattr(integrand, "kernels", "numpy")
+    return "numba" if isinstance(kernels, str) and kernels == "numba" else "numpy"
 
 
 def as_kernel_array(a, dtype=np.float64) -> np.ndarray:
