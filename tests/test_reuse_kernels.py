@@ -320,11 +320,18 @@ def jacobian_inputs(view, u, seed: int = 1):
 
 
 def check_jacobian(views) -> None:
+    """The reconnection's Jacobian (``shift``) and the evaluations at the receiving pixels
+    (``f``, ``phat``: the compiled directions and facing of ``_points``) of both kernels."""
     (v0, u), (v1, _) = views
     x, src, dst = jacobian_inputs(v0, u)
     J0, J1 = v0.shift(x, src, dst)[1], v1.shift(x, src, dst)[1]
     assert np.any(J0 > 0) and np.any(J0 == 0)
     np.testing.assert_allclose(J1, J0, rtol=RTOL, atol=0)
+    for pix in (src, dst):
+        f0, f1 = v0.f(x, pix), v1.f(x, pix)
+        assert np.any(f0 > 0)
+        np.testing.assert_allclose(f1, f0, rtol=1e-6, atol=0)          # float32 values
+        np.testing.assert_allclose(v1.phat(x, pix), v0.phat(x, pix), rtol=RTOL, atol=0)
 
 
 @pytest.mark.parametrize("name", ["delta_lights", "cornell_box", "veach_mis", "envmap"])
@@ -346,6 +353,8 @@ JACOBIAN_MUTANTS = {
     "distance squared, not cubed": ("(d2 * math.sqrt(d2))", "d2"),
     "src and dst swapped": ("out[r] = gd / gs if gs > 0.0 else 0.0", "out[r] = gs / gd if gd > 0.0 else 0.0"),
     "delta lights reconnected as shapes": ("if is_emitter[j[r]]:", "if False:"),
+    "facing the back of the light": ("facing = c > 0.0", "facing = c < 0.0"),
+    "lights at infinity at distance 1": ("p0 + far * w0, p1 + far * w1, p2 + far * w2", "p0 + w0, p1 + w1, p2 + w2"),
 }
 
 
@@ -353,12 +362,14 @@ JACOBIAN_MUTANTS = {
 def test_jacobian_parity_fails_on_a_mutated_kernel(scenes, mutant, monkeypatch):
     ns = as_python(reuse_kernel, *([JACOBIAN_MUTANTS[mutant]] if mutant else []))
     monkeypatch.setattr(reuse_mod, "load_kernel", lambda module, name: ns[name])
-    views = block_views(scenes["delta_lights"], N=1)
+    views = {name: block_views(scenes[name], N=1) for name in ("delta_lights", "envmap")}
     if mutant is None:
-        check_jacobian(views)
+        for v in views.values():
+            check_jacobian(v)
         return
     with pytest.raises(AssertionError):
-        check_jacobian(views)
+        for v in views.values():
+            check_jacobian(v)
 
 
 # -- unbiased through the compiled path -------------------------------------------------------------

@@ -235,6 +235,16 @@ class BlockPixels:
         lights = self.lights
         y, j = xl[:, :3], np.rint(xl[:, 3]).astype(np.int64)
         jj = np.maximum(j, 0)
+        if self.kernels == "numba":                  # the same operations, compiled
+            R = len(j)
+            w, jv, front, ry = np.empty((R, 3), F32), np.empty(R, np.int64), np.empty(R, bool), np.empty((R, 3), F32)
+            load_kernel(KERNEL_MODULE, "reconnect")(
+                np.ascontiguousarray(y, np.float64), j, np.ascontiguousarray(sh.p, F32),
+                self._light_normals(xl, jj, True), lights.is_infinite, lights.is_emitter, EmitterLight.FAR,
+                w, jv, front, ry)
+            x5, r = sh.new_points(w, jv, (R, 1))
+            r.y, r.front = ry, front
+            return x5
         p = np.asarray(sh.p, np.float64)
         inf = lights.is_infinite[jj]
         v = np.where(inf[:, None], y, y - p)
