@@ -44,7 +44,7 @@ SIGNATURES = {
                 "float64[:, :, ::1], float64[:, ::1], float64[:, ::1], float64[::1], int64[::1], float64[::1])"],
 }
 #: cold compile time (seconds, measured on the development machine), for the notice
-COMPILE_SECONDS = 2.5
+COMPILE_SECONDS = 2.0
 
 
 @njit(cache=True, error_model="numpy")

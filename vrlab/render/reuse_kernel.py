@@ -28,7 +28,7 @@ SIGNATURES = {"reconnection_jacobian": ["void(float64[:, ::1], int64[::1], float
               "reconnect": ["void(float64[:, ::1], int64[::1], float32[:, ::1], float64[:, ::1], boolean[::1], "
                             "boolean[::1], float64, float32[:, ::1], int64[::1], boolean[::1], float32[:, ::1])"]}
 #: cold compile time (seconds, measured on the development machine), for the notice
-COMPILE_SECONDS = 1.5
+COMPILE_SECONDS = 1.0
 
 
 @njit(cache=True, error_model="numpy")
