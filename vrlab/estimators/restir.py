@@ -52,6 +52,13 @@ One unit = one pass over every pixel:
 
 4. The unit value of pixel c: f_c(Y) W_c (f_c(Y) is the receiving evaluation, no new ray).
 
+Kernels.  Where the view carries ``kernels = "numba"`` (the renderer's, when the render plan
+resolved the compiled kernels: :mod:`vrlab.kernels`), the RIS streaming and, per reuse
+round, the MIS weights, resampling weights and the pick run as compiled loops
+(:mod:`vrlab.estimators.restir_kernel`) on the same evaluations (targets, Jacobians,
+back-reads, all still the view's NumPy code), in the same floating-point order as the NumPy
+lines here, which stay the oracle: the same picks and weights.
+
 Statistics.  Passes use disjoint uniforms, so units are independent and the per-pixel
 mean and standard error over passes are honest.  Within a pass the pixels are *correlated*
 (a pixel's sample is reused by its neighbours): the standard error of an image mean is not
@@ -79,80 +86,15 @@ import numpy as np
 
 from .. import checks, limits
 from .._rng import RNGLike
-from ..distributions.base import checked_pdf, checked_sample
 from ..estimate import Estimate
+from ..kernels import load_kernel
 from .base import DEFAULT_CHUNK, Estimator, check_chunk, check_technique, ratio, resolve_distribution
-from .ris import ABS_TARGET, Reservoir
+from .pixel_view import PixelView, grid_offsets
+from .ris import ABS_TARGET, KERNEL_MODULE, Reservoir, as_kernel_array, kernels_of
+
+__all__ = ["ReSTIR", "PixelView", "grid_offsets", "MIS_MODES"]
 
 MIS_MODES = ("pairwise", "balance", "1/M")
-
-
-def grid_offsets(shape: tuple, radius: float) -> np.ndarray:
-    """Integer offsets o (L, len(shape)) with 0 < |o| <= radius that do not wrap onto the pixel
-    itself on a periodic grid of ``shape`` (row-major order); at most ``limits.MAX_OFFSETS``
-    candidates (2r+1)^d, r = floor(radius), else a ValueError naming the radius."""
-    shape, r = tuple(int(s) for s in shape), int(np.floor(radius))
-    if (2 * r + 1) ** len(shape) > limits.MAX_OFFSETS:
-        raise ValueError(f"radius: {radius:g} on a {len(shape)}-d pixel grid enumerates "
-                         f"{(2 * r + 1) ** len(shape):.3g} neighbour offsets, more than limits.MAX_OFFSETS = "
-                         f"{limits.MAX_OFFSETS}")
-    o = np.indices((2 * r + 1,) * len(shape)).reshape(len(shape), -1).T - r if shape else np.zeros((0, 0), int)
-    keep = (np.sum(o * o, -1) <= radius * radius) & np.any(o % np.array(shape, int) != 0, -1)
-    return o[keep]
-
-
-class PixelView:
-    """The integrand and target of a batched integrand read per pixel: ``f(x, pix)`` and
-    ``phat(x, pix)`` give pixel pix's value at each point (x (..., k), pix int broadcast to
-    x.shape[:-1], flat index on the grid ``shape``); the renderer's is ``reuse.BlockPixels``."""
-
-    def __init__(self, integrand, target, shape: tuple, source=None):
-        self.integrand, self.target, self.shape, self.source = integrand, target, tuple(shape), source
-        self.B = int(np.prod(self.shape, dtype=int))
-
-    def candidates(self, uc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(x, p, t)``: candidates (N, B, c, k) from ``uc (N, B, c, d)``, density, targets."""
-        N, B, c, d = uc.shape
-        x = np.asarray(checked_sample(self.source, uc.reshape(N * B * c, d), "source"), dtype=float)
-        p = np.asarray(checked_pdf(self.source, x, "source"), dtype=float).reshape(N, B, c)
-        x = x.reshape(N, B, c, x.shape[-1])
-        return x, p, self.phat(x, np.arange(B)[:, None])
-
-    def neighbours(self, un: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(nbr, present)`` (N, B, k): flat neighbour indices from one uniform each, a uniform
-        offset of the periodic grid (every neighbour present)."""
-        if un.shape[-1] == 0:
-            return np.zeros(un.shape, int), np.ones(un.shape, bool)
-        offs = grid_offsets(self.shape, radius)
-        pick = offs[np.minimum((un * len(offs)).astype(int), len(offs) - 1)]         # (N, B, k, nd)
-        coords = np.stack(np.unravel_index(np.arange(un.shape[1]), self.shape), -1)[None, :, None, :]
-        nb = (coords + pick) % np.array(self.shape)
-        return np.ravel_multi_index(tuple(np.moveaxis(nb, -1, 0)), self.shape), np.ones(un.shape, bool)
-
-    @staticmethod
-    def nonzero(f) -> np.ndarray:             # where values f (no channel axis in the lab) are not 0
-        return np.asarray(f) != 0
-
-    def _pick(self, values, x, pix, who: str) -> np.ndarray:
-        v, lead = np.asarray(values, dtype=float), x.shape[:-1]
-        if v.shape == lead:                                  # one value shared by every pixel
-            return v
-        if v.shape != self.shape + lead:
-            raise ValueError(f"{who}: expected values of shape {self.shape + lead} (pixels, points) or {lead}, "
-                             f"got {v.shape}")
-        idx = np.broadcast_to(np.asarray(pix), lead)[None]
-        return np.take_along_axis(v.reshape((self.B,) + lead), idx, 0)[0]
-
-    def f(self, x, pix) -> np.ndarray:
-        return self._pick(self.integrand(x), x, pix, "integrand")
-
-    def phat(self, x, pix) -> np.ndarray:
-        if self.target is None:
-            return np.abs(self.f(x, pix))
-        t = self._pick(self.target(x), x, pix, "target")
-        if np.any(t < 0) or np.any(np.isnan(t)):
-            raise ValueError("target: the unnormalised target density must be >= 0 and not NaN")
-        return t
 
 
 class ReSTIR(Estimator):
@@ -167,6 +109,8 @@ class ReSTIR(Estimator):
 
     evals_per_unit = 1
     spatial = True      #: the renderer runs it on every pixel of a block at once (spatial reuse)
+    #: the compiled helpers a render with kernels "numba" loads before its workers start
+    kernel_module = KERNEL_MODULE
 
     def __init__(self, candidates: int = 32, neighbours: int = 5, radius: float = 3.0, passes: int = 1,
                  mis: str = "pairwise", *, source: Any = None, target: Any = None, shift: Any = None):
@@ -284,22 +228,25 @@ class ReSTIR(Estimator):
         every point array is the unit (the renderer's view tells its pixel samples apart by it)."""
         N, B = us.shape[:2]
         pix = np.arange(B)
+        kernels = kernels_of(view)
         x, p, t = view.candidates(uc)
         if np.any(t < 0) or np.any(np.isnan(t)):
             raise ValueError("target: the unnormalised target density must be >= 0 and not NaN")
-        res = Reservoir.empty((N, B), x.shape[-1]).update(x, ratio(t, p), us, t)
+        res = Reservoir.empty((N, B), x.shape[-1]).update(x, ratio(t, p), us, t, kernels=kernels)
         # visibility reuse: keep the sample only where f_b(y_b) != 0
         y, M, f = res.y, res.M, view.f(res.y, pix)
         vis = view.nonzero(f)
         W, q = np.where(vis, res.W, 0.0), np.where(vis, res.target, 0.0)
         for un, uf in rounds:
             nbr, present = view.neighbours(un, self.radius)
-            y, W, M, q, f = self._reuse(view, y, W, M, q, nbr, present, uf)
+            y, W, M, q, f = self._reuse(view, y, W, M, q, nbr, present, uf, kernels)
         return np.where(W > 0, f * W, 0.0)
 
-    def _reuse(self, view, y, W, M, q, nbr, present, us):
+    def _reuse(self, view, y, W, M, q, nbr, present, us, kernels: str = "numpy"):
         """One round of spatial reuse (GRIS) at every pixel; returns the new (y, W, M, q, f).
-        Absent neighbours (``present`` False: outside the renderer's block) count M = 0."""
+        Absent neighbours (``present`` False: outside the renderer's block) count M = 0.
+        ``kernels="numba"``: the MIS weights, resampling weights and the pick in one compiled
+        loop (:func:`vrlab.estimators.restir_kernel.combine`) from the same evaluations."""
         N, B = W.shape
         own = np.broadcast_to(np.arange(B)[None, :, None], (N, B, 1))
         src = np.concatenate([own, np.where(present, nbr, own)], -1)                  # (N, B, S)
@@ -309,11 +256,14 @@ class ReSTIR(Estimator):
         fc = view.f(ys, dst)
         qc = self.receiving_target(view, ys, src, dst, fc)
         Ms = M[n, src] * np.concatenate([np.ones((N, B, 1), bool), present], -1)
-        m = self._mis_weights(view, ys, ratio(q[n, src], J), src, dst, Ms, qc)
-        w = m * qc * W[n, src] * J
-        cum = np.cumsum(w, -1)
-        total = cum[..., -1]
-        s = np.minimum(np.sum(cum <= (us * total)[..., None], -1), src.shape[-1] - 1)[..., None]
+        if kernels == "numba" and type(self)._mis_weights is ReSTIR._mis_weights:
+            s, total = self._combine(view, ys, q[n, src], J, src, dst, Ms, qc, W[n, src], us)
+        else:
+            m = self._mis_weights(view, ys, ratio(q[n, src], J), src, dst, Ms, qc)
+            w = m * qc * W[n, src] * J
+            cum = np.cumsum(w, -1)
+            total = cum[..., -1]
+            s = np.minimum(np.sum(cum <= (us * total)[..., None], -1), src.shape[-1] - 1)[..., None]
         y_new = np.take_along_axis(ys, s[..., None], -2)[..., 0, :]
         q_new = np.take_along_axis(qc, s, -1)[..., 0]
         f_new = np.take_along_axis(fc, np.broadcast_to(s, np.shape(fc)[:-1] + (1,)), -1)[..., 0]
@@ -324,24 +274,50 @@ class ReSTIR(Estimator):
         z, Jz = self.shift_map(yc, dst, src_t)
         return self.pixel_target(view, z, src_t, view.f(z, src_t)) * Jz
 
+    def _balance_matrix(self, view, ys, src, dst, qc):
+        """P[s, t] = p̂_{<-t}(y_s) (N, B, S, S); column 0 the receiving pixel itself: q_c(y_s)."""
+        S = src.shape[-1]
+        yst = np.broadcast_to(ys[..., :, None, :], ys.shape[:-1] + (S - 1, ys.shape[-1]))
+        P = self._read_at(view, yst, np.broadcast_to(dst[..., :1, None], yst.shape[:-1]),
+                          np.broadcast_to(src[..., None, 1:], yst.shape[:-1]))
+        return np.concatenate([qc[..., None], P], -1)
+
+    def _back(self, view, ys, src, dst):
+        """p̂_{<-t}(y_0) (N, B, S - 1): each neighbour t's target read at the canonical sample."""
+        y0 = np.broadcast_to(ys[..., :1, :], ys[..., 1:, :].shape)
+        return self._read_at(view, y0, dst[..., 1:], src[..., 1:])
+
+    def _combine(self, view, ys, q_src, J, src, dst, Ms, qc, W_src, us):
+        """The compiled pick: ``(s (N, B, 1), total (N, B))`` as the NumPy lines of :meth:`_reuse`
+        (the views' evaluations, back-reads and balance matrix, stay NumPy)."""
+        N, B, S = src.shape
+        mode = 0 if self.mis == "1/M" or S == 1 else 1 if self.mis == "pairwise" else 2
+        R = N * B
+        back = self._back(view, ys, src, dst) if mode == 1 else np.zeros((N, B, 0))
+        P = self._balance_matrix(view, ys, src, dst, qc) if mode == 2 else np.zeros((N, B, 0, 0))
+
+        def rows(a, tail=0):                  # (R, ...) contiguous float64
+            a = as_kernel_array(a)
+            return a.reshape((R,) + a.shape[a.ndim - 1 - tail:])
+
+        pick, total = np.empty(R, np.int64), np.empty(R)
+        load_kernel(KERNEL_MODULE, "combine")(mode, rows(q_src), rows(J), rows(qc), rows(back), rows(P, 1),
+                                              rows(Ms), rows(W_src), rows(us, -1), pick, total)
+        return pick.reshape(N, B, 1), total.reshape(N, B)
+
     def _mis_weights(self, view, ys, own, src, dst, Ms, qc):
         """m_s(y_s) (N, B, S) of the contributors; ``own`` = p̂_{<-s}(y_s) = q_s(x_s) / J_s."""
         S = src.shape[-1]
         if self.mis == "1/M" or S == 1:
             return ratio(Ms, Ms.sum(-1, keepdims=True))
         if self.mis == "balance":
-            # P[s, t] = p̂_{<-t}(y_s); column 0 the receiving pixel itself: q_c(y_s)
-            yst = np.broadcast_to(ys[..., :, None, :], ys.shape[:-1] + (S - 1, ys.shape[-1]))
-            P = self._read_at(view, yst, np.broadcast_to(dst[..., :1, None], yst.shape[:-1]),
-                              np.broadcast_to(src[..., None, 1:], yst.shape[:-1]))
-            P = np.concatenate([qc[..., None], P], -1)
+            P = self._balance_matrix(view, ys, src, dst, qc)
             return ratio(Ms * np.diagonal(P, 0, -2, -1), np.sum(Ms[..., None, :] * P, -1))
         C = Ms[..., 1:].sum(-1, keepdims=True)
         a = ratio(Ms[..., :1], C)
         share = ratio(Ms[..., 1:], C)
         m_nc = share * ratio(own[..., 1:], own[..., 1:] + a * qc[..., 1:])
-        y0 = np.broadcast_to(ys[..., :1, :], ys[..., 1:, :].shape)
-        back = self._read_at(view, y0, dst[..., 1:], src[..., 1:])                # p̂_{<-t}(y_0), t > 0
+        back = self._back(view, ys, src, dst)                                    # p̂_{<-t}(y_0), t > 0
         aq = a * qc[..., :1]
         m_c = np.sum(share * ratio(aq, back + aq), -1, keepdims=True)
         m_c = np.where(C > 0, m_c, 1.0)                 # no neighbour present: the canonical alone

@@ -20,6 +20,11 @@ with probability w_j / (w_sum after adding w_j), one uniform per candidate, so t
 result is a deterministic function of the uniforms.  Two reservoirs over disjoint
 candidate sets merge into one over the union (``Reservoir.merge``).
 
+Kernels: where the integrand carries ``kernels = "numba"`` (a render whose plan resolved the
+compiled kernels, :mod:`vrlab.kernels`) the streaming runs as one compiled loop per
+reservoir (:mod:`vrlab.estimators.restir_kernel`), the same additions and comparisons in
+the same order as the NumPy code here, which stays the oracle.
+
 Cost convention: ``n`` counts evaluations of f, one per output sample.  The m
 candidate evaluations of p̂ (and draws/pdfs of p) per output sample are counted
 separately in ``Estimate.extra["target_evals"]`` (= n m), so comparisons at total
@@ -36,8 +41,29 @@ from .._rng import RNGLike
 from ..distributions.base import checked_pdf, checked_sample
 from ..estimate import Estimate
 from ..integrands.base import checked_values
+from ..kernels import load_kernel
 from .atoms import check_atoms
 from .base import DEFAULT_CHUNK, Estimator, check_chunk, check_technique, ratio, resolve_distribution, support_probe
+
+
+#: the compiled helpers of reservoir streaming and reuse (loaded when kernels are "numba")
+KERNEL_MODULE = "vrlab.estimators.restir_kernel"
+
+
+def kernels_of(integrand) -> str:
+    """The kernels an estimator runs on ``integrand``: its ``kernels`` attribute (a renderer's
+    integrand carries the render plan's resolved choice, which loaded the compiled helpers
+    before any worker started), "numpy" where it has none (the lab's integrands)."""
+    kernels = getattr(integrand, "kernels", "numpy")
+    return "numba" if isinstance(kernels, str) and kernels == "numba" else "numpy"
+
+
+def as_kernel_array(a, dtype=np.float64) -> np.ndarray:
+    """``a`` as a C-contiguous, writeable array of ``dtype`` (a copy only where needed): the
+    layout the compiled helpers' ``SIGNATURES`` name (a read-only view, e.g. from
+    ``np.broadcast_to``, would make numba compile another specialisation)."""
+    a = np.ascontiguousarray(a, dtype=dtype)
+    return a if a.flags.writeable else a.copy()
 
 
 class Reservoir:
@@ -69,14 +95,27 @@ class Reservoir:
         """Unbiased contribution weight w_sum / (M p̂(y)) (0 for an empty reservoir)."""
         return ratio(self.w_sum, self.M * self.target)
 
-    def _stream(self, x, weights, u, target, count) -> "Reservoir":
-        """Process candidates (*s, m, k) with weights/uniforms/targets (*s, m) in order."""
+    def _stream(self, x, weights, u, target, count, kernels: str = "numpy") -> "Reservoir":
+        """Process candidates (*s, m, k) with weights/uniforms/targets (*s, m) in order
+        (``kernels="numba"``: the compiled loop, :func:`vrlab.estimators.restir_kernel.stream`)."""
         x, weights, u, target = (np.asarray(a, dtype=float) for a in (x, weights, u, target))
         if np.any(weights < 0) or np.any(np.isnan(weights)):
             raise ValueError("weights: resampling weights must be >= 0 and not NaN (check the target)")
         shape = np.broadcast_shapes(self.shape + (1,), weights.shape, u.shape, target.shape, x.shape[:-1])
         m = shape[-1]
         lead = shape[:-1]
+        M = np.broadcast_to(self.M, lead) + np.sum(np.broadcast_to(count, shape), -1)
+        if kernels == "numba":
+            R, k = int(np.prod(lead, dtype=int)), x.shape[-1]
+
+            def rows(a, tail=()):           # (R, m, *tail) contiguous float64 (a copy where broadcast)
+                return as_kernel_array(np.broadcast_to(a, shape + tail)).reshape((R, m) + tail)
+
+            y = np.array(np.broadcast_to(self.y, lead + (k,)), dtype=float).reshape(R, k)
+            w_sum = np.array(np.broadcast_to(self.w_sum, lead), dtype=float).reshape(R)
+            t = np.array(np.broadcast_to(self.target, lead), dtype=float).reshape(R)
+            load_kernel(KERNEL_MODULE, "stream")(rows(x, (k,)), rows(weights), rows(u), rows(target), y, w_sum, t)
+            return Reservoir(y.reshape(lead + (k,)), w_sum.reshape(lead), M, t.reshape(lead))
         # running sums in the sequential order: ((w_sum + w_1) + w_2) + ...
         w = np.broadcast_to(weights, shape)
         cum = np.cumsum(np.concatenate([np.broadcast_to(self.w_sum, lead)[..., None], w], -1), -1)[..., 1:]
@@ -88,14 +127,16 @@ class Reservoir:
         t_new = np.take_along_axis(np.broadcast_to(target, shape), last, -1)[..., 0]
         y = np.where(any_acc[..., None], y_new, np.broadcast_to(self.y, lead + self.y.shape[-1:]))
         t = np.where(any_acc, t_new, np.broadcast_to(self.target, lead))
-        M = np.broadcast_to(self.M, lead) + np.sum(np.broadcast_to(count, shape), -1)
         return Reservoir(y, cum[..., -1], M, t)
 
-    def update(self, x: np.ndarray, weights: np.ndarray, u: np.ndarray, target: np.ndarray) -> "Reservoir":
+    def update(self, x: np.ndarray, weights: np.ndarray, u: np.ndarray, target: np.ndarray, *,
+               kernels: str = "numpy") -> "Reservoir":
         """Stream candidates ``x`` (*shape, m, k) with resampling weights, one uniform
         each and their target values p̂(x) (all (*shape, m)).  Candidate j is kept with
-        probability w_j / (w_sum + w_1 + ... + w_j), replacing any earlier choice."""
-        return self._stream(x, weights, u, target, 1.0)
+        probability w_j / (w_sum + w_1 + ... + w_j), replacing any earlier choice.
+        ``kernels``: "numpy" (the oracle) or "numba" (a compiled loop, the same selections
+        and sums; the caller resolves the switch, :mod:`vrlab.kernels`)."""
+        return self._stream(x, weights, u, target, 1.0, checks.choice(kernels, "kernels", ("numpy", "numba")))
 
     def merge(self, other: "Reservoir", u: np.ndarray, target_at_other: np.ndarray | None = None
               ) -> "Reservoir":
@@ -149,6 +190,8 @@ class RIS(Estimator):
     """
 
     evals_per_unit = 1
+    #: the compiled helpers a render with kernels "numba" loads before its workers start
+    kernel_module = KERNEL_MODULE
 
     def __init__(self, source, target: Callable[[np.ndarray], np.ndarray] | str, m: int, *, probe: bool = True):
         if not isinstance(source, str):
@@ -239,7 +282,7 @@ class RIS(Estimator):
         # nothing seen yet (W = 0); y starts at the first candidate, a point of the domain, so
         # that f can be evaluated at y even where every weight is 0 (e.g. a scene without lights)
         empty = Reservoir(xs[..., 0, :], 0.0, 0.0, 0.0)
-        return empty.update(xs, split(w), u[..., m * d:], split(t))
+        return empty.update(xs, split(w), u[..., m * d:], split(t), kernels=kernels_of(integrand))
 
     def unit_values(self, integrand, u):
         res = self.reservoirs(u, integrand)

@@ -58,6 +58,8 @@ class DirectLighting:
             raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
         checks.choice(light_selection, "light_selection", LIGHT_SELECTIONS)
         self.light_selection = light_selection
+        #: the kernels of the per-sample path (the render plan's resolved choice: "numpy" or "numba")
+        self.kernels = kernels
         # hits need their triangle only on meshes with smooth normals or textures
         prim = any(s.has_barycentrics and (s.has_shading_normals or s.bsdf.textures or
                                                    (s.emitter is not None and s.emitter.texture is not None))

@@ -238,11 +238,21 @@ class LightSet:
         where it faces); zeros for the other rows (non-shape lights, j = -1)."""
         out = np.zeros(np.shape(y), np.float64)
         y = np.asarray(y, np.float64)
-        for i, m in _rows_by_light(j, ~self.is_emitter):
+        j = np.asarray(j)
+        sphere = (j >= 0) & self.is_sphere[np.maximum(j, 0)]
+        if sphere.any():                  # every sphere light at once: sign (y - centre) / radius
+            m = slice(None) if sphere.all() else np.flatnonzero(sphere)
+            js = j[m]
+            sign, centre, radius, ym = self.signs[js], self.centers[js], self.radii[js], y[m]
+            n = np.empty_like(ym)
+            for k in range(3):            # column by column (vrlab._vec): (y - c) sign / r
+                np.subtract(ym[:, k], centre[:, k], out=n[:, k])
+                n[:, k] *= sign
+                n[:, k] /= radius
+            out[m] = n
+        for i, m in _rows_by_light(j, ~self.is_emitter & ~self.is_sphere):
             light = self.lights[i]
-            if light.sphere is not None:
-                out[m] = light.sign * (y[m] - light.sphere[0]) / light.sphere[1]
-            elif self.split[i] and t is not None:           # the triangle is known: O(1)
+            if self.split[i] and t is not None:           # the triangle is known: O(1)
                 out[m] = light.triangle_normals(y[m], np.maximum(np.asarray(t)[m], 0), shading)
             else:
                 out[m] = light.surface.normal(y[m])

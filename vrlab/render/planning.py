@@ -53,13 +53,16 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
-#: the compiled kernels of the per-sample path, by the setting that uses them
-COMPILED = {"light_selection": {"bvh": "vrlab.distributions.light_bvh_kernel"}}
+#: the compiled kernels of the per-sample path, by the setting that uses them (an estimator
+#: object names its own in ``kernel_module``)
+COMPILED = {"light_selection": {"bvh": "vrlab.distributions.light_bvh_kernel"},
+            "estimator": {"ris": "vrlab.estimators.restir_kernel", "restir": "vrlab.estimators.restir_kernel"}}
 
 
-def resolve_kernels(kernels: Any, light_selection: str) -> str:
+def resolve_kernels(kernels: Any, light_selection: str, estimator: Any = None) -> str:
     """The kernels that run for ``kernels`` in :data:`KERNELS`: ``"numba"`` where this render
-    uses a compiled kernel (:data:`COMPILED`: the light BVH's walk) and ``kernels`` is
+    uses a compiled kernel (:data:`COMPILED`: the light BVH's walk; RIS's and ReSTIR's
+    reservoirs and reuse) and ``kernels`` is
     ``"numba"``, or ``"auto"`` with numba importable; else ``"numpy"``.  numba is imported
     only then (``"numba"`` is checked everywhere: ``ValueError`` naming ``kernels`` where
     numba cannot be imported), and the kernels are compiled or loaded from numba's cache here,
@@ -68,13 +71,15 @@ def resolve_kernels(kernels: Any, light_selection: str) -> str:
     from ..kernels import resolve_kernels as resolve
 
     checks.choice(kernels, "kernels", KERNELS)
-    module = COMPILED["light_selection"].get(light_selection)
-    if kernels == "numpy" or (module is None and kernels == "auto"):
+    by_estimator = COMPILED["estimator"].get(estimator) if isinstance(estimator, str) else \
+        getattr(estimator, "kernel_module", None)
+    modules = [m for m in (COMPILED["light_selection"].get(light_selection), by_estimator) if m]
+    if kernels == "numpy" or (not modules and kernels == "auto"):
         return "numpy"
     ran = resolve(kernels)
-    if module is None or ran == "numpy":
+    if not modules or ran == "numpy":
         return "numpy"
-    load_kernels(module)
+    load_kernels(*modules)
     return ran
 
 
@@ -186,7 +191,7 @@ def plan(scene: Any, spp: int | None = None, estimator: Any = "mis-power", *, po
     chunk = None if chunk_pixels is None else checks.integer(chunk_pixels, "chunk_pixels", low=1)
     workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1,
                                                                       high=limits.max_workers())
-    ran = resolve_kernels(kernels, light_selection)
+    ran = resolve_kernels(kernels, light_selection, estimator)
     if width is not None or height is not None:
         scene = scene.with_size(width, height)
     # the sample counts (the scene's integrator's by default) and the estimator are checked and

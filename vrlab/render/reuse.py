@@ -14,9 +14,11 @@ error bar of an image region is not its pixels' errors combined as if independen
 image depends on the block size (``chunk_pixels``), not on how blocks are run.
 
 Samples are light points.  A candidate of pixel b is a ``"light"`` technique sample at its
-shading point p_b (any ``light_selection``), kept as x = (y, j, t): the point y on light j
-(the light's position for delta lights, a direction for lights at infinity) and, for a mesh
-light split into triangles by the light BVH, the triangle t (its normal without a search).  A sample of pixel s
+shading point p_b (any ``light_selection``), kept as x = (y, j, t, i): the point y on light j
+(the light's position for delta lights, a direction for lights at infinity), for a mesh
+light split into triangles by the light BVH the triangle t (its normal without a search), and
+its index i among the block's candidates (the light's normals at y are computed once per
+candidate, however many pixels read it).  A sample of pixel s
 moves to pixel c by *reconnection*, w_c = normalize(y - p_c), whose Jacobian between the
 solid-angle measures of the two pixels is
 
@@ -24,7 +26,8 @@ solid-angle measures of the two pixels is
 
 (theta_y,b the angle at the light between its normal at y and p_b - y; the solid angle at p_b
 is G_b dA_y).  J = 1 for delta lights and lights at infinity (the shift is the identity in
-their counting / direction measure).  At the receiving pixel c both the target (the
+their counting / direction measure).  With kernels "numba" J is computed by a compiled loop
+(:mod:`vrlab.render.reuse_kernel`, the same operations; the lights' normals stay NumPy).  At the receiving pixel c both the target (the
 unshadowed contribution, luminance of f_r |cos| times that of L_e, where the light faces p_c:
 RIS's ``"unshadowed"``) and f_c itself (with a shadow ray from p_c to y:
 :meth:`~vrlab.render.direct.DirectLighting.unblocked`) are re-evaluated.
@@ -44,6 +47,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._vec import dot
+from ..kernels import load_kernel, load_kernels
 from .lights import EmitterLight
 from .shading import ShadingIntegrand, checked_outputs
 from .techniques import F32
@@ -52,6 +56,8 @@ __all__ = ["BlockPixels", "check_spatial", "spatial_outputs"]
 
 #: light-point evaluations (candidates or reuse) per step of sample indices: bounds memory
 ROWS_PER_STEP = 1 << 17
+#: the compiled reconnection Jacobian (kernels "numba")
+KERNEL_MODULE = "vrlab.render.reuse_kernel"
 
 
 def check_spatial(integrand, probe: ShadingIntegrand) -> None:
@@ -63,6 +69,8 @@ def check_spatial(integrand, probe: ShadingIntegrand) -> None:
                          f"and more spp, got {integrand.units}")
     est.spatial_check(probe)
     integrand.unit_dim = int(est.spatial_dim(probe))
+    if integrand.lighting.kernels == "numba":           # loaded here, before any worker forks
+        load_kernels(KERNEL_MODULE)
     lights = integrand.lighting.lights
     if lights is not None and not lights.simple:
         names = sorted({lights[i].type for i in range(len(lights))
@@ -99,8 +107,10 @@ def spatial_outputs(integrand, pixels: np.ndarray, u: np.ndarray, cost=None) -> 
 class BlockPixels:
     """The camera samples of a block as the pixels of N independent spatial units: pixel b of
     unit n is the camera ray of pixel b with sample index n (row b N + n of ``hits``).  Points
-    are light points x = (y_x, y_y, y_z, j, t) ``(N, ..., 5)`` (first axis: the unit; t the
-    triangle of a split mesh light, -1 otherwise), pixel
+    are light points x = (y_x, y_y, y_z, j, t, i) ``(N, ..., 6)`` (first axis: the unit; t the
+    triangle of a split mesh light, -1 otherwise; i the candidate's index in the block, which
+    keeps the light's normals at y, computed once per candidate: every later point is a copy of
+    a candidate), pixel
     indices broadcast to ``x.shape[:-1]`` (the interface of ``vrlab.estimators.restir.PixelView``).
     ``cost``: the :class:`~vrlab.render.cost.Cost` the shading integrands count their work in.
     """
@@ -110,6 +120,10 @@ class BlockPixels:
         lit = integrand.lighting
         self.cost = cost
         self.lighting, self.lights, self.N, self.B = lit, lit.lights, int(N), len(pixels)
+        self.kernels = lit.kernels          # compiled helpers (estimator's, the Jacobian's) run where "numba"
+        if self.kernels == "numba":         # the compiled Jacobian's inputs, once per block
+            self._p64 = np.ascontiguousarray(hits.p, np.float64)
+            self._group64 = np.ascontiguousarray(group, np.int64)
         self.shape = (self.B,)
         self.coords = np.asarray(pixels, np.int64)
         self.group, self.p = group, hits.p
@@ -124,6 +138,7 @@ class BlockPixels:
             self.groups[int(g)] = (rows, hits.p[rows], hits.n[rows], -d[rows], ns, lit.bsdf_values(g, hits, rows),
                                    lit.tangents(g, hits, rows))
         self._last: tuple | None = None
+        self._normals: dict = {}            # shading (bool) -> the candidates' light normals (NaN: not yet)
 
     # -- geometry -------------------------------------------------------------------------
     def _rows(self, lead: tuple, pix) -> np.ndarray:
@@ -139,9 +154,10 @@ class BlockPixels:
                              None if values is None else {a: v[k] for a, v in values.items()},
                              None if tangents is None else (tangents[0][k], tangents[1][k]), self.cost)
 
-    def _G(self, y: np.ndarray, j: np.ndarray, tri: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    def _G(self, y: np.ndarray, j: np.ndarray, normals: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """G_b(y) = |cos theta_y| / |y - p_b|^2 at camera rows ``rows`` (1 for delta lights and
-        lights at infinity; 0 where there is no light or no shading point)."""
+        lights at infinity; 0 where there is no light or no shading point); ``normals``: the
+        lights' normals at y (``LightSet.point_normals``)."""
         out = np.zeros(len(rows))
         ok = (j >= 0) & (self.group[rows] >= 0)
         if self.lights is None or not ok.any():
@@ -153,7 +169,7 @@ class BlockPixels:
             m = np.flatnonzero(area)
             v = y[m] - np.asarray(self.p[rows[m]], np.float64)
             d2 = dot(v, v)
-            cos = np.abs(dot(self.lights.point_normals(y[m], jj[m], tri[m]), v))
+            cos = np.abs(dot(normals[m], v))
             out[m] = np.divide(cos, d2 * np.sqrt(d2), out=np.zeros(len(m)), where=d2 > 0)
         return out
 
@@ -163,7 +179,9 @@ class BlockPixels:
         ``uc (N, B, c, 3)`` as light points, their densities (solid angle x lights, P_j for a
         delta light) and the pixels' unshadowed targets there (no ray)."""
         N, B, c, dd = uc.shape
-        x, p, t = np.zeros((N * B, c, 5)), np.zeros((N * B, c)), np.zeros((N * B, c))
+        x, p, t = np.zeros((N * B, c, 6)), np.zeros((N * B, c)), np.zeros((N * B, c))
+        x[..., 5] = np.arange(N * B * c).reshape(N * B, c)
+        self._normals = {flag: np.full((N * B * c, 3), np.nan) for flag in (False, True)}
         ue = uc.reshape(N * B, c, dd)
         for g, (rows, *_) in (self.groups.items() if self.lights is not None else ()):
             entries = (rows % N) * B + rows // N            # unit-major (n, b) of camera row b N + n
@@ -175,8 +193,23 @@ class BlockPixels:
             r = sh.rows(xs)
             y = np.where(self.lights.is_infinite[np.maximum(r.j, 0)][:, None], r.w, r.y)
             tri = np.full(len(r.j), -1) if r.tri is None else r.tri
-            x[entries] = np.concatenate([y, r.j[:, None], tri[:, None]], -1).reshape(len(rows), c, 5)
-        return x.reshape(N, B, c, 5), p.reshape(N, B, c), t.reshape(N, B, c)
+            x[entries, :, :5] = np.concatenate([y, r.j[:, None], tri[:, None]], -1).reshape(len(rows), c, 5)
+        return x.reshape(N, B, c, 6), p.reshape(N, B, c), t.reshape(N, B, c)
+
+    def _light_normals(self, xl: np.ndarray, j: np.ndarray, shading: bool) -> np.ndarray:
+        """``LightSet.point_normals`` of light points ``xl (R, 6)`` of lights ``j``: computed for
+        the candidates not seen yet, then read from the block's table (a row's normals depend
+        on its y, j, t only, so the values are those of a direct call); points with i < 0 (not
+        a candidate of this block) directly."""
+        y, tri = xl[:, :3], np.rint(xl[:, 4]).astype(np.int64)
+        table = self._normals.get(shading)
+        ids = np.rint(xl[:, 5]).astype(np.int64)
+        if table is None or len(ids) and (ids.min() < 0 or ids.max() >= len(table)):
+            return self.lights.point_normals(y, j, tri, shading=shading)
+        need = np.flatnonzero(np.isnan(table[ids, 0]))
+        if len(need):
+            table[ids[need]] = self.lights.point_normals(y[need], j[need], tri[need], shading=shading)
+        return table[ids]
 
     def _evaluate(self, x: np.ndarray, pix) -> tuple[np.ndarray, np.ndarray]:
         """``(f (3, ...), p̂ (...))`` of light points x at pixels ``pix`` (the last call cached:
@@ -186,7 +219,7 @@ class BlockPixels:
             return last[2], last[3]
         lead = x.shape[:-1]
         rows = self._rows(lead, pix)
-        xf = x.reshape(-1, 5)
+        xf = x.reshape(-1, 6)
         f, t = np.zeros((3, len(rows)), F32), np.zeros(len(rows))
         grp = self.group[rows]
         for g in self.groups:
@@ -204,15 +237,25 @@ class BlockPixels:
         """Shading points ``(R, 1, 5)`` reconnecting each shading point of ``sh`` to its light
         point, with the rows' light point, facing and (no ray yet) cached."""
         lights = self.lights
-        y, j, tri = xl[:, :3], np.rint(xl[:, 3]).astype(np.int64), np.rint(xl[:, 4]).astype(np.int64)
+        y, j = xl[:, :3], np.rint(xl[:, 3]).astype(np.int64)
         jj = np.maximum(j, 0)
+        if self.kernels == "numba":                  # the same operations, compiled
+            R = len(j)
+            w, jv, front, ry = np.empty((R, 3), F32), np.empty(R, np.int64), np.empty(R, bool), np.empty((R, 3), F32)
+            load_kernel(KERNEL_MODULE, "reconnect")(
+                np.ascontiguousarray(y, np.float64), j, np.ascontiguousarray(sh.p, F32),
+                self._light_normals(xl, jj, True), lights.is_infinite, lights.is_emitter, EmitterLight.FAR,
+                w, jv, front, ry)
+            x5, r = sh.new_points(w, jv, (R, 1))
+            r.y, r.front = ry, front
+            return x5
         p = np.asarray(sh.p, np.float64)
         inf = lights.is_infinite[jj]
         v = np.where(inf[:, None], y, y - p)
         dist = np.sqrt(dot(v, v))
         valid = (j >= 0) & (dist > 0)
         w = np.divide(v, dist[:, None], out=np.tile([0.0, 0.0, 1.0], (len(v), 1)), where=valid[:, None])
-        front = valid & (lights.is_emitter[jj] | (dot(p - y, lights.point_normals(y, jj, tri, shading=True)) > 0))
+        front = valid & (lights.is_emitter[jj] | (dot(p - y, self._light_normals(xl, jj, True)) > 0))
         x5, r = sh.new_points(w.astype(F32), np.where(valid, j, -1), (len(w), 1))
         r.y = np.where(inf[:, None], p + EmitterLight.FAR * w, y).astype(F32)
         r.front = front
@@ -234,9 +277,17 @@ class BlockPixels:
         """Reconnection from pixel src to pixel dst: the same light point, Jacobian
         J = G_dst(y) / G_src(y) (module docstring)."""
         lead = x.shape[:-1]
-        xf = x.reshape(-1, 5)
-        y, j, tri = xf[:, :3], np.rint(xf[:, 3]).astype(np.int64), np.rint(xf[:, 4]).astype(np.int64)
-        gs, gd = self._G(y, j, tri, self._rows(lead, src)), self._G(y, j, tri, self._rows(lead, dst))
+        xf = x.reshape(-1, 6)
+        y, j = xf[:, :3], np.rint(xf[:, 3]).astype(np.int64)
+        # the light's normal at y, once for both pixels (zeros where j is not a shape light)
+        normals = np.zeros_like(y) if self.lights is None else self._light_normals(xf, j, False)
+        if self.kernels == "numba" and self.lights is not None:         # the same operations, compiled
+            J = np.empty(len(y))
+            load_kernel(KERNEL_MODULE, "reconnection_jacobian")(
+                np.ascontiguousarray(y, np.float64), j, normals, self.lights.is_emitter, self._p64, self._group64,
+                self._rows(lead, src).astype(np.int64), self._rows(lead, dst).astype(np.int64), J)
+            return x, J.reshape(lead)
+        gs, gd = self._G(y, j, normals, self._rows(lead, src)), self._G(y, j, normals, self._rows(lead, dst))
         return x, np.divide(gd, gs, out=np.zeros(len(gs)), where=gs > 0).reshape(lead)
 
     def neighbours(self, un: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:

@@ -144,6 +144,11 @@ class ShadingIntegrand(Integrand):
         local = {"dp_du": frame.to_local(np.asarray(dp_du, F32)), "dp_dv": frame.to_local(np.asarray(dp_dv, F32))}
         return frame, local
 
+    @property
+    def kernels(self) -> str:
+        """The render's kernels ("numpy" or "numba"): estimators run their compiled helpers where "numba"."""
+        return self.lighting.kernels
+
     # Techniques, controls and targets are built on access.  Stored, they would close reference
     # cycles (integrand -> technique -> integrand) that keep every batch's rays alive until the
     # cyclic garbage collector runs: about 3.5 MB of page faults per tile in a fresh worker.
