@@ -53,29 +53,28 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
-#: the compiled kernels of the per-sample path, by the setting that uses them
-COMPILED = {"light_selection": {"bvh": "vrlab.distributions.light_bvh_kernel"}}
+#: the compiled kernels of the per-sample path: the ray queries' (every render) and, by the
+#: light selection that uses it, the light BVH walk's
+COMPILED = {"rays": "vrlab.render.accel.traverse_kernel",
+            "light_selection": {"bvh": "vrlab.distributions.light_bvh_kernel"}}
 
 
 def resolve_kernels(kernels: Any, light_selection: str) -> str:
-    """The kernels that run for ``kernels`` in :data:`KERNELS`: ``"numba"`` where this render
-    uses a compiled kernel (:data:`COMPILED`: the light BVH's walk) and ``kernels`` is
-    ``"numba"``, or ``"auto"`` with numba importable; else ``"numpy"``.  numba is imported
-    only then (``"numba"`` is checked everywhere: ``ValueError`` naming ``kernels`` where
-    numba cannot be imported), and the kernels are compiled or loaded from numba's cache here,
-    before any worker process starts (:func:`vrlab.kernels.load_kernels`)."""
+    """The kernels that run for ``kernels`` in :data:`KERNELS`: ``"numba"`` (:data:`COMPILED`: the
+    ray queries, and the light BVH's walk where the render selects lights by it) where
+    ``kernels`` is ``"numba"``, or ``"auto"`` with numba importable; else ``"numpy"``, which
+    imports nothing.  ``"numba"`` where numba cannot be imported: ``ValueError`` naming
+    ``kernels``.  The kernels are compiled or loaded from numba's cache here, before any worker
+    process starts (:func:`vrlab.kernels.load_kernels`): forked workers inherit them."""
     from ..kernels import load_kernels
     from ..kernels import resolve_kernels as resolve
 
     checks.choice(kernels, "kernels", KERNELS)
-    module = COMPILED["light_selection"].get(light_selection)
-    if kernels == "numpy" or (module is None and kernels == "auto"):
+    if kernels == "numpy" or resolve(kernels) == "numpy":
         return "numpy"
-    ran = resolve(kernels)
-    if module is None or ran == "numpy":
-        return "numpy"
-    load_kernels(module)
-    return ran
+    light = COMPILED["light_selection"].get(light_selection)
+    load_kernels(COMPILED["rays"], *([light] if light else []))
+    return "numba"
 
 
 @dataclasses.dataclass(frozen=True, repr=False, eq=False)

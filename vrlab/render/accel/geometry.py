@@ -46,6 +46,13 @@ disks) and then the lowest primitive wins (a parallelogram before a cube face). 
 over primitive groups, blocks and tree steps, never over single rays.  The primitive groups
 live in :mod:`vrlab.render.accel.groups`.
 
+With ``kernels="numba"`` every scene, small or large, goes into the BVH, walked by the
+compiled kernel (:mod:`vrlab.render.accel.traverse_kernel`: one serial loop per ray, the
+same float64 tests and tie rule as the NumPy walk, its oracle); planar primitives go to
+Embree only from ``EMBREE_FROM`` of them on (with ``backend="auto"``).  Decisions are then
+float64 everywhere: a render differs from the NumPy path's float32 all-pairs decisions only
+at rays within float32 rounding of a silhouette or an edge.
+
 Building: the loop over shapes only collects their parts; every triangle of every mesh and
 cube is pooled into one indexed set (:mod:`vrlab.render.accel.pool`: one vertex array, one
 face array, parallelograms found by array operations over all triangles at once), so the
@@ -66,6 +73,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ... import checks
+from ...kernels import resolve_kernels
 from ..._vec import scale
 from ..scene import Scene
 from ..shapes.base import CustomPart, DiskPart, IndexedTriangles, Parallelograms, Quadric, Triangles
@@ -74,10 +82,13 @@ from .groups import Planar, Quadrics
 from .pool import IndexedPlanar, TrianglePool, pool_triangles
 from .scene_bvh import BACKENDS, Accel, embree_used
 
-__all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "Hits", "SceneGeometry"]
+__all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "EMBREE_FROM", "Hits", "SceneGeometry"]
 
 DEFAULT_RAY_CHUNK = 1 << 15   # rays per block
 DENSE_COST = 256              # scenes up to this all-pairs cost (planar primitives + quadrics / 4) skip the BVH
+#: with the compiled walk (``kernels="numba"``) and ``backend="auto"``, Embree takes the planar
+#: primitives from this many on (below, the compiled walk is faster: benchmarks/bench_rays.py)
+EMBREE_FROM = 10_000
 
 
 class Hits(NamedTuple):
@@ -150,13 +161,17 @@ class SceneGeometry:
     ``unmerged``: shapes whose triangles are never paired into parallelograms (their hits
     report the exact triangle: the light BVH's per-triangle mesh lights); ``backend``: how a
     large scene's BVH traces planar primitives (:data:`~vrlab.render.accel.scene_bvh.BACKENDS`:
-    ``"auto"`` Embree where ``embreex`` is installed, else NumPy)."""
+    ``"auto"`` Embree where ``embreex`` is installed, else NumPy); ``kernels``: ``"numpy"``
+    (default), ``"numba"`` or ``"auto"`` (:mod:`vrlab.kernels`): with numba every scene goes
+    into the BVH, walked by the compiled kernel (see the module docstring)."""
 
     def __init__(self, scene: Scene, only: Sequence[int] | None = None, track_prim: bool = True,
-                 unmerged: Sequence[int] = (), backend: str = "auto"):
+                 unmerged: Sequence[int] = (), backend: str = "auto", kernels: str = "numpy"):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
         checks.choice(backend, "backend", BACKENDS)
+        #: the kernels of the ray queries ("numpy" or "numba", resolved)
+        self.kernels = resolve_kernels(kernels)
         if only is not None:
             idx = np.asarray(only)
             if idx.ndim != 1 or (idx.size and idx.dtype.kind not in "iu"):
@@ -206,8 +221,11 @@ class SceneGeometry:
         # all pairs while their cost stays small (a quadric costs about a quarter of a planar
         # primitive through the culling products), else one BVH over every primitive
         cost = len(para[0]) + (pool.n_group if pool else 0) + len(disk) + len(quad) / 4
-        dense = cost <= DENSE_COST
-        embree = not dense and embree_used(backend, len(para[0]) > 0 or pool is not None)
+        dense = cost <= DENSE_COST and self.kernels == "numpy"
+        n_planar = len(para[0]) + (pool.n_group if pool else 0)
+        if self.kernels == "numba" and backend == "auto" and n_planar < EMBREE_FROM:
+            backend = "numpy"            # the compiled walk is faster than Embree's calls here
+        embree = not dense and embree_used(backend, n_planar > 0)
         self.planar = []
         if len(para[0]):
             data, ids, local = para
@@ -225,7 +243,8 @@ class SceneGeometry:
         self.custom = custom
         #: the BVH over every primitive (:mod:`vrlab.render.accel.scene_bvh`) of scenes whose all-pairs
         #: cost exceeds ``DENSE_COST``; None: the all-pairs kernels
-        self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks, backend)
+        self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks, backend,
+                                                   self.kernels)
         #: a length scale of the scene (for ray offsets): the largest coordinate of a shape's
         #: centre, a parallelogram's corner or a triangle's vertex, plus the largest radius
         extent = max(float(np.max(np.abs(np.vstack(centers)))), _para_extent(para_parts), _pool_extent(pool))

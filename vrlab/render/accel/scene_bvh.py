@@ -15,16 +15,30 @@ disk's plane hit inside the unit circle: each group's ``boxes``/``exact``/``norm
 :mod:`.groups`).  ``closest`` then finishes each ray's hit with its
 kind's shape index, normal and primitive index; ``occluded`` answers shadow queries (any hit
 before ``t_max``) without finishing anything.
+
+``kernels="numba"``: the same walks compiled (:mod:`.traverse_kernel`, over the arrays of
+:mod:`.flat`, built here), one serial loop per ray; they return each ray's t and global
+primitive, and the hit data is finished by the same vectorised code.  Only the choice (a
+string) and the arrays are stored: the compiled functions are looked up on use
+(:func:`vrlab.kernels.load_kernel`, loaded once per process; load them before forking workers),
+so an ``Accel`` pickles to worker processes.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ...kernels import load_kernel, resolve_kernels
 from .bvh import BVH
 from .disks import Disks
+from .flat import flatten
 from .groups import Quadrics
 
-__all__ = ["Accel", "BACKENDS", "embree_used"]
+__all__ = ["Accel", "BACKENDS", "KERNEL_MODULE", "embree_used"]
+
+#: the compiled traversal (``kernels="numba"``)
+KERNEL_MODULE = "vrlab.render.accel.traverse_kernel"
+#: leaf size of the BVH the compiled walk traverses (built by the SAH at every node)
+KERNEL_LEAF_SIZE = 2
 
 
 BACKENDS = ("auto", "numpy", "embree")
@@ -48,10 +62,15 @@ class Accel:
     ``quadrics`` (a :class:`Quadrics` or None) and ``disks`` (``(shape, center, M^-1,
     normal)`` tuples); see the module docstring.  ``backend``: ``"numpy"`` (every kind in the
     NumPy BVH), ``"embree"`` (planar primitives through Embree, :mod:`vrlab.render.accel.embree`;
-    the others in the NumPy BVH) or ``"auto"`` (Embree where ``embreex`` imports)."""
+    the others in the NumPy BVH) or ``"auto"`` (Embree where ``embreex`` imports).
+    ``kernels``: the walk of the BVH, ``"numpy"`` (default), ``"numba"`` or ``"auto"`` (see
+    :mod:`vrlab.kernels`; attribute ``kernels`` is the resolved choice)."""
 
-    def __init__(self, planar: list, quadrics: Quadrics | None, disks: Disks | None, backend: str = "auto"):
+    def __init__(self, planar: list, quadrics: Quadrics | None, disks: Disks | None, backend: str = "auto",
+                 kernels: str = "numpy"):
         from .embree import EmbreeTriangles
+
+        self.kernels = resolve_kernels(kernels)
 
         use_embree = embree_used(backend, bool(planar))
         #: the planar groups traced by Embree (None: in the NumPy BVH)
@@ -66,7 +85,13 @@ class Accel:
         self.bvh = None
         if self.kinds:
             lo, hi = zip(*(k.boxes() for k in self.kinds))
-            self.bvh = BVH.from_boxes(np.concatenate(lo), np.concatenate(hi))
+            self.bvh = BVH.from_boxes(np.concatenate(lo), np.concatenate(hi)) if self.kernels == "numpy" else \
+                BVH.from_boxes(np.concatenate(lo), np.concatenate(hi), KERNEL_LEAF_SIZE, sah_min=0)
+        #: the compiled walk's arrays (:class:`~vrlab.render.accel.flat.FlatBVH`), None for NumPy
+        self.flat = None
+        if self.kernels == "numba" and self.bvh is not None and self.first[-1] > 0:
+            codes, rows = zip(*(k.kernel_rows() for k in self.kinds))
+            self.flat = flatten(self.bvh, np.concatenate(codes), np.concatenate(rows))
 
     def __len__(self) -> int:
         return int(self.first[-1]) + (0 if self.embree is None else sum(len(g) for g in self.embree.planar))
@@ -100,7 +125,10 @@ class Accel:
         if self.bvh is None:
             return
         o, d = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
-        i, j, tt = self.bvh.closest(o, d, t_min, t, self._test(o, d, t_min))
+        if self.flat is not None:
+            i, j, tt = self._closest_compiled(o, d, t_min, t)
+        else:
+            i, j, tt = self.bvh.closest(o, d, t_min, t, self._test(o, d, t_min))
         if self.embree is not None and len(i):            # strictly closer than a planar hit
             keep = tt < t[i]
             i, j, tt = i[keep], j[keep], tt[keep]
@@ -122,6 +150,25 @@ class Accel:
             rest = np.flatnonzero(~hit)
             if len(rest):
                 o64, d64 = o[rest].astype(np.float64), d[rest].astype(np.float64)
-                hit[rest] = self.bvh.occluded(o64, d64, t_min, np.broadcast_to(t_max, (len(o),))[rest],
-                                              self._test(o64, d64, t_min))
+                tm = np.broadcast_to(t_max, (len(o),))[rest]
+                if self.flat is not None:
+                    out = np.zeros(len(rest), bool)
+                    self._compiled("occluded")(*self.flat, o64, d64, float(t_min), tm.astype(np.float64), out)
+                    hit[rest] = out
+                else:
+                    hit[rest] = self.bvh.occluded(o64, d64, t_min, tm, self._test(o64, d64, t_min))
         return hit
+
+    @staticmethod
+    def _compiled(name: str):
+        """The compiled walk ``name`` (loaded once per process)."""
+        return load_kernel(KERNEL_MODULE, name)
+
+    def _closest_compiled(self, o, d, t_min, t):
+        """``(i, j, t)`` of the rays whose closest hit in the BVH beats ``t`` (not modified), as
+        :meth:`BVH.closest <vrlab.render.accel.bvh.BVH.closest>` returns them."""
+        tb = np.array(t, np.float64)
+        j = np.empty(len(o), np.int64)
+        self._compiled("closest")(*self.flat, np.ascontiguousarray(o), np.ascontiguousarray(d), float(t_min), tb, j)
+        i = np.flatnonzero(j >= 0)
+        return i, j[i], tb[i]
