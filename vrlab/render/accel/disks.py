@@ -66,5 +66,7 @@ class Disks:
         return np.zeros(len(j), np.int64)
 
     def kernel_rows(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(kind codes, rows (P, 12))`` of the compiled traversal (:mod:`.flat`): ``c, M^-1``."""
-        return np.full(len(self), DISK, np.int64), np.concatenate([self.c, self.minv.reshape(-1, 9)], axis=1)
+        """``(kind codes, rows (P, 16))`` of the compiled traversal (:mod:`.flat`): ``c, M^-1``, the
+        normal."""
+        rows = np.concatenate([self.c, self.minv.reshape(-1, 9), self.n, np.zeros((len(self), 1))], axis=1)
+        return np.full(len(self), DISK, np.int64), rows

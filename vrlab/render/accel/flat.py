@@ -3,16 +3,18 @@
 The compiled closest-hit and any-hit walks read one :class:`FlatBVH`: the
 :class:`~vrlab.render.accel.bvh.BVH`'s nodes with each inner node holding the boxes of its
 two children (one row fetch gives both slab tests), and every primitive of every kind as
-one row of 12 float64 numbers in leaf order (a leaf's primitives are contiguous), with a
+one row of 16 float64 numbers in leaf order (a leaf's primitives are contiguous), with a
 kind code and its global index (the index :class:`~vrlab.render.accel.scene_bvh.Accel`
 numbers primitives by: kind after kind).  Rows per kind (the data the NumPy pair tests use,
 so that both paths compute the same numbers):
 
 * ``PARA``, ``TRI`` (parallelograms, triangles): ``v0, n, a1, a2``, the plane point, unit
-  normal and dual basis of :class:`~vrlab.render.accel.groups.Planar` (its ``packed``);
-* ``SPHERE``: ``c, 1 / r`` (a group of spheres only: the NumPy test scales by 1 / r);
-* ``QUADRIC``: ``c, M^-1`` (row-major): the unit-sphere frame of an ellipsoid;
-* ``DISK``: ``c, M^-1``: the disk frame (the unit disk in z = 0).
+  normal and dual basis of :class:`~vrlab.render.accel.groups.Planar` (its ``packed``), then
+  its normal (the group's ``normal`` table) in columns 12-14;
+* ``SPHERE``: ``c, 1 / r`` (a group of spheres only: the NumPy test scales by 1 / r), the
+  normals' sign in column 15;
+* ``QUADRIC``: ``c, M^-1`` (row-major): the unit-sphere frame of an ellipsoid; sign in 15;
+* ``DISK``: ``c, M^-1``: the disk frame (the unit disk in z = 0); the normal in 12-14.
 
 Nothing here imports Numba: the arrays are built where the geometry is built and pickle with
 it; the kernel module is loaded where rays are traced (:mod:`vrlab.kernels`).
@@ -33,7 +35,7 @@ class FlatBVH(NamedTuple):
     per node ``kids (M, 12)`` the boxes ``lo, hi`` of its left and right child (inner nodes),
     ``child (M, 2)`` the left and right child (inner) or ``(first row, -)`` (leaf) and
     ``count (M,)`` the leaf's primitive count (0: inner); per primitive row in leaf order
-    ``kind (P,)``, ``prim (P, 12)`` and ``gid (P,)`` the global index; ``depth``, the tree's
+    ``kind (P,)``, ``prim (P, 16)`` and ``gid (P,)`` the global index; ``depth``, the tree's
     levels (stack size)."""
 
     root: np.ndarray
@@ -48,7 +50,7 @@ class FlatBVH(NamedTuple):
 
 def flatten(bvh, kind: np.ndarray, prim: np.ndarray) -> FlatBVH:
     """The :class:`FlatBVH` of ``bvh`` over primitives with codes ``kind (P,)`` and rows
-    ``prim (P, 12)`` in global order."""
+    ``prim (P, 16)`` in global order."""
     lo, hi = bvh.lo, bvh.hi
     inner = bvh.count == 0
     left, right = np.where(inner, bvh.left, 0), np.where(inner, bvh.right, 0)

@@ -324,7 +324,7 @@ class SceneGeometry:
         ``finish=False`` (float32 rays) the dense groups only set t and, with ``shapes``,
         the shape."""
         if self.accel is not None:
-            self.accel.closest(o, d, t_min, t, shape, normal, prim)
+            self.accel.closest(o, d, t_min, t, shape, normal if finish else None, prim)
             if self.custom:
                 self._custom(o.astype(np.float64, copy=False), d.astype(np.float64, copy=False), t_min, t, shape,
                              normal, prim)

@@ -142,8 +142,11 @@ class Planar:
         return self.local[j]
 
     def kernel_rows(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(kind codes, rows (P, 12))`` of the compiled traversal (:mod:`.flat`): ``v0, n, a1, a2``."""
-        return np.full(len(self), PARA if self.para else TRI, np.int64), self.packed
+        """``(kind codes, rows (P, 16))`` of the compiled traversal (:mod:`.flat`): ``v0, n, a1, a2``,
+        the normal."""
+        rows = np.zeros((len(self), 16))
+        rows[:, :12], rows[:, 12:15] = self.packed, self.normal
+        return np.full(len(self), PARA if self.para else TRI, np.int64), rows
 
     def exact(self, o, d, t_min, i, j):
         """Exact t (inf on a miss) of the pairs ``(ray i, primitive j)``."""
@@ -230,14 +233,15 @@ class Quadrics:
         return np.zeros(len(j), np.int64)
 
     def kernel_rows(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(kind codes, rows (P, 12))`` of the compiled traversal (:mod:`.flat`): ``c, 1 / r``
-        for a group of spheres (the test ``exact`` takes), else ``c, M^-1``."""
-        rows = np.zeros((len(self), 12))
+        """``(kind codes, rows (P, 16))`` of the compiled traversal (:mod:`.flat`): ``c, 1 / r``
+        for a group of spheres (the test ``exact`` takes), else ``c, M^-1``; the normals' sign."""
+        rows = np.zeros((len(self), 16))
+        rows[:, 15] = self.sign
         rows[:, :3] = self.c
         if self.radius is not None:
             rows[:, 3] = 1.0 / self.radius
             return np.full(len(self), SPHERE, np.int64), rows
-        rows[:, 3:] = self.minv.reshape(-1, 9)
+        rows[:, 3:12] = self.minv.reshape(-1, 9)
         return np.full(len(self), QUADRIC, np.int64), rows
 
     def _fold(self, o, d, t_min, i, j, tt, t, shape, normal, prim=None):

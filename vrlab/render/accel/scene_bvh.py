@@ -92,6 +92,9 @@ class Accel:
         if self.kernels == "numba" and self.bvh is not None and self.first[-1] > 0:
             codes, rows = zip(*(k.kernel_rows() for k in self.kinds))
             self.flat = flatten(self.bvh, np.concatenate(codes), np.concatenate(rows))
+            #: each global primitive's shape and index within its shape (the compiled walk's hits)
+            self._shape_of = np.concatenate([k.shape for k in self.kinds]).astype(np.int64)
+            self._prim_of = np.concatenate([k.prims(np.arange(len(k))) for k in self.kinds]).astype(np.int64)
 
     def __len__(self) -> int:
         return int(self.first[-1]) + (0 if self.embree is None else sum(len(g) for g in self.embree.planar))
@@ -119,16 +122,17 @@ class Accel:
 
     def closest(self, o, d, t_min, t, shape, normal, prim=None) -> None:
         """Update the closest hits ``t, shape, normal`` (and ``prim``) of rays in place (the NumPy
-        BVH needs float64 rays; Embree's planar hits come first and keep ties)."""
+        BVH needs float64 rays; Embree's planar hits come first and keep ties); ``normal=None``:
+        no normals (distance queries)."""
         if self.embree is not None:
             self.embree.closest(o, d, t_min, t, shape, normal, prim)
         if self.bvh is None:
             return
         o, d = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
         if self.flat is not None:
-            i, j, tt = self._closest_compiled(o, d, t_min, t)
-        else:
-            i, j, tt = self.bvh.closest(o, d, t_min, t, self._test(o, d, t_min))
+            self._closest_compiled(o, d, t_min, t, shape, normal, prim)
+            return
+        i, j, tt = self.bvh.closest(o, d, t_min, t, self._test(o, d, t_min))
         if self.embree is not None and len(i):            # strictly closer than a planar hit
             keep = tt < t[i]
             i, j, tt = i[keep], j[keep], tt[keep]
@@ -139,7 +143,8 @@ class Accel:
             kind = self.kinds[k]
             rows, th = (i, tt) if m is None else (i[m], tt[m])
             shape[rows] = kind.shape[jl]
-            normal[rows] = kind.normals(o, d, rows, jl, th)
+            if normal is not None:
+                normal[rows] = kind.normals(o, d, rows, jl, th)
             if prim is not None:
                 prim[rows] = kind.prims(jl)
 
@@ -164,11 +169,21 @@ class Accel:
         """The compiled walk ``name`` (loaded once per process)."""
         return load_kernel(KERNEL_MODULE, name)
 
-    def _closest_compiled(self, o, d, t_min, t):
-        """``(i, j, t)`` of the rays whose closest hit in the BVH beats ``t`` (not modified), as
-        :meth:`BVH.closest <vrlab.render.accel.bvh.BVH.closest>` returns them."""
+    def _closest_compiled(self, o, d, t_min, t, shape, normal, prim) -> None:
+        """``closest`` by the compiled walk: t and the normal from the kernel, the shape and the
+        primitive in its shape from the tables (where a hit beats ``t``: Embree's keeps ties)."""
         tb = np.array(t, np.float64)
         j = np.empty(len(o), np.int64)
-        self._compiled("closest")(*self.flat, np.ascontiguousarray(o), np.ascontiguousarray(d), float(t_min), tb, j)
+        nrm = np.empty((len(o) if normal is not None else 0, 3))
+        self._compiled("closest")(*self.flat, np.ascontiguousarray(o), np.ascontiguousarray(d), float(t_min), tb, j,
+                                  normal is not None, nrm)
         i = np.flatnonzero(j >= 0)
-        return i, j[i], tb[i]
+        if len(i) == len(o):
+            i = slice(None)
+        jj = j[i]
+        t[i] = tb[i]
+        shape[i] = np.take(self._shape_of, jj)
+        if normal is not None:
+            normal[i] = nrm[i]
+        if prim is not None:
+            prim[i] = np.take(self._prim_of, jj)

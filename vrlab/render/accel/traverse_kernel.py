@@ -22,10 +22,11 @@ float64 with the formulas of the NumPy pair tests, in the same order of operatio
 
 Every test requires ``t > t_min`` and a finite t.  Closest hits keep the NumPy rule for ties:
 among equal t the lowest global primitive wins, and a hit equal to the incoming ``t`` (a
-planar hit of Embree) does not replace it.  ``closest`` writes the improved t and the global
-primitive (-1: no improvement); :class:`~vrlab.render.accel.scene_bvh.Accel` finishes the hit
-data (shape, normal, primitive in its shape) with the kinds' vectorised code.  ``occluded``
-stops a ray at its first hit with ``t < t_max``.  NaN handling follows NumPy's: slab
+planar hit of Embree) does not replace it.  ``closest`` writes the improved t, the global
+primitive (-1: no improvement) and the hit's unit normal, with the formulas and the order of
+operations of the groups' ``normals``; :class:`~vrlab.render.accel.scene_bvh.Accel` takes the
+shape and the primitive within it from tables.  ``occluded`` stops a ray at its first hit
+with ``t < t_max``.  NaN handling follows NumPy's: slab
 distances use fmin/fmax (a NaN slab is ignored), a NaN root is a miss.
 """
 from __future__ import annotations
@@ -42,7 +43,8 @@ __all__ = ["closest", "occluded", "SIGNATURES", "COMPILE_SECONDS"]
 _TREE = "float64[:, ::1], float64[:, ::1], int64[:, ::1], int64[::1], int64[::1], float64[:, ::1], int64[::1], int64"
 #: the signatures vrlab.kernels.load_kernels compiles
 SIGNATURES = {
-    "closest": [f"void({_TREE}, float64[:, ::1], float64[:, ::1], float64, float64[::1], int64[::1])"],
+    "closest": [f"void({_TREE}, float64[:, ::1], float64[:, ::1], float64, float64[::1], int64[::1], boolean, "
+                "float64[:, ::1])"],
     "occluded": [f"void({_TREE}, float64[:, ::1], float64[:, ::1], float64, float64[::1], boolean[::1])"],
 }
 #: cold compile time (seconds, measured on the development machine), for the notice
@@ -157,16 +159,47 @@ def _hit(kind, q, r, o, d, i, t_min):
 
 
 @njit(cache=True, error_model="numpy")
-def _walk(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, tb, j_out, any_hit):
+def _unit(x, y, z, sign, out, i):
+    """``out[i] = sign * (v * (1 / |v|))`` (``vrlab._vec``'s unit and scale, in their order)."""
+    n = x * x
+    n += y * y
+    n += z * z
+    n = math.sqrt(n)
+    inv = 1.0 / (n if n > 0 else 1.0)
+    out[i, 0], out[i, 1], out[i, 2] = x * inv * sign, y * inv * sign, z * inv * sign
+
+
+@njit(cache=True, error_model="numpy")
+def _normal(kind, q, r, o, d, i, t, out):
+    """The unit normal of the hit of ray i at t on the primitive of row r, as the groups'
+    ``normals``: the stored normal (planar, disks), sign (o + t d - c) / |..| (spheres),
+    sign M^-T x / |..| with x = M^-1 (o - c) + t M^-1 d (ellipsoids)."""
+    k = kind[r]
+    if k == SPHERE:
+        _unit((o[i, 0] - q[r, 0]) + d[i, 0] * t, (o[i, 1] - q[r, 1]) + d[i, 1] * t,
+              (o[i, 2] - q[r, 2]) + d[i, 2] * t, q[r, 15], out, i)
+    elif k == QUADRIC:
+        ox, oy, oz, dx, dy, dz = _frame(q, r, o, d, i)
+        x, y, z = ox + t * dx, oy + t * dy, oz + t * dz
+        _unit(x * q[r, 3] + y * q[r, 6] + z * q[r, 9], x * q[r, 4] + y * q[r, 7] + z * q[r, 10],
+              x * q[r, 5] + y * q[r, 8] + z * q[r, 11], q[r, 15], out, i)
+    else:
+        out[i, 0], out[i, 1], out[i, 2] = q[r, 12], q[r, 13], q[r, 14]
+
+
+@njit(cache=True, error_model="numpy")
+def _walk(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, tb, j_out, any_hit, want_normal,
+          normal):
     """Each ray's depth-first walk (module docstring).  Closest: ``tb[i]`` lowered to the closest
-    t, ``j_out[i]`` its global primitive (-1: none below the incoming tb).  Any hit: ``tb[i]`` set
-    to -inf at the first hit below it."""
+    t, ``j_out[i]`` its global primitive (-1: none below the incoming tb) and, with
+    ``want_normal``, ``normal[i]`` its unit normal.  Any hit: ``tb[i]`` set to -inf at the first
+    hit below it."""
     stack = np.empty(depth + 2, np.int64)
     stack_t = np.empty(depth + 2)
     for i in range(o.shape[0]):
         ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
         ix, iy, iz = 1.0 / d[i, 0], 1.0 / d[i, 1], 1.0 / d[i, 2]     # +-inf for +-0 (error_model)
-        best, tbi = -1, tb[i]
+        best, best_r, tbi = -1, -1, tb[i]
         near = _slab(root, 0, 0, ox, oy, oz, ix, iy, iz, t_min, tbi)
         sp = 0
         if near < np.inf:
@@ -188,9 +221,9 @@ def _walk(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, tb, j_o
                         if any_hit:
                             tbi = -np.inf
                             break
-                        tbi, best = t, gid[r]
+                        tbi, best, best_r = t, gid[r], r
                     elif (t == tbi) & (best >= 0) & (gid[r] < best):
-                        best = gid[r]              # a tie: the lowest primitive
+                        best, best_r = gid[r], r   # a tie: the lowest primitive
                 if any_hit and tbi == -np.inf:
                     break
                 node = -1
@@ -206,13 +239,16 @@ def _walk(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, tb, j_o
                 sp += 1
             node = near_c if near_t < np.inf else -1          # the nearer child next (not stacked)
         tb[i], j_out[i] = tbi, best
+        if want_normal and best >= 0:
+            _normal(kind, prim, best_r, o, d, i, tbi, normal)
 
 
 @njit(cache=True, error_model="numpy")
-def closest(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, t, j_out):
+def closest(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, t, j_out, want_normal, normal):
     """Closest hits with ``t_min < t < t[i]`` (in place: ``t`` lowered, ``j_out`` the global
-    primitive or -1 where no hit beats the incoming t)."""
-    _walk(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, t, j_out, False)
+    primitive or -1 where no hit beats the incoming t, with ``want_normal`` ``normal`` the
+    hit's unit normal there)."""
+    _walk(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, t, j_out, False, want_normal, normal)
 
 
 @njit(cache=True, error_model="numpy")
@@ -220,6 +256,6 @@ def occluded(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, t_ma
     """``hit[i]``: whether ray i hits a primitive with ``t_min < t < t_max[i]`` (any hit)."""
     tb = t_max.copy()
     j = np.empty(o.shape[0], np.int64)
-    _walk(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, tb, j, True)
+    _walk(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, tb, j, True, False, np.empty((0, 3)))
     for i in range(o.shape[0]):
         hit[i] = tb[i] == -np.inf
