@@ -97,7 +97,7 @@ def adversarial_rays(g: dict, n: int, seed: int) -> tuple[np.ndarray, np.ndarray
     """Random rays, rays aimed at surface points (edges, corners), rays leaving surfaces,
     tangent rays of quadrics, origins inside quadrics, rays in the planes z = 0 and x = 1
     (axis-aligned squares there), axis-parallel rays (zero direction components) from
-    points on box planes."""
+    points on box planes, and a few rays with a NaN component (misses)."""
     rng = np.random.default_rng(seed)
     q = n // 8
     o = [rng.uniform(-4, 4, (2 * q, 3))]
@@ -125,7 +125,9 @@ def adversarial_rays(g: dict, n: int, seed: int) -> tuple[np.ndarray, np.ndarray
     axis[np.arange(q), rng.integers(0, 3, q)] = rng.choice([-1.0, 1.0], q)
     o += [plane, np.round(rng.uniform(-3, 3, (q, 3)) * 2) / 2]
     d += [dir_, axis]
-    return np.ascontiguousarray(np.concatenate(o)), np.ascontiguousarray(np.concatenate(d))
+    o, d = np.concatenate(o), np.concatenate(d)
+    o[-2:, 1], d[-4:-2, 0] = np.nan, np.nan                    # NaN rays miss
+    return np.ascontiguousarray(o), np.ascontiguousarray(d)
 
 
 # -- the oracles -------------------------------------------------------------------------------

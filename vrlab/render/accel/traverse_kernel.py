@@ -5,9 +5,12 @@ per step; here each ray walks the tree in one serial loop (a loop over rays,
 ``@njit(cache=True)``, no prange: vrlab's parallelism is its worker processes), over the
 arrays of :class:`~vrlab.render.accel.flat.FlatBVH`.  The walk is the same: a stack of
 (node, entry distance), a popped node whose box starts at or beyond the closest hit so far
-is skipped, an inner node's two children are slab-tested (Kay & Kajiya 1986) and pushed
-farther first (a tie: the left child on top), a box counts where ``near <= far``,
-``far > t_min`` and ``near < t_best``.  At a leaf each primitive is tested exactly in
+is skipped, an inner node's two children are slab-tested (Kay & Kajiya 1986) and the nearer
+one is visited next, the farther one stacked (a tie: the left child first); a box counts
+where ``near <= far``, ``far > t_min`` and ``near < t_best``.  The slab distances take 1 /
+1e-300 for a zero direction component where NumPy has inf (its fmin/fmax then skip the NaN
+of a ray in a box's face plane): the boxes are padded beyond every primitive, so such
+differences only change which nodes are visited, never the hits.  At a leaf each primitive is tested exactly in
 float64 with the formulas of the NumPy pair tests, in the same order of operations:
 
 * planar (:class:`~vrlab.render.accel.groups.Planar`): ``t = -((o - v0).n) / (d.n)``,
@@ -26,8 +29,7 @@ planar hit of Embree) does not replace it.  ``closest`` writes the improved t, t
 primitive (-1: no improvement) and the hit's unit normal, with the formulas and the order of
 operations of the groups' ``normals``; :class:`~vrlab.render.accel.scene_bvh.Accel` takes the
 shape and the primitive within it from tables.  ``occluded`` stops a ray at its first hit
-with ``t < t_max``.  NaN handling follows NumPy's: slab
-distances use fmin/fmax (a NaN slab is ignored), a NaN root is a miss.
+with ``t < t_max``.  As in NumPy, a NaN root or plane distance is a miss.
 """
 from __future__ import annotations
 
@@ -53,13 +55,18 @@ COMPILE_SECONDS = 5.0
 
 @njit(cache=True, error_model="numpy")
 def _fmin(a, b):
-    """NumPy's fmin: the other value where one is NaN (selects, no branches)."""
-    return a if (a < b) | (b != b) else b
+    return a if a < b else b
 
 
 @njit(cache=True, error_model="numpy")
 def _fmax(a, b):
-    return a if (a > b) | (b != b) else b
+    return a if a > b else b
+
+
+@njit(cache=True, error_model="numpy")
+def _inv(x):
+    """1 / x, and 1e300 for x = 0 (no inf: no (box - o) * inf = NaN in the slab test)."""
+    return 1.0 / (x if x != 0.0 else 1e-300)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -198,7 +205,7 @@ def _walk(root, kids, child, count, kind, prim, gid, depth, o, d, t_min, tb, j_o
     stack_t = np.empty(depth + 2)
     for i in range(o.shape[0]):
         ox, oy, oz = o[i, 0], o[i, 1], o[i, 2]
-        ix, iy, iz = 1.0 / d[i, 0], 1.0 / d[i, 1], 1.0 / d[i, 2]     # +-inf for +-0 (error_model)
+        ix, iy, iz = _inv(d[i, 0]), _inv(d[i, 1]), _inv(d[i, 2])
         best, best_r, tbi = -1, -1, tb[i]
         near = _slab(root, 0, 0, ox, oy, oz, ix, iy, iz, t_min, tbi)
         sp = 0
