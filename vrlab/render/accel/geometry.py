@@ -87,8 +87,9 @@ __all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "EMBREE_FROM", "Hits", "SceneGeome
 DEFAULT_RAY_CHUNK = 1 << 15   # rays per block
 DENSE_COST = 256              # scenes up to this all-pairs cost (planar primitives + quadrics / 4) skip the BVH
 #: with the compiled walk (``kernels="numba"``) and ``backend="auto"``, Embree takes the planar
-#: primitives from this many on (below, the compiled walk is faster: benchmarks/bench_rays.py)
-EMBREE_FROM = 10_000
+#: primitives from this many on (below, the compiled walk is as fast or faster:
+#: benchmarks/bench_rays.py, 0.8-1.6x Embree's closest-hit rays/s at 10^3 triangles, 0.4x at 10^5)
+EMBREE_FROM = 1000
 
 
 class Hits(NamedTuple):
