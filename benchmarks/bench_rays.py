@@ -13,7 +13,8 @@ Rows:
 * **many_lights shadow rays, any hit**: from the camera rays' hits (offset 1e-4 along the
   normal) towards the centre of a random sphere light, up to its near side, through the whole
   scene (the target included);
-* **triangles, closest** and **any hit** (t_max: half the closest t, else 1): a tessellated
+* **triangles, closest** and **any hit** (t_max: the closest t times a uniform in [0, 2),
+  else 10: about half the rays occluded): a tessellated
   unit sphere of about ``--mesh`` triangles (``bench_accel.sphere_mesh``) without Embree (NumPy
   BVH against the compiled walk) and with it; rays from a sphere of radius 3 towards points
   near the centre (about 90 % hit); also at 10^3, 10^4, 10^5 triangles (where Embree starts
@@ -135,7 +136,7 @@ def triangles(P: int, n: int, rounds: int) -> tuple[list, dict]:
     d = rng.normal(size=(n, 3)) * 0.3 - o
     T, S, N = np.full(n, np.inf), np.full(n, -1), np.zeros((n, 3))
     accs["numba"].closest(o, d, 0.0, T, S, N)
-    t_max = np.where(np.isfinite(T), 0.5 * T, 1.0)
+    t_max = np.where(np.isfinite(T), T * rng.uniform(0.0, 2.0, n), 10.0)       # about half occluded
     label = f"{len(t):.3g} triangles"
     rows = [{"query": f"{label}, closest", **{k: closest_rate(a, o, d, rounds) for k, a in accs.items()}},
             {"query": f"{label}, any hit",
