@@ -1,4 +1,5 @@
-"""Compiled ray queries (vrlab.render.accel.traverse_kernel, issue 31) against their NumPy oracle.
+"""Compiled ray queries (vrlab.render.accel.traverse_kernel, issue 31) against their NumPy oracle:
+triangles, parallelograms, spheres, ellipsoids, disks and tubes (cylinders).
 
 The oracle: :class:`Accel` with the NumPy walk (``kernels="numpy"``), and every (ray, primitive)
 pair tested by the groups' own exact tests (all pairs: the closest t, the lowest primitive
@@ -30,8 +31,9 @@ from vrlab.render.accel import scene_bvh, traverse_kernel  # noqa: E402
 from vrlab.render.accel.disks import Disks  # noqa: E402
 from vrlab.render.accel.groups import Planar, Quadrics, unit  # noqa: E402
 from vrlab.render.accel.scene_bvh import Accel  # noqa: E402
+from vrlab.render.accel.tubes import Tubes  # noqa: E402
 
-KINDS = ("triangles", "parallelograms", "spheres", "ellipsoids", "disks")
+KINDS = ("triangles", "parallelograms", "spheres", "ellipsoids", "disks", "tubes")
 
 
 # -- scenes and rays ---------------------------------------------------------------------------
@@ -40,7 +42,7 @@ def groups(kinds, seed: int, n: int = 60) -> dict:
     index; a few primitives of each kind are exact copies (ties), and axis-aligned squares sit
     in the planes z = 0 and x = 1 (rays along them)."""
     rng = np.random.default_rng(seed)
-    planar, quad, disks, shape = [], [], [], 0
+    planar, quad, disks, tubes, shape = [], [], [], [], 0
     for para in (False, True):
         if ("parallelograms" if para else "triangles") not in kinds:
             continue
@@ -68,7 +70,16 @@ def groups(kinds, seed: int, n: int = 60) -> dict:
             nrm = unit(np.cross(m[k][:, 0], m[k][:, 1])[None])[0]
             disks.append((shape + k, c[k], np.linalg.inv(m[k]), nrm))
         shape += n
-    return {"planar": planar, "quadrics": Quadrics(quad) if quad else None, "disks": Disks(disks) if disks else None}
+    if "tubes" in kinds:                         # cylinders: a rotation times diag(r, r, h)
+        c = rng.uniform(-3, 3, (n, 3))
+        rot = np.linalg.qr(rng.normal(size=(n, 3, 3)))[0]
+        r = rng.uniform(0.1, 0.6, n)
+        m = rot * np.stack([r, r, rng.uniform(0.3, 2.0, n)], 1)[:, None, :]          # scaled columns
+        c[-4:], m[-4:] = c[:4], m[:4]
+        tubes += [(shape + k, c[k], np.linalg.inv(m[k]), 1.0 if k % 2 else -1.0) for k in range(n)]
+        shape += n
+    return {"planar": planar, "quadrics": Quadrics(quad) if quad else None, "disks": Disks(disks) if disks else None,
+            "tubes": Tubes(tubes) if tubes else None}
 
 
 def surface_points(g: dict, rng, m: int) -> np.ndarray:
@@ -81,6 +92,13 @@ def surface_points(g: dict, rng, m: int) -> np.ndarray:
         if not pl.para:
             u = np.minimum(u, 1 - s)
         pts.append(pl.v0[k] + s[:, None] * pl.e1[k] + u[:, None] * pl.e2[k])
+    if g["tubes"] is not None:                        # z = 0 and 1: the open ends' rims
+        tb = g["tubes"]
+        k = rng.integers(0, len(tb), m)
+        phi, z = rng.uniform(0, 2 * np.pi, m), rng.random(m)
+        z[::4], z[1::4] = 0.0, 1.0
+        x = np.stack([np.cos(phi), np.sin(phi), z], 1)
+        pts.append(tb.c[k] + np.einsum("kab,kb->ka", np.linalg.inv(tb.minv[k]), x))
     for grp in (g["quadrics"], g["disks"]):
         if grp is None:
             continue
@@ -117,6 +135,16 @@ def adversarial_rays(g: dict, n: int, seed: int) -> tuple[np.ndarray, np.ndarray
         o += [quad.c[k] + np.einsum("kab,kb->ka", mat, start),
               quad.c[k] + np.einsum("kab,kb->ka", mat, 0.5 * a)]     # inside
         d += [np.einsum("kab,kb->ka", mat, -b), rng.normal(size=(q, 3))]
+    tb = g["tubes"]
+    if tb is not None:                                # tangent to the tube; along its axis, inside
+        k = rng.integers(0, len(tb), q)
+        mat = np.linalg.inv(tb.minv[k])
+        phi = rng.uniform(0, 2 * np.pi, q)
+        a = np.stack([np.cos(phi), np.sin(phi), rng.random(q)], 1)
+        b = np.stack([-np.sin(phi), np.cos(phi), np.zeros(q)], 1)
+        axis_in = np.stack([0.5 * np.cos(phi), 0.5 * np.sin(phi), rng.uniform(-1, 2, q)], 1)
+        o += [tb.c[k] + np.einsum("kab,kb->ka", mat, a + 2.0 * b), tb.c[k] + np.einsum("kab,kb->ka", mat, axis_in)]
+        d += [np.einsum("kab,kb->ka", mat, -b), np.einsum("kab,kb->ka", mat, [[0.0, 0.0, 1.0]] * q)]
     plane = rng.uniform(-3, 3, (q, 3))
     plane[: q // 2, 2], plane[q // 2:, 0] = 0.0, 1.0
     dir_ = rng.normal(size=(q, 3))
@@ -134,7 +162,7 @@ def adversarial_rays(g: dict, n: int, seed: int) -> tuple[np.ndarray, np.ndarray
 def all_pairs(g: dict, o, d, t_min) -> tuple[np.ndarray, np.ndarray]:
     """``(t, shape)`` of the closest hit of each ray by testing every (ray, primitive) pair with the
     groups' exact tests: the lowest shape among equal t; -1 for a miss."""
-    kinds = [*g["planar"], *(x for x in (g["quadrics"], g["disks"]) if x is not None)]
+    kinds = [*g["planar"], *(x for x in (g["quadrics"], g["disks"], g["tubes"]) if x is not None)]
     cols = []
     n = len(o)
     for kind in kinds:
@@ -176,8 +204,8 @@ def check_parity(g: dict, o, d, t_min: float, max_ambiguous: float = 0.2) -> flo
     where unambiguous, t within 1e-6 relative, the NumPy walk's normal and prim; ambiguous rays
     take a perturbed oracle's answer; any hit agrees with closest t < t_max.  Returns the share
     of ambiguous rays."""
-    ref = Accel(g["planar"], g["quadrics"], g["disks"], backend="numpy")
-    got = Accel(g["planar"], g["quadrics"], g["disks"], backend="numpy", kernels="numba")
+    ref = Accel(g["planar"], g["quadrics"], g["disks"], backend="numpy", tubes=g["tubes"])
+    got = Accel(g["planar"], g["quadrics"], g["disks"], backend="numpy", kernels="numba", tubes=g["tubes"])
     assert got.flat is not None and ref.flat is None
     t0, s0, n0, p0 = closest(ref, o, d, t_min)
     t1, s1, n1, p1 = closest(got, o, d, t_min)
@@ -208,7 +236,8 @@ def check_parity(g: dict, o, d, t_min: float, max_ambiguous: float = 0.2) -> flo
 
 
 SCENES = [(KINDS, 1), (("triangles",), 2), (("parallelograms",), 3), (("spheres",), 4), (("ellipsoids",), 5),
-          (("disks",), 6), (("triangles", "spheres", "disks"), 7), (("parallelograms", "ellipsoids"), 8)]
+          (("disks",), 6), (("tubes",), 10), (("triangles", "spheres", "disks"), 7),
+          (("parallelograms", "ellipsoids", "tubes"), 8)]
 
 
 @pytest.mark.parametrize("kinds, seed", SCENES)
@@ -228,7 +257,7 @@ def test_ties_go_to_the_lowest_primitive_and_a_kernel_tie_keeps_the_incoming_hit
     target = tri.v0[k] + 0.3 * tri.e1[k] + 0.3 * tri.e2[k]
     o = np.ascontiguousarray(target + 0.01 * tri.n[k] + 1e-3 * np.arange(m)[:, None] / m)
     d = np.ascontiguousarray(target - o)
-    got = Accel(g["planar"], g["quadrics"], g["disks"], backend="numpy", kernels="numba")
+    got = Accel(g["planar"], g["quadrics"], g["disks"], backend="numpy", kernels="numba", tubes=g["tubes"])
     t, s, _, _ = closest(got, o, d, 0.0)
     ta, sa = all_pairs(g, o, d, 0.0)
     np.testing.assert_array_equal(s, sa)
@@ -282,6 +311,10 @@ KERNEL_MUTANTS = {
     "no disks": [("    if k == DISK:", "    if False:")],
     "no ellipsoids": [("    if k == QUADRIC:", "    if False:")],
     "no spheres": [("    if k == SPHERE:", "    if False:")],
+    "no tubes": [("    if k == TUBE:", "    if False:")],
+    "tubes without their ends": [("t > t_min and z >= 0.0 and z <= 1.0 else", "t > t_min else")],
+    "tube normal along the axis too": [("x, y = ox + t * dx, oy + t * dy\n        _unit(x * q[r, 3] + y * q[r, 6]",
+                                        "x, y = ox + t * dx, oy + t * dy\n        _unit(x * q[r, 3] + y * q[r, 6] + q[r, 9]")],
     "triangles tested as parallelograms": [("if k == PARA else s + u <= 1.0", "if k <= TRI else s + u <= 1.0")],
     "ellipsoid normal M^-1 x, not M^-T x": [("_unit(x * q[r, 3] + y * q[r, 6] + z * q[r, 9], x * q[r, 4] + y * q[r, 7]",
                                              "_unit(x * q[r, 3] + y * q[r, 4] + z * q[r, 5], x * q[r, 6] + y * q[r, 7]")],
@@ -292,7 +325,7 @@ KERNEL_MUTANTS = {
     "any hit ignores t_max": [("    tb = t_max.copy()", "    tb = np.full(o.shape[0], np.inf)")],
 }
 MUTANT_CASES = [(KINDS, 21, 0.0), (KINDS, 22, 0.4), (("parallelograms", "ellipsoids"), 23, 0.4),
-                (("spheres", "disks"), 24, 0.4)]
+                (("spheres", "disks", "tubes"), 24, 0.4)]
 
 
 def _all_cases():
@@ -324,6 +357,7 @@ FLAT_MUTANTS = {
     None: lambda f: f,
     "children swapped in the node arrays": _swap_children,
     "disks missing from the kind codes": lambda f: f._replace(kind=np.where(f.kind == flat_mod.DISK, -1, f.kind)),
+    "tubes missing from the kind codes": lambda f: f._replace(kind=np.where(f.kind == flat_mod.TUBE, -1, f.kind)),
     "spheres missing from the kind codes": lambda f: f._replace(kind=np.where(f.kind == flat_mod.SPHERE, -1, f.kind)),
     "leaf rows shifted": lambda f: f._replace(gid=np.roll(f.gid, 1)),
 }
@@ -334,7 +368,7 @@ def test_parity_fails_on_mutated_node_arrays(mutant, monkeypatch):
     """The compiled kernel on flattened arrays with one change (the layout the Python side builds)."""
     real = scene_bvh.flatten
     monkeypatch.setattr(scene_bvh, "flatten", lambda *a: FLAT_MUTANTS[mutant](real(*a)))
-    cases = [(groups(KINDS, 31), 31), (groups(("spheres", "disks"), 32), 32)]
+    cases = [(groups(KINDS, 31), 31), (groups(("spheres", "disks", "tubes"), 32), 32)]
     if mutant is None:
         for g, seed in cases:
             check_parity(g, *adversarial_rays(g, 800, seed), 0.0)

@@ -14,7 +14,8 @@ so that both paths compute the same numbers):
 * ``SPHERE``: ``c, 1 / r`` (a group of spheres only: the NumPy test scales by 1 / r), the
   normals' sign in column 15;
 * ``QUADRIC``: ``c, M^-1`` (row-major): the unit-sphere frame of an ellipsoid; sign in 15;
-* ``DISK``: ``c, M^-1``: the disk frame (the unit disk in z = 0); the normal in 12-14.
+* ``DISK``: ``c, M^-1``: the disk frame (the unit disk in z = 0); the normal in 12-14;
+* ``TUBE``: ``c, M^-1``: the frame of an open tube (a cylinder, :mod:`.tubes`); sign in 15.
 
 Nothing here imports Numba: the arrays are built where the geometry is built and pickle with
 it; the kernel module is loaded where rays are traced (:mod:`vrlab.kernels`).
@@ -25,9 +26,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["DISK", "FlatBVH", "PARA", "QUADRIC", "SPHERE", "TRI", "flatten"]
+__all__ = ["DISK", "FlatBVH", "PARA", "QUADRIC", "SPHERE", "TRI", "TUBE", "flatten"]
 
-PARA, TRI, SPHERE, QUADRIC, DISK = 0, 1, 2, 3, 4       # kind codes of the primitive rows
+PARA, TRI, SPHERE, QUADRIC, DISK, TUBE = 0, 1, 2, 3, 4, 5       # kind codes of the primitive rows
 
 
 class FlatBVH(NamedTuple):

@@ -12,7 +12,8 @@ primitive groups:
   intersection");
 * quadrics (``sphere``, ``ellipsoid``): the unit sphere under an affine map
   x = c + M s, intersected in the unit-sphere frame;
-* disks: the unit disk in z = 0 under an affine map.
+* disks: the unit disk in z = 0 under an affine map;
+* tubes (``cylinder``): the open unit tube under an affine map (:mod:`vrlab.render.accel.tubes`).
 
 ``intersect(origin, direction)`` (rays ``(N, 3)``, directions need not be unit; t is in
 units of their length) returns :class:`Hits` with the closest ``t > t_min`` per ray,
@@ -76,11 +77,12 @@ from ... import checks
 from ...kernels import resolve_kernels
 from ..._vec import scale
 from ..scene import Scene
-from ..shapes.base import CustomPart, DiskPart, IndexedTriangles, Parallelograms, Quadric, Triangles
+from ..shapes.base import CustomPart, DiskPart, IndexedTriangles, Parallelograms, Quadric, Triangles, TubePart
 from .disks import Disks
 from .groups import Planar, Quadrics
 from .pool import IndexedPlanar, TrianglePool, pool_triangles
 from .scene_bvh import BACKENDS, Accel, embree_used
+from .tubes import Tubes
 
 __all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "EMBREE_FROM", "Hits", "SceneGeometry"]
 
@@ -183,7 +185,7 @@ class SceneGeometry:
         #: whether ``intersect`` reports each hit's primitive (meshes' triangles: smooth normals, textures)
         self.track_prim = bool(track_prim)
         # collect the parts (references only: the arrays are pooled below, for every shape at once)
-        para_parts, tri_parts, quad, disk, custom, centers, boxes = [], [], [], [], [], [np.zeros(3)], {}
+        para_parts, tri_parts, quad, disk, tube, custom, centers, boxes = [], [], [], [], [], [], [np.zeros(3)], {}
         para_order, tri_order = [], []
         self.n_shapes = len(scene.shapes) if only is None else len(only)
         radii = []
@@ -210,6 +212,9 @@ class SceneGeometry:
                 elif isinstance(part, DiskPart):
                     disk.append((k, part.center, np.linalg.inv(part.matrix), part.normal))
                     radii.append(np.linalg.norm(part.matrix, 2))
+                elif isinstance(part, TubePart):
+                    tube.append((k, part.center, np.linalg.inv(part.matrix), part.sign))
+                    radii.append(s.bound_radius)
                 elif isinstance(part, CustomPart):
                     custom.append((k, part.intersect))
                     radii.append(s.bound_radius)
@@ -221,7 +226,7 @@ class SceneGeometry:
         self._n_tri = 2 * sum(len(d) for _, d in para_parts) + (int(pool.start[-1]) if pool else 0)
         # all pairs while their cost stays small (a quadric costs about a quarter of a planar
         # primitive through the culling products), else one BVH over every primitive
-        cost = len(para[0]) + (pool.n_group if pool else 0) + len(disk) + len(quad) / 4
+        cost = len(para[0]) + (pool.n_group if pool else 0) + len(disk) + len(tube) + len(quad) / 4
         dense = cost <= DENSE_COST and self.kernels == "numpy"
         n_planar = len(para[0]) + (pool.n_group if pool else 0)
         if self.kernels == "numba" and backend == "auto" and n_planar < EMBREE_FROM:
@@ -241,11 +246,12 @@ class SceneGeometry:
                 self.planar.append(IndexedPlanar(pool).planar(dense))
         self.quadrics = Quadrics(quad) if quad else None
         self.disks = Disks(disk) if disk else None
+        self.tubes = Tubes(tube) if tube else None
         self.custom = custom
         #: the BVH over every primitive (:mod:`vrlab.render.accel.scene_bvh`) of scenes whose all-pairs
         #: cost exceeds ``DENSE_COST``; None: the all-pairs kernels
-        self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks, backend,
-                                                   self.kernels)
+        self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks, backend, self.kernels,
+                                                   tubes=self.tubes)
         #: a length scale of the scene (for ray offsets): the largest coordinate of a shape's
         #: centre, a parallelogram's corner or a triangle's vertex, plus the largest radius
         extent = max(float(np.max(np.abs(np.vstack(centers)))), _para_extent(para_parts), _pool_extent(pool))
@@ -362,12 +368,14 @@ class SceneGeometry:
                 elif len(r):
                     g.finish(o, d, t_min, r, j_best[r], best[r], t, shape, normal, prim)
         cull = self.quadrics is not None and not self.quadrics.use_dense
-        if cull or self.disks is not None or self.custom:   # float64 decisions: float64 rays
+        if cull or self.disks is not None or self.tubes is not None or self.custom:   # float64 decisions
             o, d = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
         if cull:
             self.quadrics.closest(o, d, t_min, t, shape, normal, prim)
         if self.disks is not None:
             self.disks.closest(o, d, t_min, t, shape, normal, prim)
+        if self.tubes is not None:
+            self.tubes.closest(o, d, t_min, t, shape, normal, prim)
         self._custom(o, d, t_min, t, shape, normal, prim)
 
     def _custom(self, o, d, t_min, t, shape, normal, prim) -> None:

@@ -1,26 +1,27 @@
 """One acceleration structure over every primitive of a scene: a :class:`~vrlab.render.accel.bvh.BVH`
 whose leaves hold planar primitives (parallelograms, triangles), quadrics (spheres,
-ellipsoids) and disks alike.
+ellipsoids), disks and tubes (cylinders) alike.
 
 Each primitive has an index in one global list, kind after kind (the planar groups, then
-the quadrics, then the disks); the BVH is built over their boxes:
+the quadrics, the disks, the tubes); the BVH is built over their boxes:
 
 * planar ``v0 + s e1 + u e2``: the box of its corners;
 * quadric ``c + M s`` (|s| = 1) and disk ``c + M (s, 0)`` (|s| <= 1): the exact box of the
-  image of the unit sphere / disk, c_i +- sqrt(sum_j M_ij^2) (over j = 0, 1 for the disk).
+  image of the unit sphere / disk, c_i +- sqrt(sum_j M_ij^2) (over j = 0, 1 for the disk);
+* tube ``c + M (cos phi, sin phi, z)``: its exact box (:mod:`.tubes`).
 
 At a leaf the (ray, primitive) pairs are split by kind and tested exactly in float64 (the
 planar group's dual-basis test, the stable quadratic roots in the unit-sphere frame, the
-disk's plane hit inside the unit circle: each group's ``boxes``/``exact``/``normals``/``prims``,
-:mod:`.groups`).  ``closest`` then finishes each ray's hit with its
+disk's plane hit inside the unit circle, the tube's roots: each group's
+``boxes``/``exact``/``normals``/``prims``, :mod:`.groups`, :mod:`.disks`, :mod:`.tubes`).  ``closest`` then finishes each ray's hit with its
 kind's shape index, normal and primitive index; ``occluded`` answers shadow queries (any hit
 before ``t_max``) without finishing anything.
 
 ``kernels="numba"``: the same walks compiled (:mod:`.traverse_kernel`, over the arrays of
 :mod:`.flat`, built here), one serial loop per ray, with the hit's t and normal computed there
 (the formulas of the kinds' ``normals``) and its shape and primitive from tables; up to
-``KERNEL_SMALL`` primitives over a BVH with smaller leaves, split by the SAH at every node.  Only the choice (a
-string) and the arrays are stored: the compiled functions are looked up on use
+``KERNEL_SMALL`` primitives over a BVH with smaller leaves, split by the SAH at every node.
+Only the choice (a string) and the arrays are stored: the compiled functions are looked up on use
 (:func:`vrlab.kernels.load_kernel`, loaded once per process; load them before forking workers),
 so an ``Accel`` pickles to worker processes.
 """
@@ -62,15 +63,15 @@ def embree_used(backend: str, planar: bool) -> bool:
 class Accel:
     """A BVH over the primitives of ``planar`` (a list of :class:`Planar` groups, or with Embree
     also :class:`~vrlab.render.accel.pool.IndexedPlanar`),
-    ``quadrics`` (a :class:`Quadrics` or None) and ``disks`` (``(shape, center, M^-1,
-    normal)`` tuples); see the module docstring.  ``backend``: ``"numpy"`` (every kind in the
+    ``quadrics`` (a :class:`Quadrics` or None), ``disks`` (a :class:`Disks` or None) and
+    ``tubes`` (a :class:`~vrlab.render.accel.tubes.Tubes` or None); see the module docstring.  ``backend``: ``"numpy"`` (every kind in the
     NumPy BVH), ``"embree"`` (planar primitives through Embree, :mod:`vrlab.render.accel.embree`;
     the others in the NumPy BVH) or ``"auto"`` (Embree where ``embreex`` imports).
     ``kernels``: the walk of the BVH, ``"numpy"`` (default), ``"numba"`` or ``"auto"`` (see
     :mod:`vrlab.kernels`; attribute ``kernels`` is the resolved choice)."""
 
     def __init__(self, planar: list, quadrics: Quadrics | None, disks: Disks | None, backend: str = "auto",
-                 kernels: str = "numpy"):
+                 kernels: str = "numpy", tubes=None):
         from .embree import EmbreeTriangles
 
         self.kernels = resolve_kernels(kernels)
@@ -83,6 +84,8 @@ class Accel:
             self.kinds.append(quadrics)
         if disks is not None:
             self.kinds.append(disks)
+        if tubes is not None:
+            self.kinds.append(tubes)
         sizes = [len(k) for k in self.kinds]
         self.first = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
         self.bvh = None

@@ -21,7 +21,11 @@ float64 with the formulas of the NumPy pair tests, in the same order of operatio
   :func:`vrlab.distributions.quadrics.unit_sphere_hit` (q = -(b + sign(b) sqrt(b^2 - a c)),
   t = q / a and c / q), the smaller root above ``t_min``, else the larger;
 * disks (:class:`~vrlab.render.accel.disks.Disks`): the ray in the disk frame,
-  ``t = -o_z / d_z``, inside where ``x^2 + y^2 <= 1``.
+  ``t = -o_z / d_z``, inside where ``x^2 + y^2 <= 1``;
+* tubes (cylinders, :class:`~vrlab.render.accel.tubes.Tubes`): the ray in the tube frame,
+  the stable roots of ``(o_x + t d_x)^2 + (o_y + t d_y)^2 = 1`` of
+  :func:`vrlab.distributions.cylinder.tube_hits`, the first above ``t_min`` with
+  ``0 <= z <= 1``.
 
 Every test requires ``t > t_min`` and a finite t.  Closest hits keep the NumPy rule for ties:
 among equal t the lowest global primitive wins, and a hit equal to the incoming ``t`` (a
@@ -38,7 +42,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .flat import DISK, PARA, QUADRIC, SPHERE, TRI
+from .flat import DISK, PARA, QUADRIC, SPHERE, TRI, TUBE
 
 __all__ = ["closest", "occluded", "SIGNATURES", "COMPILE_SECONDS"]
 
@@ -108,6 +112,29 @@ def _sphere_roots(ox, oy, oz, dx, dy, dz, t_min):
 
 
 @njit(cache=True, error_model="numpy")
+def _tube_z(t, oz, dz, t_min):
+    """t if it is a valid root of the tube (finite, beyond t_min, 0 <= z <= 1), else inf."""
+    z = oz + (t if math.isfinite(t) else 0.0) * dz
+    return t if math.isfinite(t) and t > t_min and z >= 0.0 and z <= 1.0 else np.inf
+
+
+@njit(cache=True, error_model="numpy")
+def _tube_roots(ox, oy, oz, dx, dy, dz, t_min):
+    """The first root t > t_min of the unit tube with 0 <= z <= 1 (inf if none): ``tube_hits``."""
+    a = dx * dx + dy * dy
+    b = ox * dx + oy * dy
+    c = ox * ox + oy * oy - 1.0
+    disc = b * b - a * c
+    if not (disc >= 0.0 and a > 0.0):
+        return np.inf
+    sq = math.sqrt(disc)
+    q = -(b + (sq if b >= 0.0 else -sq))
+    t1 = q / a
+    t2 = c / q if q != 0.0 else t1
+    return min(_tube_z(t1, oz, dz, t_min), _tube_z(t2, oz, dz, t_min))
+
+
+@njit(cache=True, error_model="numpy")
 def _row(q, r, a, x, y, z):
     """Row a of M^-1 (row r of ``q``: c, M^-1 row-major) times (x, y, z)."""
     return q[r, 3 + 3 * a] * x + q[r, 4 + 3 * a] * y + q[r, 5 + 3 * a] * z
@@ -162,6 +189,9 @@ def _hit(kind, q, r, o, d, i, t_min):
         if math.isfinite(t) and t > t_min and x * x + y * y <= 1.0:
             return t
         return np.inf
+    if k == TUBE:
+        ox, oy, oz, dx, dy, dz = _frame(q, r, o, d, i)
+        return _tube_roots(ox, oy, oz, dx, dy, dz, t_min)
     return np.inf
 
 
@@ -180,7 +210,7 @@ def _unit(x, y, z, sign, out, i):
 def _normal(kind, q, r, o, d, i, t, out):
     """The unit normal of the hit of ray i at t on the primitive of row r, as the groups'
     ``normals``: the stored normal (planar, disks), sign (o + t d - c) / |..| (spheres),
-    sign M^-T x / |..| with x = M^-1 (o - c) + t M^-1 d (ellipsoids)."""
+    sign M^-T x / |..| with x = M^-1 (o - c) + t M^-1 d (ellipsoids; tubes: x_z = 0)."""
     k = kind[r]
     if k == SPHERE:
         _unit((o[i, 0] - q[r, 0]) + d[i, 0] * t, (o[i, 1] - q[r, 1]) + d[i, 1] * t,
@@ -190,6 +220,10 @@ def _normal(kind, q, r, o, d, i, t, out):
         x, y, z = ox + t * dx, oy + t * dy, oz + t * dz
         _unit(x * q[r, 3] + y * q[r, 6] + z * q[r, 9], x * q[r, 4] + y * q[r, 7] + z * q[r, 10],
               x * q[r, 5] + y * q[r, 8] + z * q[r, 11], q[r, 15], out, i)
+    elif k == TUBE:
+        ox, oy, oz, dx, dy, dz = _frame(q, r, o, d, i)
+        x, y = ox + t * dx, oy + t * dy
+        _unit(x * q[r, 3] + y * q[r, 6], x * q[r, 4] + y * q[r, 7], x * q[r, 5] + y * q[r, 8], q[r, 15], out, i)
     else:
         out[i, 0], out[i, 1], out[i, 2] = q[r, 12], q[r, 13], q[r, 14]
 
