@@ -53,30 +53,21 @@ def groups(kinds, seed: int, n: int = 60) -> dict:
         v0[-5:], e1[-5:], e2[-5:] = v0[4:9], e1[4:9], e2[4:9]                       # exact copies
         planar.append(Planar(v0, e1, e2, unit(np.cross(e1, e2)), np.arange(shape, shape + n), para, dense=False))
         shape += n
-    for kind in ("spheres", "ellipsoids"):
+    for kind in ("spheres", "ellipsoids", "disks", "tubes"):
         if kind not in kinds:
             continue
         c = rng.uniform(-3, 3, (n, 3))
-        m = np.eye(3) * rng.uniform(0.2, 0.9, (n, 1, 1)) if kind == "spheres" else \
-            rng.normal(size=(n, 3, 3)) * 0.4 + np.eye(3) * 0.3
+        if kind == "tubes":                           # cylinders: a rotation times diag(r, r, h)
+            r = rng.uniform(0.1, 0.6, n)
+            m = np.linalg.qr(rng.normal(size=(n, 3, 3)))[0] * np.stack([r, r, rng.uniform(0.3, 2, n)], 1)[:, None]
+        else:
+            m = np.eye(3) * rng.uniform(0.2, 0.9, (n, 1, 1)) if kind == "spheres" else \
+                rng.normal(size=(n, 3, 3)) * 0.5 + np.eye(3) * (kind == "ellipsoids") * 0.3
         c[-4:], m[-4:] = c[:4], m[:4]                                                 # exact copies
-        quad += [(shape + k, c[k], np.linalg.inv(m[k]), 1.0 if k % 3 else -1.0) for k in range(n)]
-        shape += n
-    if "disks" in kinds:
-        c = rng.uniform(-3, 3, (n, 3))
-        m = rng.normal(size=(n, 3, 3)) * 0.6
-        c[-4:], m[-4:] = c[:4], m[:4]
-        for k in range(n):
-            nrm = unit(np.cross(m[k][:, 0], m[k][:, 1])[None])[0]
-            disks.append((shape + k, c[k], np.linalg.inv(m[k]), nrm))
-        shape += n
-    if "tubes" in kinds:                         # cylinders: a rotation times diag(r, r, h)
-        c = rng.uniform(-3, 3, (n, 3))
-        rot = np.linalg.qr(rng.normal(size=(n, 3, 3)))[0]
-        r = rng.uniform(0.1, 0.6, n)
-        m = rot * np.stack([r, r, rng.uniform(0.3, 2.0, n)], 1)[:, None, :]          # scaled columns
-        c[-4:], m[-4:] = c[:4], m[:4]
-        tubes += [(shape + k, c[k], np.linalg.inv(m[k]), 1.0 if k % 2 else -1.0) for k in range(n)]
+        sign = np.where(np.arange(n) % 3, 1.0, -1.0)
+        nrm = unit(np.cross(m[:, :, 0], m[:, :, 1]))
+        new = [(shape + k, c[k], np.linalg.inv(m[k]), nrm[k] if kind == "disks" else sign[k]) for k in range(n)]
+        {"disks": disks, "tubes": tubes}.get(kind, quad).extend(new)
         shape += n
     return {"planar": planar, "quadrics": Quadrics(quad) if quad else None, "disks": Disks(disks) if disks else None,
             "tubes": Tubes(tubes) if tubes else None}
@@ -162,17 +153,12 @@ def adversarial_rays(g: dict, n: int, seed: int) -> tuple[np.ndarray, np.ndarray
 def all_pairs(g: dict, o, d, t_min) -> tuple[np.ndarray, np.ndarray]:
     """``(t, shape)`` of the closest hit of each ray by testing every (ray, primitive) pair with the
     groups' exact tests: the lowest shape among equal t; -1 for a miss."""
-    kinds = [*g["planar"], *(x for x in (g["quadrics"], g["disks"], g["tubes"]) if x is not None)]
-    cols = []
-    n = len(o)
-    for kind in kinds:
-        P = len(kind)
-        i, j = np.repeat(np.arange(n), P), np.tile(np.arange(P), n)
-        cols.append(kind.exact(o, d, t_min, i, j).reshape(n, P))
-    T = np.concatenate(cols, 1)
+    kinds, n = [*g["planar"], *(x for x in (g["quadrics"], g["disks"], g["tubes"]) if x is not None)], len(o)
+    T = np.concatenate([k.exact(o, d, t_min, np.repeat(np.arange(n), len(k)), np.tile(np.arange(len(k)), n))
+                        .reshape(n, len(k)) for k in kinds], 1)
     shapes = np.concatenate([k.shape for k in kinds])
     assert np.all(np.diff(shapes) > 0)
-    col = np.argmin(T, 1)
+    col = np.argmin(T, 1)                                     # the first (lowest shape) among equal t
     t = T[np.arange(n), col]
     return t, np.where(np.isfinite(t), shapes[col], -1)
 
@@ -340,8 +326,7 @@ def test_parity_fails_on_a_mutated_kernel(mutant, monkeypatch):
     ns = as_python(traverse_kernel, _INLINE, *KERNEL_MUTANTS.get(mutant, []))
     monkeypatch.setattr(Accel, "_compiled", staticmethod(lambda name: ns[name]))
     if mutant is None:                                       # the control: the kernel's own source passes
-        _all_cases()
-        return
+        return _all_cases()
     with pytest.raises(AssertionError):
         _all_cases()
 
@@ -363,19 +348,21 @@ FLAT_MUTANTS = {
 }
 
 
+def _flat_cases():
+    for kinds, seed in ((KINDS, 31), (("spheres", "disks", "tubes"), 32)):
+        g = groups(kinds, seed)
+        check_parity(g, *adversarial_rays(g, 800, seed), 0.0)
+
+
 @pytest.mark.parametrize("mutant", list(FLAT_MUTANTS))
 def test_parity_fails_on_mutated_node_arrays(mutant, monkeypatch):
     """The compiled kernel on flattened arrays with one change (the layout the Python side builds)."""
     real = scene_bvh.flatten
     monkeypatch.setattr(scene_bvh, "flatten", lambda *a: FLAT_MUTANTS[mutant](real(*a)))
-    cases = [(groups(KINDS, 31), 31), (groups(("spheres", "disks", "tubes"), 32), 32)]
     if mutant is None:
-        for g, seed in cases:
-            check_parity(g, *adversarial_rays(g, 800, seed), 0.0)
-        return
+        return _flat_cases()
     with pytest.raises(AssertionError):
-        for g, seed in cases:
-            check_parity(g, *adversarial_rays(g, 800, seed), 0.0)
+        _flat_cases()
 
 
 # -- renders -----------------------------------------------------------------------------------
@@ -385,12 +372,10 @@ def differing_pixels(a, b, rtol: float = 1e-3) -> int:
     return int(np.sum(rel.reshape(a.shape[0] * a.shape[1], -1).max(-1) > rtol))
 
 
-# pixels (of 3072) allowed to differ by more than 1e-3 at 64 x 48, 4 spp, seed 5.  Measured:
-# 0 in all three (also at 128 x 96, 16 spp); below 1e-3, cornell_box and veach_mis differ at
-# float32-rounding level in most pixels (max 1.4e-4 relative: the NumPy path keeps the float32
-# pass's t for float32 rays, the compiled one rounds its float64 t), many_lights is bit-identical.
-# With seed 3, veach_mis at 128 x 96, 16 spp has 1 pixel off by 6e-2 (a float32/float64 hit
-# decision at the silhouette of one of its small, bright sphere lights).
+# pixels (of 3072) allowed to differ by more than 1e-3 at 64 x 48, 4 spp, seed 5.  Measured: 0 in
+# all three (also at 128 x 96, 16 spp); below 1e-3 cornell_box and veach_mis differ at float32
+# rounding in most pixels (at most 1.4e-4: the NumPy path keeps its float32 pass's t for float32
+# rays), many_lights not at all.  Seed 3, veach_mis, 128 x 96, 16 spp: 1 pixel off by 6e-2.
 RENDER_SCENES = {"cornell_box": 3, "veach_mis": 3, "many_lights": 3}
 
 
@@ -400,8 +385,7 @@ def test_render_numba_equals_numpy_but_for_a_few_pixels(scene):
     and "numpy" (float32 all-pairs decisions, float32 t for float32 rays; spheres culled in
     float64): the images agree to 1e-3 relative at all pixels but a few, where a float32
     decision at a silhouette or an edge (or a shadow ray from a hit point that moved by a
-    float32 ulp) goes the other way.  The same mutant that drops the disks and spheres from
-    the kind codes changes many pixels."""
+    float32 ulp) goes the other way (a mutant kernel differs at many: next test)."""
     kw = dict(width=64, height=48, rng=5, workers=1)
     a = render(scene, 4, kernels="numpy", **kw)
     b = render(scene, 4, kernels="numba", **kw)
