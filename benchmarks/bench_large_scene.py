@@ -8,10 +8,10 @@ the child's tree, workers included) and the whole-process wall time (interpreter
 imports, loading, rendering, saving the image):
 
 * vrlab (``--workers 1`` and the default, the CPUs available): ``load_scene`` (load), then
-  the render's set-up up to its first sample (build: ``vrlab.render.plan`` and the job, i.e. the
-  scene's geometry, acceleration structures, lights, and with one worker Embree's own BVH,
-  which it builds on first use), then the samples (render: ``vrlab.render.film.execute``;
-  with several workers each builds its Embree BVH there), as ``vrlab render`` runs them;
+  the render's set-up up to its first sample (build: ``vrlab.render.plan``, the job, i.e. the
+  scene's geometry, acceleration structures, lights, and Embree's own BVH, built in this
+  process, which forked workers inherit), then the samples (render:
+  ``vrlab.render.film.execute``), as ``vrlab render`` runs them;
 * Mitsuba 3 ``scalar_rgb`` with 2 threads (``drjit.set_thread_count(2)``): ``mi.load_file``
   (load; Mitsuba builds its acceleration structure while loading) and ``mi.render`` at the
   same spp.
@@ -67,7 +67,9 @@ def _child_vrlab(scene: str, spp: int, workers: int | None, out: str) -> dict:
                                                            light_selection="uniform", emitter_samples=None,
                                                            bsdf_samples=None, ris_candidates=8),
                                     points=None, rng=0, workers=workers, chunk_pixels=None, width=None, height=None)
-    if workers == 1:         # Embree builds its BVH on first use: before the first sample, in this process
+    if hasattr(job, "build"):    # Embree's BVH, built here (forked workers inherit it), as execute does
+        job.build()
+    elif workers == 1:       # an older checkout: Embree builds its BVH on first use, in this process
         lit = job.integrand.lighting
         for geo in {id(g): g for g in (lit.geometry, lit.blocker_geometry, lit.emitter_geometry)}.values():
             if geo.accel is not None and geo.accel.embree is not None:

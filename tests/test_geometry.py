@@ -390,6 +390,31 @@ def test_near_ties_pick_the_lowest_primitive():
         geo.intersect(np.zeros((1, 3)), np.ones((1, 3)), t_min=-1.0)
 
 
+def test_cross_and_rows_by_key():
+    """``cross`` is the cross product (antisymmetric, orthogonal to both, |a x b| = |a||b| sin);
+    ``rows_by_key`` finds the rows of each present key, in order, as a comparison would."""
+    from vrlab._vec import cross, rows_by_key
+    rng = np.random.default_rng(11)
+    a, b = rng.normal(size=(200, 3)), rng.normal(size=(200, 3))
+    c = cross(a, b)
+    np.testing.assert_allclose(c, -cross(b, a), rtol=0, atol=0)
+    np.testing.assert_allclose(np.sum(c * a, -1), 0, atol=1e-12)
+    np.testing.assert_allclose(np.sum(c * b, -1), 0, atol=1e-12)
+    cos = np.sum(a * b, -1) / np.linalg.norm(a, axis=-1) / np.linalg.norm(b, axis=-1)
+    np.testing.assert_allclose(np.linalg.norm(c, axis=-1),
+                               np.linalg.norm(a, axis=-1) * np.linalg.norm(b, axis=-1) * np.sqrt(1 - cos ** 2),
+                               rtol=1e-9)
+    np.testing.assert_allclose(cross(a[0], b), cross(np.broadcast_to(a[0], b.shape), b), rtol=0, atol=0)
+    values = rng.integers(-1, 9, 500)
+    keys = [7, 3, 12, -1, 0]
+    got = rows_by_key(values, keys)
+    want = [(k, np.flatnonzero(values == k)) for k in keys if (values == k).any()]
+    assert [k for k, _ in got] == [k for k, _ in want]
+    for (_, r), (_, w) in zip(got, want):
+        np.testing.assert_array_equal(r, w)
+    assert rows_by_key(values[:0], keys) == [] and rows_by_key(values, []) == []
+
+
 def test_frames_and_vector_helpers():
     from vrlab._vec import dot, norm
     from vrlab.distributions import Frame, to_local, to_world

@@ -20,6 +20,20 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b over the last axis (length 3); broadcasts.  The operations of ``np.cross`` (each
+    component a_i b_j - a_j b_i, the same bits) without its axis bookkeeping, 2x faster on
+    the blocks of a render."""
+    out = np.empty(np.broadcast_shapes(np.shape(a), np.shape(b)), np.result_type(a, b))
+    np.multiply(a[..., 1], b[..., 2], out=out[..., 0])
+    out[..., 0] -= a[..., 2] * b[..., 1]
+    np.multiply(a[..., 2], b[..., 0], out=out[..., 1])
+    out[..., 1] -= a[..., 0] * b[..., 2]
+    np.multiply(a[..., 0], b[..., 1], out=out[..., 2])
+    out[..., 2] -= a[..., 1] * b[..., 0]
+    return out
+
+
 def norm(a: np.ndarray) -> np.ndarray:
     """|a| over the last axis (length 3)."""
     return np.sqrt(dot(a, a))
@@ -61,3 +75,18 @@ def matvec3(m: np.ndarray, x: np.ndarray) -> np.ndarray:
     out += x[..., 1:2] * m[:, 1]
     out += x[..., 2:3] * m[:, 2]
     return out
+
+
+def rows_by_key(values: np.ndarray, keys) -> list[tuple[int, np.ndarray]]:
+    """``[(key, rows), ...]``: for each of ``keys`` present in the integer array ``values``,
+    the rows where ``values == key`` (increasing, as ``np.flatnonzero``), from one stable sort
+    of ``values`` (not one full comparison per key: a scene of hundreds of shapes has a few of
+    them in each block of hits)."""
+    values = np.asarray(values)
+    keys = np.asarray(keys, dtype=values.dtype if values.dtype.kind in "iu" else np.int64)
+    if not len(values) or not len(keys):
+        return []
+    order = np.argsort(values, kind="stable")
+    sv = values[order]
+    lo, hi = np.searchsorted(sv, keys, "left"), np.searchsorted(sv, keys, "right")
+    return [(int(k), order[a:b]) for k, a, b in zip(keys.tolist(), lo.tolist(), hi.tolist()) if b > a]

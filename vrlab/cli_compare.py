@@ -11,11 +11,19 @@ stderr, before it starts, that it renders one: ``mis-power`` at ``--reference-sp
 (default 256), i.i.d. points, its own seed.  ``--equal-time`` sets each strategy's spp
 from the deterministic cost model of :mod:`vrlab.render.compare` (no pilot timing): the
 last strategy keeps ``--spp``.  The output gives, per strategy, the relMSE, the spp used
-and the measured seconds, and which reference was used.
+and the measured seconds, and which reference was used.  ``--equal-cost`` adds each render's
+counted cost (:mod:`vrlab.render.cost`) and ranks the strategies by relMSE x counted cost per
+pixel, next to relMSE x seconds (:func:`vrlab.render.compare.equal_cost_table`);
+``--cost-weights NAME=W,...`` sets the weights (counter names or the groups ``rays``,
+``evals``, ``samples``; default 1 per ray, 0.1 per BSDF / emitter sample or evaluation, 0.25
+per light-BVH walk).  ``--json`` always holds every strategy's counts (``counted_cost``).
 
 Usage errors (exit status 2), before any work: ``--compare`` an empty, repeated or
 unknown name; ``--strategy``, ``--stderr-out``, ``--checkpoint``, ``--scheduler`` with
-``--compare``; ``--equal-time`` or ``--reference-spp`` without it; ``--reference-spp``
+``--compare``; ``--equal-time``, ``--equal-cost``, ``--cost-weights`` or ``--reference-spp``
+without it; ``--cost-weights`` without ``--equal-cost``, or with an item that is not
+NAME=number, an unknown name, a repeated name, a negative or non-finite weight, or every
+weight 0; ``--reference-spp``
 (1 .. 2**24, vrlab.limits.MAX_SPP) with ``--reference``.
 """
 from __future__ import annotations
@@ -40,6 +48,16 @@ def add_arguments(rend: argparse.ArgumentParser) -> None:
                       help="with --compare: give each strategy the spp whose modelled cost (traced rays per "
                            "pixel sample, vrlab.render.compare; no clock, the same spp every run) equals the "
                            "last strategy's at --spp")
+    rend.add_argument("--equal-cost", action="store_true",
+                      help="with --compare: count each render's rays (camera, closest-hit, shadow), BSDF and emitter "
+                           "samples and evaluations and light-BVH walks (vrlab.render.cost), and rank the strategies "
+                           "by relMSE x counted cost per pixel (error at equal counted cost, the same on any machine), "
+                           "shown next to relMSE x seconds")
+    rend.add_argument("--cost-weights", metavar="NAME=W,...",
+                      help="with --equal-cost: the weight of each count, by name (camera_rays, closest_rays, "
+                           "shadow_rays, bsdf_samples, bsdf_evals, emitter_samples, emitter_evals, light_walks) or "
+                           "group (rays, evals, samples; a group first, then names), finite numbers >= 0; default "
+                           "1 per ray, 0.1 per sample or evaluation, 0.25 per light-BVH walk (e.g. rays=1,evals=0)")
     rend.add_argument("--reference-spp", metavar="N",
                       help=f"with --compare and no --reference: spp of the reference it renders ({REF_STRATEGY}, "
                            f"i.i.d. points, its own seed), 1 .. 2**24 (default: {REF_SPP})")
@@ -67,7 +85,8 @@ def run_compare(p: RenderSettings) -> int:
 
     res = compare(scene, p.compare, p.spp, rng=p.seed, reference=p.reference, ref_spp=p.reference_spp,
                   ref_strategy=REF_STRATEGY, equal_time=p.equal_time, workers=workers,
-                  progress=progress if show else None, kernels=p.kernels, **p.sampling())
+                  progress=progress if show else None, kernels=p.kernels, equal_cost=p.equal_cost,
+                  cost_weights=p.cost_weights, **p.sampling())
     spp = res["spp"] if isinstance(res["spp"], dict) else {s: res["spp"] for s in res["images"]}
     ref = res["reference_render"]
     reference = {"source": "file", "file": str(p.reference_path)} if ref is None else {"source": "rendered", **ref}
@@ -80,7 +99,9 @@ def run_compare(p: RenderSettings) -> int:
     out = {"scene": str(p.path), "width": scene.sensor.width, "height": scene.sensor.height,
            "equal_time": p.equal_time, "spp": spp,
            "rel_mse": res["rel_mse"], "seconds": res["seconds"], "cost_per_sample": res["cost"],
-           "reference": reference, "settings": settings}
+           "counted_cost": res["counted"], "reference": reference, "settings": settings}
+    if p.equal_cost:
+        out["equal_cost"] = res["equal_cost"]
     if p.output is not None:
         out["figure"] = str(compare_figure(res, p.output, exposure="auto" if p.exposure_auto else p.exposure))
     if p.json:
@@ -95,8 +116,20 @@ def run_compare(p: RenderSettings) -> int:
         last = list(spp)[-1]
         lines.append(f"equal time (modelled, no clock): spp x rays per sample as near as can be to {last}'s "
                      f"{spp[last]} x {res['cost'][last]:g} (vrlab.render.compare)")
-    lines += [f"{s:12s} relMSE {v:.4g}  {spp[s]} spp  {res['seconds'][s]:.2f} s  ({res['cost'][s]:g} rays/sample)"
-              for s, v in res["rel_mse"].items()]
+    if p.equal_cost:
+        table = res["equal_cost"]
+        w = ", ".join(f"{k} {v:g}" for k, v in table["weights"].items())
+        lines.append(f"equal counted cost: relMSE x cost per pixel (weights: {w}), next to relMSE x seconds; "
+                     "x: ratio to the best")
+        lines += [f"{s:12s} relMSE {res['rel_mse'][s]:.4g}  {spp[s]} spp  {res['seconds'][s]:.2f} s  "
+                  f"cost/sample {res['counted'][s]['weighted_per_sample']:.3g}  "
+                  f"relMSE x cost {table['rel_mse_x_cost'][s]:.4g} (x{table['cost_ratio'][s]:.2f})  "
+                  f"relMSE x time {table['rel_mse_x_time'][s]:.4g} (x{table['time_ratio'][s]:.2f})"
+                  for s in res["rel_mse"]]
+        lines.append(f"ranking at equal counted cost: {' < '.join(table['ranking'])}")
+    else:
+        lines += [f"{s:12s} relMSE {v:.4g}  {spp[s]} spp  {res['seconds'][s]:.2f} s  ({res['cost'][s]:g} rays/sample)"
+                  for s, v in res["rel_mse"].items()]
     if "figure" in out:
         lines.append(f"figure: {out['figure']}")
     print("\n".join(lines))

@@ -42,7 +42,8 @@ from .cli_render_settings import RenderSettings, progress_callback, settings_fro
 
 DEFAULTS = {"reconstruct": "l2", "alpha": "0.2"}
 #: flags of vrlab render that do not go with --gradient-domain (dest -> flag)
-NOT_WITH_GRADIENT = {"compare": "--compare", "equal_time": "--equal-time"}
+NOT_WITH_GRADIENT = {"compare": "--compare", "equal_time": "--equal-time", "equal_cost": "--equal-cost",
+                     "cost_weights": "--cost-weights"}
 #: flags that only mean something with --gradient-domain (dest -> flag)
 NEED_GRADIENT = {"reconstruct": "--reconstruct", "alpha": "--alpha", "independent": "--independent"}
 #: the files written next to -o OUT.EXT: key in the JSON -> file name suffix
@@ -135,7 +136,7 @@ def run_gradient(args: argparse.Namespace) -> int:
     h, w = scene.sensor.height, scene.sensor.width
     out = {"scene": str(p.path), "strategy": p.strategy, "spp": p.spp, "workers": workers,
            "width": w, "height": h, "common": p.common, "alpha": p.alpha, "reconstruct": p.norm,
-           "seconds": seconds, "reconstruct_seconds": timing}
+           "seconds": seconds, "reconstruct_seconds": timing, "cost": gd.primal.extra["cost"]}
     if p.reference is not None:
         out["rel_mse"] = {"primal": rel_mse(primal, p.reference),
                           **{norm: rel_mse(img, p.reference) for norm, img in recon.items()}}
@@ -163,7 +164,8 @@ def run_gradient(args: argparse.Namespace) -> int:
     if p.json:
         print(json.dumps(out, indent=2))
     else:
-        flat = {**{k: v for k, v in out.items() if k not in ("rel_mse", "reconstruct_seconds")},
+        flat = {**{k: v for k, v in out.items() if k not in ("rel_mse", "reconstruct_seconds", "cost")},
+                "cost_per_sample": out["cost"]["weighted_per_sample"],
                 **{f"reconstruct_seconds_{k}": v for k, v in timing.items()},
                 **{f"rel_mse_{k}": v for k, v in out.get("rel_mse", {}).items()}}
         print("  ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in flat.items()))

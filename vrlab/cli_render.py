@@ -261,7 +261,7 @@ def _run_one(args: argparse.Namespace, p: RenderSettings) -> int:
            "samples_per_second": scene.sensor.width * scene.sensor.height * (p.spp - resumed) / seconds,
            # spp = 1 has no standard error: null in JSON rather than NaN
            "mean_stderr": float(finite_err.mean()) if finite_err.size else None,
-           "kernels": est.extra["kernels"], "plan": repr(plan)}
+           "kernels": est.extra["kernels"], "plan": repr(plan), "cost": est.extra["cost"]}
     if p.checkpoint is not None:
         out["spp_resumed"] = resumed
         if resumed:
@@ -279,6 +279,8 @@ def _run_one(args: argparse.Namespace, p: RenderSettings) -> int:
         out["stderr_output"] = str(save_image(p.stderr_out, err))
     if p.reference is not None:
         out["rel_mse"] = rel_mse(img, p.reference)
-    _emit(args, out, "  ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in out.items()))
+    # the text line: the counted cost as its weighted figure per sample (--json: every count)
+    flat = {**{k: v for k, v in out.items() if k != "cost"}, "cost_per_sample": est.extra["cost"]["weighted_per_sample"]}
+    _emit(args, out, "  ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in flat.items()))
     return 0
 

@@ -49,7 +49,8 @@ NOT_WITH_COMPARE = {"strategy": ("--strategy", "--compare lists the strategies")
                     "checkpoint": ("--checkpoint", "the compared renders are not checkpointed"),
                     "scheduler": ("--scheduler", "the compared renders run in local processes, see --workers")}
 #: flags that only mean something with --compare (dest -> flag)
-NEED_COMPARE = {"equal_time": "--equal-time", "reference_spp": "--reference-spp"}
+NEED_COMPARE = {"equal_time": "--equal-time", "equal_cost": "--equal-cost", "cost_weights": "--cost-weights",
+                "reference_spp": "--reference-spp"}
 
 
 @dataclasses.dataclass
@@ -84,6 +85,8 @@ class RenderSettings:
     kernels: str = "auto"
     compare: list[str] | None = None
     equal_time: bool = False
+    equal_cost: bool = False
+    cost_weights: dict | None = None
     reference_spp: int | None = None
     # --gradient-domain
     alpha: float | None = None
@@ -188,7 +191,8 @@ def progress_callback(show: bool, label: str, first: Callable[[], None] | None =
 
 
 def _compare_flags(args: argparse.Namespace, strategies) -> dict:
-    """``{"compare": names or None, "equal_time", "reference_spp"}``; usage errors (see
+    """``{"compare": names or None, "equal_time", "equal_cost", "cost_weights", "reference_spp"}``;
+    usage errors (see
     :mod:`vrlab.cli_compare`) before the defaults of the single-render flags are filled in."""
     def given(key):
         return getattr(args, key, None) not in (None, False)
@@ -197,13 +201,24 @@ def _compare_flags(args: argparse.Namespace, strategies) -> dict:
         for key, flag in NEED_COMPARE.items():
             if given(key):
                 raise A.UsageError(f"{flag} needs --compare")
-        return {"compare": None, "equal_time": False, "reference_spp": None}
+        return {"compare": None, "equal_time": False, "equal_cost": False, "cost_weights": None,
+                "reference_spp": None}
     for key, (flag, why) in NOT_WITH_COMPARE.items():
         if given(key):
             raise A.UsageError(f"{flag} does not apply with --compare ({why})")
     if given("reference") and given("reference_spp"):
         raise A.UsageError("--reference-spp does not apply with --reference (the reference is the file given)")
+    weights = None
+    if given("cost_weights"):
+        if not args.equal_cost:
+            raise A.UsageError("--cost-weights needs --equal-cost (the weights rank the strategies at equal cost)")
+        from .render.cost import parse_cost_weights
+        try:
+            weights = parse_cost_weights(args.cost_weights, "--cost-weights")
+        except ValueError as exc:
+            raise A.UsageError(str(exc)) from None
     return {"compare": A.names(args.compare, "--compare", strategies), "equal_time": args.equal_time,
+            "equal_cost": args.equal_cost, "cost_weights": weights,
             "reference_spp": A.integer(args.reference_spp, "--reference-spp", low=1, high=SPP_MAX) or REF_SPP}
 
 

@@ -50,7 +50,7 @@ from typing import Any
 
 from . import checks, limits
 
-__all__ = ["RECEIVED", "Need", "Received", "check_executor", "check_picklable", "is_dask", "parallelism",
+__all__ = ["RECEIVED", "Need", "Received", "check_executor", "check_picklable", "forks_workers", "is_dask", "parallelism",
            "run_units", "worker_init"]
 
 #: seconds between two looks of a worker's watchdog at its parent process
@@ -221,6 +221,12 @@ def _start_method() -> str:
     import multiprocessing as mp
 
     return "fork" if "fork" in mp.get_all_start_methods() else "spawn"
+
+
+def forks_workers() -> bool:
+    """Whether vrlab's own pools fork their workers here (they inherit the parent's memory:
+    what the parent builds before the pool starts is not rebuilt in each worker)."""
+    return _start_method() == "fork"
 
 
 def _local_pool(workers: int, token: str | None = None, shared: Any = _NOTHING) -> ProcessPoolExecutor:

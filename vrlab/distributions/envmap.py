@@ -232,12 +232,17 @@ class EnvironmentMap(Distribution):
         j = np.fmin(np.fmax(np.floor(y), 0), ht - 2).astype(np.intp)
         fx, fy = x - i, y - j
         i1 = np.where(i + 1 == wd, 0, i + 1)
-        t = self.image
+        texels = self.image.reshape(-1, 3)                # a pixel's 3 channels: one gather
+        r0 = j * wd
+        r1 = r0 + wd
+        c00, c01 = np.take(texels, r0 + i, axis=0), np.take(texels, r0 + i1, axis=0)
+        c10, c11 = np.take(texels, r1 + i, axis=0), np.take(texels, r1 + i1, axis=0)
+        gx, gy = 1.0 - fx, 1.0 - fy
         out = np.empty(uv.shape[:-1] + (3,))
         for k in range(3):                                # per channel: no length-3 broadcasting
-            top = (1.0 - fx) * t[j, i, k] + fx * t[j, i1, k]
-            bottom = (1.0 - fx) * t[j + 1, i, k] + fx * t[j + 1, i1, k]
-            out[..., k] = self.scale * ((1.0 - fy) * top + fy * bottom)
+            top = gx * c00[..., k] + fx * c01[..., k]
+            bottom = gx * c10[..., k] + fx * c11[..., k]
+            out[..., k] = self.scale * (gy * top + fy * bottom)
         return out
 
     # -- sampling ----------------------------------------------------------------------------

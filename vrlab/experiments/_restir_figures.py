@@ -78,15 +78,17 @@ def images_figure(table: pd.DataFrame, images: dict, ref: np.ndarray, selections
 
 
 def efficiency_figure(table: pd.DataFrame, selections):
-    """relMSE at equal spp and relMSE x time (equal time) per method, grouped by light selection."""
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4))
+    """relMSE at equal spp, relMSE x time (equal time) and relMSE x counted cost (equal cost) per
+    method, grouped by light selection."""
+    fig, axes = plt.subplots(1, 3, figsize=(17, 4))
     kinds = ("light", "RIS", "ReSTIR")
     colours = {"light": "C7", "RIS": "C1", "ReSTIR": "C0"}
     w = 0.26
     x = np.arange(len(selections))
     t = table.set_index("method")
     for ax, col, ylabel in ((axes[0], "relmse", "relMSE (equal spp)"),
-                            (axes[1], "relmse_x_seconds", "relMSE × render time (s): equal-time, lower = better")):
+                            (axes[1], "relmse_x_seconds", "relMSE × render time (s): equal-time, lower = better"),
+                            (axes[2], "relmse_x_cost", "relMSE × counted cost per pixel: equal-cost, lower = better")):
         for i, kind in enumerate(kinds):
             vals = [t.loc[f"{kind}, {sel}", col] for sel in selections]
             ax.bar(x + (i - 1) * w, vals, w, color=colours[kind], label=kind)
@@ -99,4 +101,5 @@ def efficiency_figure(table: pd.DataFrame, selections):
     spp = int(table["spp"].iloc[0])
     axes[0].set_title(f"many_lights at {spp} spp", fontsize=10)
     axes[1].set_title("the same work normalised by time", fontsize=10)
+    axes[2].set_title("... and by counted rays and evaluations (vrlab.render.cost)", fontsize=10)
     return fig

@@ -30,7 +30,9 @@ Questions answered (tables ``restir_*.csv``, figures ``restir_*.png``):
   with ``light_selection`` uniform, power and bvh (pbrt-v4's light BVH): relMSE over the
   pixels that see no light against a ``mis-power`` / bvh reference with many more samples,
   the render time, and relMSE x time (the equal-time comparison: at equal time the relMSE
-  scales as 1 / time).
+  scales as 1 / time); next to it the counted cost (``Estimate.extra["cost"]``,
+  :mod:`vrlab.render.cost`: rays and evaluations, default weights) and relMSE x counted cost
+  per pixel (the equal-cost comparison, the same on any machine).
 
 Run ``python -m vrlab.experiments.restir [--full] [--out DIR]``.
 """
@@ -251,7 +253,8 @@ def many_lights(size=(48, 36), spp: int = 4, ref_spp: int = 256, m: int = 8, see
     (mean over the seeds) over the pixels that see no light, and over the others (next to or on
     a lamp), against a ``mis-power`` / bvh reference at ``ref_spp`` (its variance subtracted);
     seconds (the fastest render: least disturbed by load); relMSE x seconds; the image mean over
-    the light-free pixels against the reference's.  The renders of one light selection and seed
+    the light-free pixels against the reference's; the counted rays and weighted cost per sample
+    (mean over the seeds) and relMSE x counted cost per pixel.  The renders of one light selection and seed
     share their random numbers (``rng``), so the three ReSTIR weightings see the same candidates
     and neighbours: ``mean_vs_pairwise`` (their image mean over pairwise's, per seed, then
     averaged) isolates what the weights change."""
@@ -264,12 +267,15 @@ def many_lights(size=(48, 36), spp: int = 4, ref_spp: int = 256, m: int = 8, see
     ref_mean = float(ref[mask].mean())
     rows, images, means = [], {}, {}
     for label, est, sel in render_methods(m):
-        rel, near, secs, means[label] = [], [], [], []
+        rel, near, secs, costs, rays, means[label] = [], [], [], [], [], []
         for s in range(seeds):
             t0 = time.perf_counter()
             out = render(scene, spp, est, rng=[seed, 1 + SELECTIONS.index(sel), s], light_selection=sel,
                          ris_candidates=m)
             secs.append(time.perf_counter() - t0)
+            counted = out.extra["cost"]
+            costs.append(counted["weighted_per_sample"])
+            rays.append(sum(v for k, v in counted["per_sample"].items() if k.endswith("_rays")))
             img = out.value.astype(float)
             rel.append(rel_mse(img, ref, ref_err=ref_err, mask=mask))
             near.append(rel_mse(img, ref, ref_err=ref_err, mask=~mask))
@@ -281,13 +287,15 @@ def many_lights(size=(48, 36), spp: int = 4, ref_spp: int = 256, m: int = 8, see
         rows.append({"method": label, "kind": kind, "light_selection": sel, "spp": spp,
                      "shadow_rays": int(obj.traced_per_unit()) if hasattr(obj, "traced_per_unit") else 1,
                      "candidates": m if kind != "light" else 1, "relmse": float(np.mean(rel)),
-                     "seconds": float(np.min(secs)), "relmse_near_lights": float(np.mean(near)),
+                     "seconds": float(np.min(secs)), "rays_per_sample": float(np.mean(rays)),
+                     "cost_per_sample": float(np.mean(costs)), "relmse_near_lights": float(np.mean(near)),
                      "mean_ratio": float(np.mean(means[label])) / ref_mean})
     t = pd.DataFrame(rows)
     pair = np.array(means["ReSTIR, bvh"])
     t["mean_vs_pairwise"] = [float(np.mean(np.array(means[lab]) / pair)) if lab.startswith("ReSTIR") and
                              lab.endswith("bvh") else np.nan for lab in t["method"]]
     t["relmse_x_seconds"] = t["relmse"] * t["seconds"]
+    t["relmse_x_cost"] = t["relmse"] * t["spp"] * t["cost_per_sample"]        # counted cost per pixel
     t["pixels"] = int(mask.sum())
     t["lights"] = sum(s.emitter is not None for s in scene.shapes)
     t["width"], t["height"], t["seeds"], t["ref_spp"] = size[0], size[1], seeds, ref_spp

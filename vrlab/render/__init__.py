@@ -12,12 +12,6 @@ from .builtin import (builtin_scene_path, describe_builtin_scene, export_builtin
                       list_mitsuba_references, mitsuba_reference)
 from .loader import load_scene
 from .scene import Scene, SceneError
-from .film import render
-from .plan import RenderPlan, plan
-from .gradient import GradientDomainImage, render_gradient_domain
-from .pixels import PixelIntegrand
-from .presets import PRESETS, preset
-from .shading import ShadingIntegrand
 from .._alloc import keep_freed_memory
 from .._lazy import lazy_attributes
 
@@ -31,9 +25,12 @@ __all__ = ["BSDFModel", "Diffuse", "Element", "Emitter", "Phong", "RoughConducto
            "transforms"]
 
 # imported on first use: the reconstruction needs scipy.fft and scipy.sparse, which a
-# render does not, and a scene needs only its own elements (``vrlab render``'s start-up time
-# is benchmarked; so is every worker process's)
+# render does not, and a scene needs only its own elements, not the renderer's machinery
+# (``vrlab render``'s start-up time is benchmarked; so is every worker process's)
 __getattr__, __dir__ = lazy_attributes(__name__, {
+    "render": "film", "RenderPlan": "planning", "plan": "planning", "GradientDomainImage": "gradient",
+    "render_gradient_domain": "gradient", "PixelIntegrand": "pixels", "PRESETS": "presets",
+    "preset": "presets", "ShadingIntegrand": "shading",
     "screened_poisson": "poisson", "read_obj": "meshes", "Shape": "shapes", "AreaEmitter": "emitters",
     "Emitter": "emitters", "Integrator": "integrators", "Sensor": "sensors", "BSDFModel": "bsdfs",
     "Diffuse": "bsdfs", "Phong": "bsdfs", "RoughConductor": "bsdfs", "TwoSided": "bsdfs"}, __all__)

@@ -26,6 +26,18 @@ fitted once to single-process timings of every preset on the built-in scenes; wh
 model leaves out (scene-dependent ray and light-sampling costs) shows in the measured
 seconds, which ``compare`` reports next to the spp.
 
+Equal counted cost (``equal_cost=True``): the renders report what they did
+(``Estimate.extra["cost"]``, :mod:`vrlab.render.cost`: rays by kind, BSDF and emitter
+samples and evaluations, light-BVH walks), weighted by ``cost_weights`` (default
+:data:`~vrlab.render.cost.DEFAULT_WEIGHTS`: 1 per ray, 0.1 per sample or evaluation, 0.25
+per light-BVH walk) into a cost per pixel C_s = spp_s x (weighted cost per sample).  For an
+unbiased estimator relMSE falls as 1 / spp, so relMSE x C_s does not depend on spp: the
+strategy with the smallest relMSE x C_s has the smallest error at equal counted cost,
+whatever machine or kernels ran it.  It is reported next to relMSE x seconds (the same
+efficiency at equal measured time), with each strategy's ratio to the best and the ranking::
+
+    efficiency_s = relMSE_s x spp_s x sum_k w_k n_k,s / samples_s
+
 ``progress(name, done, total)``, if given, is called as each render advances (``name``:
 the strategy, or ``"reference"``).  Checked before any rendering: ``strategies`` a
 non-empty list of distinct strategy names (the presets, :data:`vrlab.render.PRESETS`),
@@ -44,13 +56,15 @@ import numpy as np
 
 from .. import checks
 from .film import MAX_SPP, _as_scene, render
-from .plan import default_workers, plan
+from .planning import default_workers, plan
 from .image import _image, auto_exposure, rel_mse, srgb_encode
+from .cost import Cost, cost_weights as _cost_weights
 from .pixels import PixelIntegrand
 from .presets import PRESETS
 from .scene import Scene
 
-__all__ = ["VEACH_STRATEGIES", "bias_status", "compare", "compare_figure", "panels_figure", "sample_cost"]
+__all__ = ["VEACH_STRATEGIES", "bias_status", "compare", "compare_figure", "equal_cost_table", "panels_figure",
+           "sample_cost"]
 
 VEACH_STRATEGIES = ("bsdf", "light", "mis-power")
 #: the cost model of ``equal_time`` (see the module docstring), in traced rays per pixel sample
@@ -93,14 +107,19 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
             equal_time: bool = False, points: Any = None, light_selection: str = "uniform",
             emitter_samples: int | None = None, bsdf_samples: int | None = None, ris_candidates: int = 8,
             workers: int | None = 1, spp_batch: int | None = None,
-            progress: Callable[[str, int, int], None] | None = None, kernels: str = "auto") -> dict:
+            progress: Callable[[str, int, int], None] | None = None, kernels: str = "auto",
+            equal_cost: bool = False, cost_weights: dict | None = None) -> dict:
     """Render ``scene`` with each strategy; ``{"images", "seconds", "rel_mse", "reference",
-    "spp", "cost", "reference_render", "settings"}``: ``spp`` an int (equal spp) or a dict
-    per strategy (equal time), ``cost`` the modelled cost per pixel sample of each strategy
-    (:func:`sample_cost`), ``reference_render`` None (``reference`` given) or the strategy,
-    spp, seed and seconds of the reference render, ``settings`` the sampling settings used.
-    ``scene`` may be a path or a built-in name (as for ``render``); ``workers=None``: the
-    CPUs available."""
+    "spp", "cost", "counted", "reference_render", "settings"}``: ``spp`` an int (equal spp) or
+    a dict per strategy (equal time), ``cost`` the modelled cost per pixel sample of each
+    strategy (:func:`sample_cost`), ``counted`` each render's counted cost
+    (``Estimate.extra["cost"]`` with ``cost_weights``), ``reference_render`` None
+    (``reference`` given) or the strategy, spp, seed and seconds of the reference render,
+    ``settings`` the sampling settings used.  With ``equal_cost``, also ``"equal_cost"``:
+    :func:`equal_cost_table` (the module docstring).  ``cost_weights``: weights by counter
+    name or group (:func:`vrlab.render.cost.cost_weights`; None: the defaults).  ``scene``
+    may be a path or a built-in name (as for ``render``); ``workers=None``: the CPUs
+    available."""
     scene = _as_scene(scene)
     strategies = _strategies(strategies)
     spp = checks.integer(spp, "spp", low=1, high=MAX_SPP)
@@ -108,6 +127,8 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
     ref_strategy = checks.choice(ref_strategy, "ref_strategy", PRESETS)
     rng = checks.integer(rng, "rng", low=0)
     equal_time = checks.flag(equal_time, "equal_time")
+    equal_cost = checks.flag(equal_cost, "equal_cost")
+    weights = _cost_weights(cost_weights, "cost_weights")
     if progress is not None and not callable(progress):
         raise TypeError(f"progress must be a callable progress(name, done, total) or None, "
                         f"got {type(progress).__name__}")
@@ -134,7 +155,7 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
     def report(name):
         return None if progress is None else (lambda done, total: progress(name, done, total))
 
-    images, seconds, errors, ref_info = {}, {}, {}, None
+    images, seconds, errors, counted, ref_info = {}, {}, {}, {}, None
     if reference is None:
         t0 = time.perf_counter()
         reference = render(ref_plan, rng=ref_seed, progress=report("reference")).value
@@ -142,12 +163,38 @@ def compare(scene: Scene, strategies: Sequence[str] = VEACH_STRATEGIES, spp: int
                     "seconds": time.perf_counter() - t0}
     for s in strategies:
         t0 = time.perf_counter()
-        images[s] = render(plans[s], rng=np.random.SeedSequence([rng, 0]), progress=report(s)).value
+        est = render(plans[s], rng=np.random.SeedSequence([rng, 0]), progress=report(s))
+        images[s] = est.value
         seconds[s] = time.perf_counter() - t0
         errors[s] = rel_mse(images[s], reference)
+        counted[s] = Cost(est.extra["cost"]["samples"], **est.extra["cost"]["totals"]).report(weights)
     settings = dict(points=points, workers=workers, spp_batch=spp_batch, seed=rng, kernels=kernels, **sampling)
-    return {"images": images, "seconds": seconds, "rel_mse": errors, "reference": reference,
-            "spp": counts if equal_time else spp, "cost": cost, "reference_render": ref_info, "settings": settings}
+    out = {"images": images, "seconds": seconds, "rel_mse": errors, "reference": reference,
+           "spp": counts if equal_time else spp, "cost": cost, "counted": counted, "reference_render": ref_info,
+           "settings": settings}
+    if equal_cost:
+        out["equal_cost"] = equal_cost_table(errors, seconds, counts, counted)
+    return out
+
+
+def equal_cost_table(rel_mse: dict, seconds: dict, spp: dict, counted: dict) -> dict:
+    """Per strategy s (dicts keyed by strategy; ``counted[s]``: a cost report,
+    :meth:`vrlab.render.cost.Cost.report`, whose ``weighted_per_sample`` is c_s):
+    ``{"weights", "cost_per_pixel": spp_s c_s, "rel_mse_x_cost": relMSE_s spp_s c_s,
+    "rel_mse_x_time": relMSE_s seconds_s, "cost_ratio" / "time_ratio": each over the
+    smallest, "ranking": the strategies by relMSE x cost, best first}`` (module docstring)."""
+    names = list(rel_mse)
+    per_pixel = {s: spp[s] * counted[s]["weighted_per_sample"] for s in names}
+    by_cost = {s: rel_mse[s] * per_pixel[s] for s in names}
+    by_time = {s: rel_mse[s] * seconds[s] for s in names}
+
+    def ratios(v: dict) -> dict:
+        best = min(v.values())
+        return {s: (x / best if best > 0 else float("nan")) for s, x in v.items()}
+
+    return {"weights": dict(counted[names[0]]["weights"]), "cost_per_pixel": per_pixel, "rel_mse_x_cost": by_cost,
+            "rel_mse_x_time": by_time, "cost_ratio": ratios(by_cost), "time_ratio": ratios(by_time),
+            "ranking": sorted(names, key=lambda s: by_cost[s])}
 
 
 def bias_status(strategy: str) -> str:
@@ -180,10 +227,12 @@ def compare_figure(result: dict, path: str | Path, *, title: str = "", exposure:
         raise TypeError(f"title must be a string, got {type(title).__name__}")
     names = list(result["images"])
     panels = []
+    table = result.get("equal_cost")
     for name in names:
         each = f", {result['spp'][name]} spp" if isinstance(result["spp"], dict) else ""
+        by_cost = "" if table is None else f"\nrelMSE x cost = {table['rel_mse_x_cost'][name]:.3g}"
         panels.append((f"{name} ({bias_status(name)})\nrelMSE = {result['rel_mse'][name]:.3g}, "
-                       f"{result['seconds'][name]:.1f} s{each}",
+                       f"{result['seconds'][name]:.1f} s{each}{by_cost}",
                        result["images"][name]))
     equal = "equal modelled cost" if isinstance(result["spp"], dict) else f"{result['spp']} spp per strategy"
     shared = f"exposure: {'auto, ' if auto else ''}shared, x{exposure:.3g}"

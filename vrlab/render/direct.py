@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import checks
-from .._vec import dot, scale, side
+from .._vec import dot, rows_by_key, scale, side
 from .accel.geometry import Hits, SceneGeometry
 from .light_set import LIGHT_SELECTIONS, LightSet
 from .scene import Scene
@@ -139,6 +139,11 @@ class DirectLighting:
         self.environment = envs[0] if envs else None
         self.radiance = np.concatenate([self.radiance, np.zeros((1, 3), F32)])      # + the environment's row
 
+    def build(self) -> None:
+        """Build the geometries' lazily built structures now (:meth:`SceneGeometry.build`)."""
+        for geo in {id(g): g for g in (self.geometry, self.blocker_geometry, self.emitter_geometry)}.values():
+            geo.build()
+
     def pixel_hits(self, sub: int = 4) -> np.ndarray:
         """(H*W, sub*sub): the shape hit by each of ``sub`` x ``sub`` camera rays through a pixel
         (stratum centres; pixels in raster order; negative where a ray leaves the scene). For
@@ -158,11 +163,9 @@ class DirectLighting:
         it (``cos_theta(si.wi) > 0`` in the shading frame), else by the geometric normal."""
         front = dot(hits.n, d) < 0
         if self.smooth_emitters:
-            for k in self.smooth_emitters:
-                rows = np.flatnonzero(hits.shape == k)
-                if len(rows):
-                    ns = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
-                    front[rows] = dot(ns, np.take(d, rows, axis=0)) < 0
+            for k, rows in rows_by_key(hits.shape, self.smooth_emitters):
+                ns = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
+                front[rows] = dot(ns, np.take(d, rows, axis=0)) < 0
         return front
 
     def shading_normals(self, hits: Hits) -> np.ndarray | None:
@@ -170,10 +173,8 @@ class DirectLighting:
         if not self.smooth:
             return None
         ns = hits.n.copy()
-        for k in self.smooth:
-            rows = np.flatnonzero(hits.shape == k)
-            if len(rows):
-                ns[rows] = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
+        for k, rows in rows_by_key(hits.shape, self.smooth):
+            ns[rows] = self.shapes[k].shading_normals(hits.p[rows], hits.n[rows], hits.prim[rows])
         return ns
 
     def tangents(self, group: int, hits: Hits, rows) -> tuple[np.ndarray, np.ndarray] | None:
@@ -187,8 +188,7 @@ class DirectLighting:
 
         shape, p, prim, n = hits.shape[rows], hits.p[rows], hits.prim[rows], hits.n[rows]
         du, dv = (np.empty((len(shape), 3)) for _ in range(2))
-        for k in np.unique(shape):
-            sel = np.flatnonzero(shape == k)
+        for k, sel in rows_by_key(shape, np.unique(shape)):
             try:
                 du[sel], dv[sel] = self.shapes[k].uv_derivatives(p[sel], prim[sel], n[sel])
             except ValueError:                           # no uv: Mitsuba's coordinate system of n
@@ -206,8 +206,7 @@ class DirectLighting:
         scalar, grad = bsdf.SCALAR_TEXTURES, bsdf.GRADIENT_TEXTURES
         shape, p, prim = hits.shape[rows], hits.p[rows], hits.prim[rows]
         out = {a: np.empty((len(shape),) if a in scalar else (len(shape), 2 if a in grad else 3)) for a in textures}
-        for k in np.unique(shape):
-            sel = np.flatnonzero(shape == k)
+        for k, sel in rows_by_key(shape, np.unique(shape)):
             si = self.surface_points(k, p[sel], prim[sel])
             for a, tex in textures.items():
                 out[a][sel] = tex.eval_1(si) if a in scalar else tex.eval_1_grad(si) if a in grad else tex.eval(si)
@@ -265,14 +264,17 @@ class DirectLighting:
         hits.n[rows] = -np.take(d, rows, axis=0)
         hits.p[rows] = np.take(o, rows, axis=0) + 1e30 * np.take(d, rows, axis=0)
 
-    def trace(self, p: np.ndarray, n: np.ndarray, w: np.ndarray) -> tuple[Hits, np.ndarray]:
+    def trace(self, p: np.ndarray, n: np.ndarray, w: np.ndarray, cost=None) -> tuple[Hits, np.ndarray]:
         """The emitter seen by rays leaving surface points ``p`` (normal ``n``) along ``w``
         and its emission: ``(hits, L_e)`` with ``hits`` the first *emitter* hit of each ray
         (shape -1 where there is none or where a non-emitter blocks it, i.e. is closer by
         more than ``SHADOW_EPS`` relative).  Direct lighting needs nothing else from these
         rays, so only the emitters are intersected in full and the blockers only for rays
         that reach an emitter, without their hit data.  The origin is offset off the
-        surface to ``w``'s side."""
+        surface to ``w``'s side.  ``cost``: a :class:`~vrlab.render.cost.Cost` counting
+        one closest-hit ray per row (the emitter query and the blocker test are one ray)."""
+        if cost is not None:
+            cost.closest_rays += len(p)
         o = self._origin(p, n, w)
         hits = self.emitter_geometry.intersect(o, w)
         if self.environment is not None:         # rays that meet no emitter may reach the environment
@@ -300,14 +302,18 @@ class DirectLighting:
         offset *= side(dot(w, n))
         return p + scale(n, offset)
 
-    def unblocked(self, p: np.ndarray, n: np.ndarray, w: np.ndarray, y: np.ndarray, j: np.ndarray) -> np.ndarray:
+    def unblocked(self, p: np.ndarray, n: np.ndarray, w: np.ndarray, y: np.ndarray, j: np.ndarray,
+                  cost=None) -> np.ndarray:
         """Whether light ``j`` is the first thing seen from ``p`` along ``w`` when ``y`` is its
         first point along w (``LightSet.sample`` with ``simple`` lights): no non-emitter is
         closer than y by more than ``SHADOW_EPS`` (relative; a distance query without hit
         data) and the first emitter met is light j itself (decided by index, not distance:
         near a sphere's silhouette its float32 t is too rough to compare).  For split mesh
         lights (a triangle per light-BVH leaf) y must be the first point of the mesh itself:
-        no emitter, j included, is closer than y by more than ``SHADOW_EPS``."""
+        no emitter, j included, is closer than y by more than ``SHADOW_EPS``.  ``cost``: a
+        :class:`~vrlab.render.cost.Cost` counting one shadow (any-hit) ray per row."""
+        if cost is not None:
+            cost.shadow_rays += len(p)
         o = self._origin(p, n, w)
         t_max = dot(y - o, w)
         t_max *= 1.0 - SHADOW_EPS

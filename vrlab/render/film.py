@@ -37,9 +37,10 @@ import numpy as np
 from .. import checks, limits
 from .._rng import RNGLike, as_seed_sequence, unit_seed
 from ..estimate import Estimate
-from ..execution import check_executor, check_picklable, run_units
+from ..execution import check_executor, check_picklable, forks_workers, run_units
+from .cost import Cost
 from .pixels import PixelIntegrand
-from .plan import (MAX_PIXEL_WORK, SPP_BATCH, TILE_PIXELS, RenderPlan, _as_scene, check_work,  # noqa: F401
+from .planning import (MAX_PIXEL_WORK, SPP_BATCH, TILE_PIXELS, RenderPlan, _as_scene, check_work,  # noqa: F401
                    default_workers, plan)
 from .scene import Scene
 
@@ -85,24 +86,33 @@ class _Job:
     def n_tiles(self) -> int:
         return -(-self.n_pixels // TILE_PIXELS)
 
-    def unit(self, t: int, k: int) -> tuple[int, int, tuple]:
-        """``(t, k, statistics)`` of tile ``t``, spp batch ``k``: its pixels block after block."""
+    def unit(self, t: int, k: int) -> tuple[int, int, tuple, Cost]:
+        """``(t, k, statistics, cost)`` of tile ``t``, spp batch ``k``: its pixels block after
+        block, and what they cost (:class:`~vrlab.render.cost.Cost`, the unit's own counter)."""
         a, b = t * TILE_PIXELS, min((t + 1) * TILE_PIXELS, self.n_pixels)
         size = min(self.batch, self.spp - k * self.batch)
         gen = np.random.default_rng(unit_seed(self.root, t + 1, k))
         stats = []
+        cost = Cost()
         for c in range(a, b, self.chunk):
             idx = np.arange(c, min(c + self.chunk, b))
             pix = np.stack(np.divmod(idx, self.width), -1)
             u = self.samplers[size].draw(len(pix), gen)
+            cost.samples += len(pix) * size
             with np.errstate(invalid="ignore", divide="ignore"):
-                stats.append(self.block(pix, u, gen))
-        return t, k, tuple(_concat(list(s)) for s in zip(*stats))
+                stats.append(self.block(pix, u, gen, cost))
+        return t, k, tuple(_concat(list(s)) for s in zip(*stats)), cost
 
-    def block(self, pixels: np.ndarray, u: np.ndarray, gen: np.random.Generator) -> tuple:
-        """Statistics of a block of pixels ``(P, 2)`` with uniforms ``(P, S, dim)``."""
+    def build(self) -> None:
+        """Build the scene's lazily built structures here (:meth:`DirectLighting.build`):
+        before forking workers, so that they inherit them instead of each building its own."""
+        self.integrand.lighting.build()
+
+    def block(self, pixels: np.ndarray, u: np.ndarray, gen: np.random.Generator, cost: Cost) -> tuple:
+        """Statistics of a block of pixels ``(P, 2)`` with uniforms ``(P, S, dim)``; its work
+        is counted in ``cost``."""
         integ = self.integrand
-        return (integ.estimator.accumulate(integ.outputs(pixels, u)),)
+        return (integ.estimator.accumulate(integ.outputs(pixels, u, cost)),)
 
     def summarize(self, i: int, stats) -> tuple[np.ndarray, np.ndarray]:
         """``(value, stderr)``, both ``(P, 3)``, of estimate ``i`` from its merged statistics."""
@@ -197,10 +207,12 @@ def render(scene: Any, spp: int | None = None, estimator: Any = "mis-power", *,
                             workers=workers, kernels=kernels))
     job, sampler = build_job(p, rng)
     loaded: list[int] = []
-    ((value, stderr),) = execute(job, p.workers, executor, progress, checkpoint, resumed=loaded.append)
+    cost = Cost()
+    ((value, stderr),) = execute(job, p.workers, executor, progress, checkpoint, resumed=loaded.append, cost=cost)
     integrand, spp = job.integrand, job.spp
     est = integrand.estimator
-    extra = {"units": integrand.units, "points": sampler.label, "spp_batch": job.batch, "kernels": p.kernels}
+    extra = {"units": integrand.units, "points": sampler.label, "spp_batch": job.batch, "kernels": p.kernels,
+             "cost": cost.report()}
     if checkpoint is not None:            # samples per pixel read from the checkpoint, not rendered now
         extra["spp_resumed"] = loaded[0]
     if not sampler.iid:
@@ -226,13 +238,15 @@ def build_job(p: RenderPlan, rng: RNGLike, job_class: type = _Job, cost: int = 1
 
 
 def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[int, int], None] | None = None,
-            checkpoint: Any = None, resumed: Callable[[int], None] | None = None
+            checkpoint: Any = None, resumed: Callable[[int], None] | None = None, cost: Cost | None = None
             ) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
     """Run a job's units, batch after batch (in this process, a process pool of ``workers``
     or the caller's ``executor``), merging each tile's statistics in batch order and saving
     them to ``checkpoint`` after each batch: ``(value, stderr)`` images ``(H, W, 3)`` float32
     per estimate of the job.  ``resumed(spp)``, with a checkpoint: called once before any unit
-    runs with the samples per pixel the checkpoint already holds (0 for a new one)."""
+    runs with the samples per pixel the checkpoint already holds (0 for a new one).  ``cost``:
+    a :class:`~vrlab.render.cost.Cost` the units' counts are added to, batch after batch,
+    tile after tile (the units rendered now: not those a checkpoint holds)."""
     from .checkpoint import check_path, load_checkpoint, render_hash, save_checkpoint
 
     if progress is not None and not callable(progress):
@@ -255,6 +269,8 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
                                        job.integrand.estimator.statistics_from_state)
     if path is not None and resumed is not None:
         resumed(min(start * job.batch, job.spp))
+    if workers > 1 and executor is None and forks_workers():
+        job.build()                         # Embree's scene once, inherited by the forked workers
     tiles = list(range(job.n_tiles))
     # progress counts pixel samples: a unit (tile t, batch k) is its pixels x batch k's spp
     total, done = job.n_pixels * job.spp, min(start * job.batch, job.spp) * job.n_pixels
@@ -270,15 +286,17 @@ def execute(job: _Job, workers: int, executor: Any = None, progress: Callable[[i
     new: dict = {}                          # batch -> {tile: statistics}, until the batch is merged
     k = start
     for _, res in run_units(fn, tasks, workers=workers, executor=executor, shared=job):
-        for t, batch, st in res:
-            new.setdefault(batch, {})[t] = st
+        for t, batch, st, counted in res:
+            new.setdefault(batch, {})[t] = (st, counted)
             done += (min((t + 1) * TILE_PIXELS, job.n_pixels) - t * TILE_PIXELS) * min(job.batch,
                                                                                    job.spp - batch * job.batch)
             if progress is not None:
                 progress(done, total)
         while len(new.get(k, ())) == len(tiles):   # merge whole batches in batch order: the same bytes
-            for t, st in new.pop(k).items():        # however units ran
+            for t, (st, counted) in sorted(new.pop(k).items()):        # however units ran
                 stats[t] = st if t not in stats else tuple(a.merge(b) for a, b in zip(stats[t], st))
+                if cost is not None:
+                    cost.add(counted)
             k += 1
             if path is not None:
                 save_checkpoint(path, digest, job.spp, job.batch, k, stats)

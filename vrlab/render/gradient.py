@@ -33,8 +33,9 @@ import numpy as np
 from .. import checks
 from .._rng import RNGLike
 from ..estimate import Estimate
+from .cost import Cost
 from .film import _Job, as_plan, build_job, execute
-from .plan import RenderPlan
+from .planning import RenderPlan
 from .scene import Scene
 
 __all__ = ["GradientDomainImage", "render_gradient_domain"]
@@ -61,15 +62,15 @@ class _GradientJob(_Job):
     estimates = ("primal", "dx", "dy")
     common = True
 
-    def block(self, pixels: np.ndarray, u: np.ndarray, gen: np.random.Generator) -> tuple:
+    def block(self, pixels: np.ndarray, u: np.ndarray, gen: np.random.Generator, cost: Cost) -> tuple:
         from ..estimators import CRNDifference, MonteCarlo
 
         integ = self.integrand
-        base = integ.integrand(pixels)
+        base = integ.integrand(pixels, cost=cost)
         mc, crn = MonteCarlo(), CRNDifference(common=self.common)
         out = [mc.accumulate(mc.unit_outputs(base, u))]
         for shift in ((0, 1), (1, 0)):                   # right neighbour (dx), lower neighbour (dy)
-            other = integ.integrand(pixels, shift)
+            other = integ.integrand(pixels, shift, cost)
             if self.common:
                 pts = u
             else:                                        # the neighbour's own uniforms, then the base's
@@ -114,15 +115,18 @@ def render_gradient_domain(scene: Scene | RenderPlan | str | os.PathLike, spp: i
         raise ValueError(f"spp: gradient-domain rendering needs spp >= 2 (a standard error per pixel), got {plan.spp}")
     job, sampler = build_job(plan, rng, _GradientJob, cost=3)
     job.common = common
-    (p, pe), (dx, dxe), (dy, dye) = execute(job, plan.workers, executor, progress, checkpoint)
+    cost = Cost()
+    (p, pe), (dx, dxe), (dy, dye) = execute(job, plan.workers, executor, progress, checkpoint, cost=cost)
     seconds = time.perf_counter() - t0
     spp, integ = job.spp, job.integrand
     label = integ.estimator.label
     evals = integ.units * int(integ.estimator.evals_per_unit)
-    extra = {"common": common, "points": sampler.label, "kernels": plan.kernels}
+    # the whole render's counted cost (a sample: three pixel evaluations), in each estimate
+    extra = {"common": common, "points": sampler.label, "kernels": plan.kernels, "cost": cost.report()}
 
     def estimate(value, stderr, method, n_evals):
-        return Estimate(value, stderr, spp, n_evals, seconds, stderr.astype(np.float64) ** 2 * spp, method, dict(extra))
+        return Estimate(value, stderr, spp, n_evals, seconds, stderr.astype(np.float64) ** 2 * spp, method,
+                        {**extra, "cost": dict(extra["cost"])})
 
     return GradientDomainImage(
         primal=estimate(p, pe, label, spp * evals),

@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import checks
 from ..integrands.base import Integrand
+from .cost import Cost
 from .direct import DirectLighting
 from .presets import preset
 from .scene import Scene
@@ -143,18 +144,20 @@ class PixelIntegrand:
 
     def shading(self, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
                 ns: np.ndarray | None = None, values: dict | None = None,
-                tangents: tuple | None = None) -> ShadingIntegrand:
+                tangents: tuple | None = None, cost: Cost | None = None) -> ShadingIntegrand:
         """The shading integrand at points ``p`` (geometric normals ``n``, shading normals ``ns``,
         towards ``wo``) of BSDF group ``group`` (``values``: its textured parameters there;
-        ``tangents``: world ``(dp_du, dp_dv)`` for a BSDF that needs a tangent frame)."""
+        ``tangents``: world ``(dp_du, dp_dv)`` for a BSDF that needs a tangent frame; ``cost``:
+        the :class:`~vrlab.render.cost.Cost` its work is counted in)."""
         if not self.lighting.bsdfs:
             raise ValueError("scene: it has no shapes to shade")
-        return ShadingIntegrand(self.lighting, group, p, n, wo, ns, values, tangents)
+        return ShadingIntegrand(self.lighting, group, p, n, wo, ns, values, tangents, cost)
 
-    def outputs(self, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
+    def outputs(self, pixels: np.ndarray, u: np.ndarray, cost: Cost | None = None) -> np.ndarray:
         """Unit outputs ``(3, P, S, c)`` of S samples in each of P pixels ``(P, 2)`` = (row,
         column), uniforms ``u (P, S, dim)``; column 0 is the sample's value (see
-        :meth:`vrlab.estimators.Estimator.unit_outputs`)."""
+        :meth:`vrlab.estimators.Estimator.unit_outputs`).  ``cost``: a
+        :class:`~vrlab.render.cost.Cost` the rays, samples and evaluations are added to."""
         pixels, u = np.asarray(pixels), np.asarray(u)
         if u.ndim != 3 or u.shape[-1] != self.dim or pixels.shape != (u.shape[0], 2):
             raise ValueError(f"u: expected uniforms (P, S, {self.dim}) for pixels (P, 2), got {u.shape} "
@@ -162,10 +165,10 @@ class PixelIntegrand:
         if self.estimator.spatial:                  # every pixel of the block at once: vrlab.render.reuse
             from .reuse import spatial_outputs
 
-            return spatial_outputs(self, pixels, u)
+            return spatial_outputs(self, pixels, u, cost)
         P, S = u.shape[:2]
         lit = self.lighting
-        hits, d, le, group = self.camera(pixels, u)
+        hits, d, le, group = self.camera(pixels, u, cost)
         R = len(d)                                     # camera rays: P x S
         counts = np.bincount(group + 1, minlength=len(lit.bsdfs) + 1)[1:]
         u2 = u.reshape(P * S, self.dim)
@@ -185,7 +188,7 @@ class PixelIntegrand:
                 wo = np.negative(wo, out=wo)
                 if n_shading is not None:
                     ns = np.take(n_shading, rows, axis=0)
-            sh = self.shading(g, p, n, wo, ns, lit.bsdf_values(g, hits, rows), lit.tangents(g, hits, rows))
+            sh = self.shading(g, p, n, wo, ns, lit.bsdf_values(g, hits, rows), lit.tangents(g, hits, rows), cost)
             ug = ug.reshape(len(ug), self.units, self.unit_dim)
             vals = checked_outputs(self.estimator.unit_outputs(sh, ug), self.estimator, len(ug))
             vals = np.broadcast_to(vals, (3,) + vals.shape[-3:])
@@ -201,14 +204,16 @@ class PixelIntegrand:
         out = self.estimator.add_emitted(out, le.T)
         return out.reshape(3, P, S, -1)
 
-    def camera(self, pixels: np.ndarray, u: np.ndarray) -> tuple:
+    def camera(self, pixels: np.ndarray, u: np.ndarray, cost: Cost | None = None) -> tuple:
         """``(hits, d, le, group)`` of the camera rays of pixels ``(P, 2)`` with uniforms
         ``u (P, S, dim)``, rows in (pixel, sample) order: the first hits, ray directions
         ``(P S, 3)``, the emitted radiance seen ``(P S, 3)`` and each hit's BSDF group (-1:
-        nothing to shade)."""
+        nothing to shade); ``cost`` counts the camera rays."""
         lit = self.lighting
         o, d = lit.camera.pixel_rays(pixels[:, None, :], u[..., :self.camera_dims], np.float32)
         o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+        if cost is not None:
+            cost.camera_rays += len(o)
         # hide_emitters: camera rays pass through emitting shapes (Mitsuba 3.9 draws what lies
         # behind them), so they meet the other shapes only
         hits = (lit.blocker_geometry if lit.hide_emitters else lit.geometry).intersect(o, d)
@@ -221,18 +226,20 @@ class PixelIntegrand:
         group = np.where((hits.shape >= 0) & lit.shaded[shape], lit.group_of_shape[shape], -1)
         return hits, d, le, group
 
-    def values(self, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
+    def values(self, pixels: np.ndarray, u: np.ndarray, cost: Cost | None = None) -> np.ndarray:
         """The values ``(P, S, 3)`` of the pixel samples (for averaging estimators: each an
-        unbiased estimate of its pixel, RGB last)."""
-        return np.moveaxis(self.outputs(pixels, u)[..., 0], 0, -1)
+        unbiased estimate of its pixel, RGB last); ``cost``: as for :meth:`outputs`."""
+        return np.moveaxis(self.outputs(pixels, u, cost)[..., 0], 0, -1)
 
-    def integrand(self, pixels: np.ndarray, shift: tuple[int, int] = (0, 0)) -> "PixelFunction":
+    def integrand(self, pixels: np.ndarray, shift: tuple[int, int] = (0, 0),
+                  cost: Cost | None = None) -> "PixelFunction":
         """The pixels ``(P, 2)`` (moved by ``shift`` = (rows, columns)) as one batched
         :class:`vrlab.Integrand` on the unit cube of primary sample space: points ``u (P, n,
         dim)``, values ``(3, P, n)``, integral the pixel values.  Any estimator of
         :mod:`vrlab.estimators` runs on it (``MonteCarlo()`` is the plain pixel estimate,
-        ``CRNDifference`` on two of them an image gradient)."""
-        return PixelFunction(self, pixels, shift)
+        ``CRNDifference`` on two of them an image gradient).  ``cost``: the
+        :class:`~vrlab.render.cost.Cost` its evaluations are counted in (None: not counted)."""
+        return PixelFunction(self, pixels, shift, cost)
 
     def image_values(self, spp: int, rng: Any = None, *, block_pixels: int = 4096) -> np.ndarray:
         """The values ``(H, W, spp, 3)`` of ``spp`` samples in every pixel of the sensor, from
@@ -262,7 +269,8 @@ class PixelFunction(Integrand):
     (two estimators sharing a pixel's uniforms, as in gradient-domain rendering) are not
     rendered twice."""
 
-    def __init__(self, pixel_integrand: PixelIntegrand, pixels: np.ndarray, shift: tuple[int, int] = (0, 0)):
+    def __init__(self, pixel_integrand: PixelIntegrand, pixels: np.ndarray, shift: tuple[int, int] = (0, 0),
+                 cost: Cost | None = None):
         pixels = np.asarray(pixels)
         if pixels.ndim != 2 or pixels.shape[1] != 2 or not np.issubdtype(pixels.dtype, np.integer):
             raise ValueError(f"pixels: expected integer (row, column) pairs of shape (P, 2), got {pixels.shape}")
@@ -272,12 +280,13 @@ class PixelFunction(Integrand):
         super().__init__(self._values, [(0.0, 1.0)] * pixel_integrand.dim, name=f"pixels{list(shift)}")
         self.pixel_integrand, self.pixels, self.shift = pixel_integrand, pixels + np.asarray(shift), shift
         self._last: tuple | None = None
+        self.cost = cost
 
     def _values(self, u: np.ndarray) -> np.ndarray:
         if self._last is not None and self._last[0].shape == u.shape and np.array_equal(self._last[0], u):
             return self._last[1]
         if u.ndim != 3 or u.shape[0] != len(self.pixels):
             raise ValueError(f"u: expected points (P={len(self.pixels)}, n, {self.dim}), got shape {u.shape}")
-        values = np.moveaxis(self.pixel_integrand.values(self.pixels, u), -1, 0)
+        values = np.moveaxis(self.pixel_integrand.values(self.pixels, u, self.cost), -1, 0)
         self._last = (u.copy(), values)
         return values

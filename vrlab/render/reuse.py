@@ -74,20 +74,21 @@ def check_spatial(integrand, probe: ShadingIntegrand) -> None:
                          "estimator, or sphere / planar emitters")
 
 
-def spatial_outputs(integrand, pixels: np.ndarray, u: np.ndarray) -> np.ndarray:
+def spatial_outputs(integrand, pixels: np.ndarray, u: np.ndarray, cost=None) -> np.ndarray:
     """Unit outputs ``(3, P, S, c)`` of a spatial estimator over the block ``pixels (P, 2)``
     with uniforms ``u (P, S, dim)``: one unit per sample index (in steps of sample indices
     that bound memory; each unit sees only its own uniforms), the emitted light seen
-    directly added as for every estimator."""
+    directly added as for every estimator.  ``cost``: the :class:`~vrlab.render.cost.Cost`
+    the camera rays, candidates and reconnections (shadow rays, targets) are counted in."""
     est = integrand.estimator
     P, S = u.shape[:2]
-    cost = max(int(est.candidates_per_unit), int(est.traced_per_unit()), 1)
-    step = max(1, ROWS_PER_STEP // max(1, P * cost))
+    work = max(int(est.candidates_per_unit), int(est.traced_per_unit()), 1)
+    step = max(1, ROWS_PER_STEP // max(1, P * work))
     parts = []
     for a in range(0, S, step):
         ua = u[:, a: a + step]
-        hits, d, le, group = integrand.camera(pixels, ua)
-        view = BlockPixels(integrand, pixels, hits, d, group, ua.shape[1])
+        hits, d, le, group = integrand.camera(pixels, ua, cost)
+        view = BlockPixels(integrand, pixels, hits, d, group, ua.shape[1], cost)
         vals = checked_outputs(est.spatial_outputs(view, np.moveaxis(ua[..., integrand.camera_dims:], 1, 0)), est,
                                None)                                                               # (3, s, P, c)
         vals = np.array(np.moveaxis(vals, 1, 2), dtype=np.result_type(vals, np.float32))  # (3, P, s, c)
@@ -101,10 +102,13 @@ class BlockPixels:
     are light points x = (y_x, y_y, y_z, j, t) ``(N, ..., 5)`` (first axis: the unit; t the
     triangle of a split mesh light, -1 otherwise), pixel
     indices broadcast to ``x.shape[:-1]`` (the interface of ``vrlab.estimators.restir.PixelView``).
+    ``cost``: the :class:`~vrlab.render.cost.Cost` the shading integrands count their work in.
     """
 
-    def __init__(self, integrand, pixels: np.ndarray, hits, d: np.ndarray, group: np.ndarray, N: int):
+    def __init__(self, integrand, pixels: np.ndarray, hits, d: np.ndarray, group: np.ndarray, N: int,
+                 cost=None):
         lit = integrand.lighting
+        self.cost = cost
         self.lighting, self.lights, self.N, self.B = lit, lit.lights, int(N), len(pixels)
         self.shape = (self.B,)
         self.coords = np.asarray(pixels, np.int64)
@@ -133,7 +137,7 @@ class BlockPixels:
         k = self.pos[rows]
         return self._shading(g, p[k], n[k], wo[k], None if ns is None else ns[k],
                              None if values is None else {a: v[k] for a, v in values.items()},
-                             None if tangents is None else (tangents[0][k], tangents[1][k]))
+                             None if tangents is None else (tangents[0][k], tangents[1][k]), self.cost)
 
     def _G(self, y: np.ndarray, j: np.ndarray, tri: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """G_b(y) = |cos theta_y| / |y - p_b|^2 at camera rows ``rows`` (1 for delta lights and

@@ -47,6 +47,7 @@ from .._vec import dot, scale, side
 from ..distributions import Frame
 from ..integrands.base import Integrand
 from ..colour import luminance
+from .cost import Cost
 from .techniques import F32, NO_SAMPLE, _Directional, _LightTechnique, _Lobe
 
 
@@ -74,13 +75,16 @@ class _Rows:
     """What is known about the rows (samples) of one point array: directions, lights, rays."""
 
     __slots__ = ("x", "w", "wl", "j", "lobe", "first", "front", "le", "le_raw", "y", "hit_p", "hit_prim", "tri",
-                 "pdfs")
+                 "pdfs", "bsdf_done", "light_done")
 
     def __init__(self, x, w, wl, j, lobe=None):
         self.x, self.w, self.wl, self.j = x, w, wl, j
         self.lobe = lobe                  # None: every row a continuous point (k = -1)
         self.first = self.front = self.le = self.le_raw = self.y = self.hit_p = self.hit_prim = self.tri = None
         self.pdfs: dict = {}
+        #: whether the rows' BSDF / light value and density are counted (vrlab.render.cost): by the
+        #: technique that sampled them, or by their first evaluation
+        self.bsdf_done = self.light_done = False
 
 
 class ShadingIntegrand(Integrand):
@@ -90,12 +94,16 @@ class ShadingIntegrand(Integrand):
     BSDF group; ``p``, ``n``, ``wo`` (N, 3): points, unit geometric normals and outgoing
     directions (world); ``ns``: unit shading normals (default ``n``; a mesh's interpolated
     vertex normals), whose frame the BSDF is evaluated in, as in Mitsuba.  Points ``x (N, m, 5)``
-    (direction, light, delta lobe); values ``(3, N, m)`` (RGB first: a batch axis).
+    (direction, light, delta lobe); values ``(3, N, m)`` (RGB first: a batch axis).  ``cost``:
+    the :class:`~vrlab.render.cost.Cost` of the work unit, which the rays, samples and
+    evaluations made here are added to (None: a counter of its own, ``self.cost``).
     """
 
     def __init__(self, lighting, group: int, p: np.ndarray, n: np.ndarray, wo: np.ndarray,
-                 ns: np.ndarray | None = None, values: dict | None = None, tangents: tuple | None = None):
+                 ns: np.ndarray | None = None, values: dict | None = None, tangents: tuple | None = None,
+                 cost: Cost | None = None):
         self.lighting = lighting
+        self.cost = Cost() if cost is None else cost
         p, n, wo = (np.asarray(a, F32) for a in (p, n, wo))
         ns = n if ns is None else np.asarray(ns, F32)
         flip = side(dot(wo, ns)) if lighting.twosided[group] else None
@@ -175,6 +183,7 @@ class ShadingIntegrand(Integrand):
         """f_r |cos theta_i| at the rows' directions ``(R, 3)``; at a delta lobe's atom (k >= 0)
         the lobe's ``delta_value`` instead."""
         bsdf, wo = self.bsdf_for(x.shape[-2]), self.rep(self.wo_l, x)
+        self.count_bsdf(r)
         v = bsdf.eval(wo, r.wl)
         if r.lobe is not None:
             for k in np.unique(r.lobe[r.lobe >= 0]):
@@ -185,6 +194,20 @@ class ShadingIntegrand(Integrand):
 
     def uniform(self):
         return _Directional(self, "uniform")
+
+    def count_bsdf(self, r: "_Rows") -> None:
+        """Count the rows' BSDF evaluation (value and density: once per row, none for rows the
+        BSDF sampled)."""
+        if not r.bsdf_done:
+            self.cost.bsdf_evals += len(r.j)
+            r.bsdf_done = True
+
+    def count_light(self, r: "_Rows") -> None:
+        """Count the rows' light evaluation (radiance and density: once per row that reaches a
+        light, none for light samples)."""
+        if not r.light_done:
+            self.cost.emitter_evals += int(np.count_nonzero(r.j >= 0))
+            r.light_done = True
 
     def control(self, name: str, arg: str = "control") -> tuple:
         h, integral = super().control(name, arg)
@@ -260,13 +283,13 @@ class ShadingIntegrand(Integrand):
                 r.y = lit.lights.first_points(p, r.w, r.j)          # NaN for the other rows
             known = np.zeros(len(r.j), bool) if r.y is None else ~np.isnan(r.y[:, 0])
             if known.all():                                          # shadow rays only
-                r.first = lit.unblocked(p, n, r.w, r.y, r.j)
+                r.first = lit.unblocked(p, n, r.w, r.y, r.j, cost=self.cost)
                 if not front_known:
                     r.front = np.ones(len(r.j), bool)
                 return r.first
             whole = not known.any()
             rows = slice(None) if whole else np.flatnonzero(~known)
-            hits, _ = lit.trace(p[rows], n[rows], r.w[rows])
+            hits, _ = lit.trace(p[rows], n[rows], r.w[rows], cost=self.cost)
             first = lit.light_hit(hits) == r.j[rows]
             if whole:
                 r.hit_p, r.hit_prim = hits.p, hits.prim
@@ -293,7 +316,7 @@ class ShadingIntegrand(Integrand):
                 k = np.flatnonzero(known)
                 all_first = np.zeros(len(r.j), bool)
                 all_first[rows] = first
-                all_first[k] = lit.unblocked(p[k], n[k], r.w[k], r.y[k], r.j[k])
+                all_first[k] = lit.unblocked(p[k], n[k], r.w[k], r.y[k], r.j[k], cost=self.cost)
                 first = all_first
             r.first = first
         return r.first
@@ -303,6 +326,7 @@ class ShadingIntegrand(Integrand):
         else the light's radiance (non-shape lights: their radiance along w, e.g. I / d^2)."""
         if r.le_raw is not None:
             return r.le_raw
+        self.count_light(r)
         lit = self.lighting
         le = lit.light_radiance(r.j)
         if lit.lights is not None and lit.lights.is_emitter.any():
@@ -331,6 +355,9 @@ class ShadingIntegrand(Integrand):
             if lit.lights is None:
                 r.pdfs["light"] = np.zeros(len(r.j), F32)
             else:
+                self.count_light(r)
+                if lit.lights.tree is not None:              # P_j of a reached light: a walk
+                    self.cost.light_walks += int(np.count_nonzero(r.j >= 0))
                 r.pdfs["light"] = lit.lights.pdf(self.rep(self.p, r.x), r.w, r.j, r.hit_p,
                                                  self.rep(self.n, r.x), r.hit_prim).astype(F32)
                 if r.lobe is not None:                       # no light sample is a delta lobe's atom

@@ -36,6 +36,11 @@ class _Directional:
     def __repr__(self) -> str:
         return f"ShadingTechnique({self.key!r})"
 
+    @property
+    def samples_bsdf(self) -> bool:
+        """Whether the technique draws from the BSDF (a counted BSDF sample, vrlab.render.cost)."""
+        return self.warp is None
+
     def _bsdf(self, rows: int):
         """The BSDF for ``rows`` sample rows (m samples per shading point: ``bsdf_for(m)``)."""
         return self.s.bsdf_for(rows // max(len(self.s.p), 1) or 1)
@@ -76,9 +81,13 @@ class _Directional:
         wo_l = s.rep(s.wo_l, u)
         wl, lobe = self._draw(wo_l, u2)
         w = s.rep_frame(shape[-1]).to_world(wl)
-        hits, le = lit.trace(s.rep(s.p, u), s.rep(s.n, u), w)
+        hits, le = lit.trace(s.rep(s.p, u), s.rep(s.n, u), w, cost=s.cost)
         j = lit.light_hit(hits)
         x, r = s.new_points(w, j, shape, lobe)
+        if self.samples_bsdf:
+            s.cost.bsdf_samples += len(j)
+            r.bsdf_done = True
+        s.count_light(r)                       # the radiance of the light each ray reached
         r.wl, r.le, r.hit_p, r.hit_prim = wl, le, hits.p, hits.prim
         r.first, r.front = np.ones(len(j), bool), lit.facing(hits, w)
         r.pdfs[self.key] = self._local_pdf(wo_l, wl, r.lobe)
@@ -89,6 +98,8 @@ class _Directional:
         s = self.s
         r = s.rows(x)
         if self.key not in r.pdfs:
+            if self.samples_bsdf:
+                s.count_bsdf(r)
             ok = s.first_seen(r)
             lights = s.lighting.lights
             if lights is not None and lights.is_delta.any():       # no direction sample hits a delta light
@@ -112,6 +123,10 @@ class _Lobe(_Directional):
         self.absent = name not in bsdf.LOBES
         self.index = None if self.absent else bsdf.LOBES.index(name)
         self.delta = name in bsdf.DELTA
+
+    @property
+    def samples_bsdf(self) -> bool:
+        return not self.absent
 
     def _local_pdf(self, wo_l, wl, lobe):
         if self.absent:
@@ -152,7 +167,11 @@ class _LightTechnique:
             r.pdfs["light"], r.first, r.front = np.zeros(len(p), F32), np.zeros(len(p), bool), np.zeros(len(p), bool)
             return x
         j, w, pdf, front, y, le, tri = lit.lights.sample(p, u.reshape(-1, 3), s.rep(s.n, u), triangles=True)
+        s.cost.emitter_samples += len(j)
+        if lit.lights.tree is not None:
+            s.cost.light_walks += len(j)
         x, r = s.new_points(w, j, shape)
+        r.light_done = True
         r.pdfs["light"], r.front, r.y, r.le_raw, r.tri = pdf.astype(F32), front, y, le, tri
         return x
 

@@ -14,16 +14,17 @@ the primitive's index within its shape come from the planar group.  ``t_min`` mo
 origins forward (Embree's rays start at t = 0).  Shadow queries use Embree's occlusion test
 (any hit before ``t_max``).
 
-The Embree scene is not pickled: a process that receives the geometry builds it on first use
-(milliseconds for thousands of triangles; about 1.5 s for 2 million on this machine, most of it
-embreex copying the index buffer, 0.45 us per triangle), under a lock (threads of one process
-build it once) and again in a forked child (Embree's threads do not survive a fork).  Worker
-processes receive a render's job once (:mod:`vrlab.execution`), so each builds its Embree scene
-once.
+The Embree scene is not pickled: a process that receives the geometry by pickle builds it on
+first use (milliseconds for thousands of triangles; about 1.5 s for 2 million on this machine,
+most of it embreex copying the index buffer, 0.45 us per triangle), under a lock (threads of
+one process build it once).  :meth:`EmbreeTriangles.build` builds and commits it at once (one
+query: embreex commits on the first); a process forked after that inherits the committed scene
+and only queries it (queries run in the calling thread; Embree's build threads are not needed),
+so a render's parent builds it once before forking its workers (:meth:`vrlab.render.film.execute`)
+instead of each worker building its own copy.
 """
 from __future__ import annotations
 
-import os
 import threading
 
 import numpy as np
@@ -55,14 +56,14 @@ class EmbreeTriangles:
         sizes = [(2 if pl.para else 1) * len(pl) for pl in self.planar]
         self.first = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
         self._scene = None
-        self._pid, self._lock = None, threading.Lock()
+        self._lock = threading.Lock()
 
     def __len__(self) -> int:
         return int(self.first[-1])
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
-        state["_scene"] = state["_pid"] = state["_lock"] = None   # Embree's scene does not pickle: built on use
+        state["_scene"] = state["_lock"] = None   # Embree's scene does not pickle: built on use
         return state
 
     @staticmethod
@@ -84,10 +85,11 @@ class EmbreeTriangles:
 
     @property
     def scene(self):
-        """Embree's scene of the triangles, built once per process (see the module docstring)."""
-        if self._scene is None or self._pid != os.getpid():
+        """Embree's scene of the triangles, built once per process, or inherited from the
+        parent of a forked process (see the module docstring)."""
+        if self._scene is None:
             with self._lock:
-                if self._scene is None or self._pid != os.getpid():
+                if self._scene is None:
                     from embreex import rtcore_scene
                     from embreex.mesh_construction import TriangleMesh
 
@@ -97,8 +99,14 @@ class EmbreeTriangles:
                         index = [i + np.int32(o) for i, o in zip(index, off)]
                     scene = rtcore_scene.EmbreeScene()
                     TriangleMesh(scene, np.concatenate(verts), np.concatenate(index))
-                    self._scene, self._pid = scene, os.getpid()
+                    self._scene = scene
         return self._scene
+
+    def build(self) -> None:
+        """Build and commit Embree's scene in this process now (embreex commits at the first
+        query: one ray, answered or not), so that processes forked later inherit it."""
+        one = np.zeros((1, 3), np.float32)
+        self.scene.run(one, one + np.float32(1.0), output=1)
 
     @staticmethod
     def _start(o: np.ndarray, d: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray]:

@@ -257,6 +257,13 @@ class SceneGeometry:
         extent = max(float(np.max(np.abs(np.vstack(centers)))), _para_extent(para_parts), _pool_extent(pool))
         self.scale = extent + max(radii, default=0.0)
 
+    def build(self) -> None:
+        """Build now what is otherwise built on first use in each process (Embree's scene,
+        :meth:`~vrlab.render.accel.embree.EmbreeTriangles.build`), so that processes forked
+        later inherit it."""
+        if self.accel is not None and self.accel.embree is not None:
+            self.accel.embree.build()
+
     @property
     def n_triangles(self) -> int:
         """Number of triangles of the mesh shapes (rectangle 2, cube 12, obj)."""

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ... import checks
-from ..._vec import dot, matvec3, norm, scale
+from ..._vec import cross, dot, matvec3, norm, scale
 from .. import transforms as tf
 from ..scene_checks import MAX_COORD
 from .base import IndexedTriangles, Shape, check_world_points
@@ -155,8 +155,8 @@ class Mesh(Shape):
         v = self.world_vertices()[self.faces[prim]]                                   # (N, 3, 3)
         v0 = np.ascontiguousarray(v[:, 0])
         e1, e2 = v[:, 1] - v0, v[:, 2] - v0
-        n = np.cross(e1, e2)
-        return v0, np.cross(e2, n), np.cross(n, e1), dot(n, n)
+        n = cross(e1, e2)
+        return v0, cross(e2, n), cross(n, e1), dot(n, n)
 
     def _normal_map(self) -> np.ndarray:
         """to_world^-T (3 x 3), for normals."""
