@@ -44,7 +44,7 @@ from vrlab.render.accel.embree import embree_available  # noqa: E402
 from vrlab.render.accel.geometry import SceneGeometry  # noqa: E402
 from vrlab.render.accel.groups import Planar, unit  # noqa: E402
 from vrlab.render.accel.scene_bvh import Accel  # noqa: E402
-from vrlab.render.plan import plan  # noqa: E402
+from vrlab.render import plan  # noqa: E402
 
 
 def best_of(rounds: int, f) -> float:
