@@ -156,6 +156,12 @@ class Accel:
 
     def occluded(self, o, d, t_min: float, t_max: np.ndarray) -> np.ndarray:
         """Whether each ray hits a primitive with ``t_min < t < t_max``."""
+        if self.flat is not None and self.embree is None:         # the compiled walk, every ray
+            hit = np.empty(len(o), bool)
+            tm = np.ascontiguousarray(np.broadcast_to(np.asarray(t_max, np.float64), (len(o),)))
+            self._compiled("occluded")(*self.flat, np.ascontiguousarray(o, np.float64),
+                                       np.ascontiguousarray(d, np.float64), float(t_min), tm, hit)
+            return hit
         hit = np.zeros(len(o), bool) if self.embree is None else self.embree.occluded(o, d, t_min, t_max)
         if self.bvh is not None:
             rest = np.flatnonzero(~hit)
