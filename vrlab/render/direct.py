@@ -49,8 +49,8 @@ class DirectLighting:
 
     ``light_selection``: how the ``"light"`` technique picks a light (``"uniform"``,
     ``"power"`` or ``"bvh"``); ``kernels``: ``"numpy"`` or ``"numba"``, the ray queries' and the
-    light BVH walk's (:mod:`vrlab.kernels`).  ``lights`` is None when the scene has no emitters; ``light_error`` says
-    why light sampling is unavailable (no emitters, or ``obj`` emitters), for the
+    light BVH walk's (:mod:`vrlab.kernels`).  ``lights`` is None when the scene has no emitters;
+    ``light_error`` says why light sampling is unavailable (no emitters, or ``obj`` emitters), for the
     ``"light"`` technique to report.
     """
 

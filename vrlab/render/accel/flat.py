@@ -59,6 +59,7 @@ def flatten(bvh, kind: np.ndarray, prim: np.ndarray) -> FlatBVH:
     kids[~inner] = 0.0
     child = np.stack([np.where(inner, bvh.left, bvh.start), np.where(inner, bvh.right, 0)], axis=1)
     order = np.asarray(bvh.order, np.int64)
-    return FlatBVH(np.concatenate([lo[0], hi[0]])[None], np.ascontiguousarray(kids), np.ascontiguousarray(child, np.int64),
-                   np.ascontiguousarray(bvh.count, np.int64), np.ascontiguousarray(kind[order], np.int64),
-                   np.ascontiguousarray(prim[order], np.float64), order, int(bvh.depth))
+    return FlatBVH(np.concatenate([lo[0], hi[0]])[None], np.ascontiguousarray(kids),
+                   np.ascontiguousarray(child, np.int64), np.ascontiguousarray(bvh.count, np.int64),
+                   np.ascontiguousarray(kind[order], np.int64), np.ascontiguousarray(prim[order], np.float64), order,
+                   int(bvh.depth))

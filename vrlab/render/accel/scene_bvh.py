@@ -13,8 +13,9 @@ the quadrics, the disks, the tubes); the BVH is built over their boxes:
 At a leaf the (ray, primitive) pairs are split by kind and tested exactly in float64 (the
 planar group's dual-basis test, the stable quadratic roots in the unit-sphere frame, the
 disk's plane hit inside the unit circle, the tube's roots: each group's
-``boxes``/``exact``/``normals``/``prims``, :mod:`.groups`, :mod:`.disks`, :mod:`.tubes`).  ``closest`` then finishes each ray's hit with its
-kind's shape index, normal and primitive index; ``occluded`` answers shadow queries (any hit
+``boxes``/``exact``/``normals``/``prims``, :mod:`.groups`, :mod:`.disks`, :mod:`.tubes`).
+``closest`` then finishes each ray's hit with its kind's shape index, normal and primitive
+index; ``occluded`` answers shadow queries (any hit
 before ``t_max``) without finishing anything.
 
 ``kernels="numba"``: the same walks compiled (:mod:`.traverse_kernel`, over the arrays of
@@ -64,9 +65,10 @@ class Accel:
     """A BVH over the primitives of ``planar`` (a list of :class:`Planar` groups, or with Embree
     also :class:`~vrlab.render.accel.pool.IndexedPlanar`),
     ``quadrics`` (a :class:`Quadrics` or None), ``disks`` (a :class:`Disks` or None) and
-    ``tubes`` (a :class:`~vrlab.render.accel.tubes.Tubes` or None); see the module docstring.  ``backend``: ``"numpy"`` (every kind in the
-    NumPy BVH), ``"embree"`` (planar primitives through Embree, :mod:`vrlab.render.accel.embree`;
-    the others in the NumPy BVH) or ``"auto"`` (Embree where ``embreex`` imports).
+    ``tubes`` (a :class:`~vrlab.render.accel.tubes.Tubes` or None); see the module docstring.
+    ``backend``: ``"numpy"`` (every kind in the NumPy BVH), ``"embree"`` (planar primitives
+    through Embree, :mod:`vrlab.render.accel.embree`; the others in the NumPy BVH) or ``"auto"``
+    (Embree where ``embreex`` imports).
     ``kernels``: the walk of the BVH, ``"numpy"`` (default), ``"numba"`` or ``"auto"`` (see
     :mod:`vrlab.kernels`; attribute ``kernels`` is the resolved choice)."""
 
