@@ -8,7 +8,16 @@ import numpy as np
 import pytest
 
 from vrlab.estimators import MIS
+from vrlab.kernels import numba_version
 from vrlab.render import RenderPlan, plan, render, render_gradient_domain
+
+#: what kernels="auto" (the default) runs where a compiled kernel has something to gain (RIS's
+#: reservoirs; not cornell_box's rays, which the NumPy path tests all pairs), if numba imports
+NUMBA = "numpy" if numba_version() is None else "numba"
+
+
+def _auto(estimator) -> str:
+    return NUMBA if estimator in ("ris", "restir") else "numpy"
 
 SETTINGS = [
     dict(estimator="mis-power"),
@@ -24,8 +33,7 @@ def test_render_of_a_plan_equals_render_of_the_scene(kw):
     a = render(p, rng=4)
     b = render("cornell_box", 7, width=8, height=6, rng=4, **kw)
     assert np.array_equal(a.value, b.value) and np.array_equal(a.stderr, b.stderr)
-    # RIS's reservoirs run compiled where numba is importable ("auto"), the others' NumPy
-    assert a.extra == b.extra and a.extra["kernels"] == ("numba" if kw["estimator"] == "ris" else "numpy")
+    assert a.extra == b.extra and a.extra["kernels"] == _auto(kw["estimator"])
     c = render(pickle.loads(pickle.dumps(p)), rng=4)                   # the plan pickles
     assert np.array_equal(a.value, c.value)
 
@@ -78,9 +86,11 @@ def test_cli_json_reports_the_plan_and_the_kernels(capsys, tmp_path):
 
 
 def test_the_light_bvh_walk_runs_compiled_with_the_same_image():
-    """kernels="numba"/"auto" runs the compiled light-BVH walk (vrlab.distributions.light_bvh_kernel)
-    where the render selects lights by the BVH, with the NumPy walk's image bit for bit (its
-    oracle); a render without a compiled kernel reports numpy, and imports no numba for it."""
+    """kernels="numba"/"auto" runs the compiled ray queries (vrlab.render.accel.traverse_kernel) and,
+    where the render selects lights by the BVH, the compiled light-BVH walk
+    (vrlab.distributions.light_bvh_kernel): many_lights' image equals the NumPy path's bit for bit
+    (its oracle; its rays hit the same primitives at the same float32 points), whatever the
+    worker count; kernels="numpy" imports no numba (test_kernels)."""
     pytest.importorskip("numba")
     kw = dict(light_selection="bvh", width=24, height=18, rng=1)
     a = render("many_lights", 4, kernels="numpy", **kw)
@@ -88,4 +98,24 @@ def test_the_light_bvh_walk_runs_compiled_with_the_same_image():
     c = render("many_lights", 4, kernels="auto", workers=2, **kw)
     assert (a.extra["kernels"], b.extra["kernels"], c.extra["kernels"]) == ("numpy", "numba", "numba")
     assert np.array_equal(a.value, b.value) and np.array_equal(a.value, c.value)
-    assert render("cornell_box", 2, kernels="auto", width=8, height=6, rng=0).extra["kernels"] == "numpy"
+    assert render("cornell_box", 2, kernels="auto", width=8, height=6, rng=0).extra["kernels"] == "numba"
+
+
+def test_auto_kernels_compile_only_what_gains():
+    """kernels="auto": the compiled ray walk where the NumPy path culls many quadrics
+    (many_lights' 128 spheres), not where it tests a small scene all pairs (cornell_box), and
+    there numba is not even imported; kernels="numba" always compiles."""
+    import subprocess
+    import sys
+
+    from vrlab.render.accel.choice import compiled_walk_pays
+    from vrlab.render import builtin_scene_path, load_scene
+
+    small, many = load_scene(builtin_scene_path("cornell_box")), load_scene(builtin_scene_path("many_lights"))
+    assert not compiled_walk_pays(small) and compiled_walk_pays(many)
+    assert plan(many, 2, width=8, height=6).kernels == NUMBA
+    assert plan(small, 2, width=8, height=6, kernels="numba" if NUMBA == "numba" else "auto").kernels == NUMBA
+    code = ("import sys, vrlab.render as R; p = R.plan('cornell_box', 2, width=8, height=6); "
+            "print(p.kernels, 'numba' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["numpy", "False"], out

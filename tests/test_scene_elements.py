@@ -257,8 +257,15 @@ CYLINDERS = [
 ]
 
 
+@pytest.mark.parametrize("kernels", ["numpy", "numba"])
 @pytest.mark.parametrize("shape", CYLINDERS)
-def test_cylinder_hits_and_area_match_mitsuba(shape):
+def test_cylinder_hits_and_area_match_mitsuba(shape, kernels):
+    """Hits and normals of the ray tracer (all pairs with NumPy; the compiled BVH walk) against
+    Mitsuba's ``ray_intersect``."""
+    from vrlab.render.accel.geometry import SceneGeometry
+
+    if kernels == "numba":
+        pytest.importorskip("numba")
     xml = scene_xml(shape)
     ours = load_scene(xml).shapes[0]
     theirs = mi.load_string(xml)
@@ -267,7 +274,8 @@ def test_cylinder_hits_and_area_match_mitsuba(shape):
     o = rng.normal(size=(600, 3)) * 2
     d = rng.normal(size=(600, 3)) * 0.5 + ours.center - o
     d /= np.linalg.norm(d, axis=1, keepdims=True)
-    t, n = ours.parts()[0].intersect(o, d, 0.0)
+    h = SceneGeometry(load_scene(xml), kernels=kernels).intersect(o, d)
+    t, n = h.t, h.n
     for i in range(len(o)):
         si = theirs.ray_intersect(mi.Ray3f(mi.Point3f(*o[i]), mi.Vector3f(*d[i])))
         if not si.is_valid():

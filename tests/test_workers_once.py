@@ -41,12 +41,13 @@ class CountingJob(_Job):
 
 @pytest.fixture(scope="module")
 def mesh_scene(tmp_path_factory):
-    """A height field of 578 triangles (none coplanar with a neighbour: more than the all-pairs
-    limit, so the scene goes to the BVH and its triangles to Embree) under a rectangle light."""
+    """A height field of 1058 triangles (none coplanar with a neighbour: more than the all-pairs
+    limit and than EMBREE_FROM, so the scene goes to the BVH and its triangles to Embree, with
+    either kernels) under a rectangle light."""
     from vrlab.render import load_scene
 
     folder = tmp_path_factory.mktemp("mesh")
-    grid = 18
+    grid = 24
     x, y = np.meshgrid(np.linspace(-1, 1, grid), np.linspace(-1, 1, grid), indexing="ij")
     z = 0.03 * np.random.default_rng(0).standard_normal(x.shape)
     v = np.stack([x, y, z], -1).reshape(-1, 3)

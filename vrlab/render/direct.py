@@ -48,8 +48,9 @@ class DirectLighting:
     """A scene's geometry, camera, BSDF groups and lights, and the rays of direct lighting.
 
     ``light_selection``: how the ``"light"`` technique picks a light (``"uniform"``,
-    ``"power"`` or ``"bvh"``).  ``lights`` is None when the scene has no emitters; ``light_error`` says
-    why light sampling is unavailable (no emitters, or ``obj`` emitters), for the
+    ``"power"`` or ``"bvh"``); ``kernels``: ``"numpy"`` or ``"numba"``, the ray queries' and the
+    light BVH walk's (:mod:`vrlab.kernels`).  ``lights`` is None when the scene has no emitters;
+    ``light_error`` says why light sampling is unavailable (no emitters, or ``obj`` emitters), for the
     ``"light"`` technique to report.
     """
 
@@ -64,13 +65,13 @@ class DirectLighting:
         prim = any(s.has_barycentrics and (s.has_shading_normals or s.bsdf.textures or
                                                    (s.emitter is not None and s.emitter.texture is not None))
                    for s in scene.shapes)
-        self.geometry = SceneGeometry(scene, track_prim=prim)
+        self.geometry = SceneGeometry(scene, track_prim=prim, kernels=kernels)
         emits = np.array([s.emitter is not None for s in scene.shapes], bool)
         # rays leaving a surface only need the first emitter they meet and whether a
         # non-emitter blocks it: two smaller geometries (see ``trace``; the emitters' below)
         # (the whole scene's geometry where no shape emits: the same primitives, built once)
         self.blocker_geometry = self.geometry if not emits.any() else \
-            SceneGeometry(scene, np.flatnonzero(~emits), track_prim=prim)
+            SceneGeometry(scene, np.flatnonzero(~emits), track_prim=prim, kernels=kernels)
         self.camera = scene.sensor
         self.hide_emitters = bool(scene.integrator.hide_emitters)
         self.shading = bool(scene.integrator.shading)
@@ -121,7 +122,7 @@ class DirectLighting:
         # split mesh lights ("bvh": a leaf per triangle) need the exact triangle of each hit
         split = [] if self.lights is None else self.lights.shape_of_light[self.lights.split].tolist()
         self.emitter_geometry = SceneGeometry(scene, np.flatnonzero(emits), track_prim=prim or bool(split),
-                                              unmerged=split)
+                                              unmerged=split, kernels=kernels)
         #: whether some light's samples must not be hidden by their own light (split meshes)
         self.self_occluding = bool(split)
         if self.lights is not None:

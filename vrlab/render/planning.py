@@ -53,34 +53,43 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
-#: the compiled kernels of the per-sample path, by the setting that uses them (an estimator
-#: object names its own in ``kernel_module``)
-COMPILED = {"light_selection": {"bvh": "vrlab.distributions.light_bvh_kernel"},
+#: the compiled kernels of the per-sample path: the ray queries' (every render); by the light
+#: selection that uses it, the light BVH walk's; by the estimator, RIS's and ReSTIR's reservoirs
+#: and reuse (an estimator object names its own in ``kernel_module``)
+COMPILED = {"rays": "vrlab.render.accel.traverse_kernel",
+            "light_selection": {"bvh": "vrlab.distributions.light_bvh_kernel"},
             "estimator": {"ris": "vrlab.estimators.restir_kernel", "restir": "vrlab.estimators.restir_kernel"}}
 
 
-def resolve_kernels(kernels: Any, light_selection: str, estimator: Any = None) -> str:
-    """The kernels that run for ``kernels`` in :data:`KERNELS`: ``"numba"`` where this render
-    uses a compiled kernel (:data:`COMPILED`: the light BVH's walk; RIS's and ReSTIR's
-    reservoirs and reuse) and ``kernels`` is
-    ``"numba"``, or ``"auto"`` with numba importable; else ``"numpy"``.  numba is imported
-    only then (``"numba"`` is checked everywhere: ``ValueError`` naming ``kernels`` where
-    numba cannot be imported), and the kernels are compiled or loaded from numba's cache here,
-    before any worker process starts (:func:`vrlab.kernels.load_kernels`)."""
+def resolve_kernels(kernels: Any, light_selection: str, estimator: Any = None, scene: Scene | None = None) -> str:
+    """The kernels that run for ``kernels`` in :data:`KERNELS`: ``"numba"`` (:data:`COMPILED`: the
+    ray queries; the light BVH's walk where the render selects lights by it; RIS's and ReSTIR's
+    reservoirs and reuse) where ``kernels`` is ``"numba"``, or ``"auto"`` with numba importable
+    and something to gain: a compiled kernel of the light selection or the estimator, or ray
+    queries that the compiled walk speeds up (:func:`~vrlab.render.accel.choice.compiled_walk_pays`
+    for ``scene``; not the small scenes that the NumPy path tests all pairs, where importing
+    numba would cost more than it saves); else ``"numpy"``, which imports nothing.  ``"numba"`` where numba cannot be imported:
+    ``ValueError`` naming ``kernels``.  The kernels are compiled or loaded from numba's cache
+    here, before any worker process starts (:func:`vrlab.kernels.load_kernels`): forked workers
+    inherit them."""
     from ..kernels import load_kernels
     from ..kernels import resolve_kernels as resolve
 
     checks.choice(kernels, "kernels", KERNELS)
+    if kernels == "numpy":
+        return "numpy"
     by_estimator = COMPILED["estimator"].get(estimator) if isinstance(estimator, str) else \
         getattr(estimator, "kernel_module", None)
     modules = [m for m in (COMPILED["light_selection"].get(light_selection), by_estimator) if m]
-    if kernels == "numpy" or (not modules and kernels == "auto"):
+    if kernels == "auto" and not modules and scene is not None:
+        from .accel.choice import compiled_walk_pays
+
+        if not compiled_walk_pays(scene):
+            return "numpy"
+    if resolve(kernels) == "numpy":
         return "numpy"
-    ran = resolve(kernels)
-    if not modules or ran == "numpy":
-        return "numpy"
-    load_kernels(*modules)
-    return ran
+    load_kernels(COMPILED["rays"], *modules)
+    return "numba"
 
 
 @dataclasses.dataclass(frozen=True, repr=False, eq=False)
@@ -191,7 +200,7 @@ def plan(scene: Any, spp: int | None = None, estimator: Any = "mis-power", *, po
     chunk = None if chunk_pixels is None else checks.integer(chunk_pixels, "chunk_pixels", low=1)
     workers = default_workers() if workers is None else checks.integer(workers, "workers", low=1,
                                                                       high=limits.max_workers())
-    ran = resolve_kernels(kernels, light_selection, estimator)
+    ran = resolve_kernels(kernels, light_selection, estimator, scene)
     if width is not None or height is not None:
         scene = scene.with_size(width, height)
     # the sample counts (the scene's integrator's by default) and the estimator are checked and

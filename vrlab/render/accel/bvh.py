@@ -44,16 +44,20 @@ def _area(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 class BVH:
     """BVH over primitives given by their vertices ``(P, V, 3)`` (or, with
-    :meth:`from_boxes`, by their bounding boxes)."""
+    :meth:`from_boxes`, by their bounding boxes).  ``sah_min``: nodes with more primitives
+    are split by the SAH, smaller ones at their median (0: the SAH everywhere, which the
+    compiled walk of :mod:`.traverse_kernel` prefers: fewer nodes and primitives per ray)."""
 
-    def __init__(self, verts: np.ndarray, leaf_size: int = LEAF_SIZE):
+    def __init__(self, verts: np.ndarray, leaf_size: int = LEAF_SIZE, sah_min: int = SAH_MIN):
         verts = np.asarray(verts, float)
+        self.sah_min = int(sah_min)
         self._build(verts.min(1), verts.max(1), leaf_size)
 
     @classmethod
-    def from_boxes(cls, lo: np.ndarray, hi: np.ndarray, leaf_size: int = LEAF_SIZE) -> "BVH":
+    def from_boxes(cls, lo: np.ndarray, hi: np.ndarray, leaf_size: int = LEAF_SIZE, sah_min: int = SAH_MIN) -> "BVH":
         """A BVH over primitives with bounding boxes ``lo, hi (P, 3)``."""
         out = cls.__new__(cls)
+        out.sah_min = int(sah_min)
         out._build(np.asarray(lo, float), np.asarray(hi, float), leaf_size)
         return out
 
@@ -108,14 +112,14 @@ class BVH:
         """``(split, partition)``: per node of a level, the number of its primitives that go
         left (-1: a leaf), and the permutation of the level's primitives that puts each inner
         node's left ones first: binned SAH over the three axes for nodes of more than
-        ``SAH_MIN`` primitives, the median along the widest centroid axis below that (and
+        ``sah_min`` primitives, the median along the widest centroid axis below that (and
         where every centroid falls into one bin)."""
         S, n = len(size), len(seg)
         cmin = np.minimum.reduceat(cen, offs) if n else np.zeros((S, 3))
         cmax = np.maximum.reduceat(cen, offs) if n else np.zeros((S, 3))
         ext = cmax - cmin
         leaf = size <= max(leaf_size, 1)
-        sah = ~leaf & (size > SAH_MIN)
+        sah = ~leaf & (size > self.sah_min)
         median = ~leaf & ~sah
         goes_right = np.zeros(n, bool)
         if sah.any():

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .flat import DISK
 from .groups import affine_boxes
 
 __all__ = ["Disks"]
@@ -50,12 +51,22 @@ class Disks:
         return affine_boxes(self.c, np.linalg.inv(self.minv)[:, :, :2])
 
     def exact(self, o, d, t_min, i, j):
+        """Exact t (inf on a miss) of the pairs ``(ray i, disk j)``: the ray in the disk frame,
+        ``(M^-1 x)_a = sum_b M^-1_ab x_b`` summed over b in order (as the compiled walk does)."""
         minv = self.minv[j]
-        return self._hit(np.einsum("kab,kb->ka", minv, o[i] - self.c[j]), np.einsum("kab,kb->ka", minv, d[i]),
-                         t_min)
+        oc, dd = o[i] - self.c[j], d[i]
+        ol = minv[:, :, 0] * oc[:, 0:1] + minv[:, :, 1] * oc[:, 1:2] + minv[:, :, 2] * oc[:, 2:3]
+        dl = minv[:, :, 0] * dd[:, 0:1] + minv[:, :, 1] * dd[:, 1:2] + minv[:, :, 2] * dd[:, 2:3]
+        return self._hit(ol, dl, t_min)
 
     def normals(self, o, d, rows, j, t) -> np.ndarray:
         return self.n[j]
 
     def prims(self, j) -> np.ndarray:
         return np.zeros(len(j), np.int64)
+
+    def kernel_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(kind codes, rows (P, 16))`` of the compiled traversal (:mod:`.flat`): ``c, M^-1``, the
+        normal."""
+        rows = np.concatenate([self.c, self.minv.reshape(-1, 9), self.n, np.zeros((len(self), 1))], axis=1)
+        return np.full(len(self), DISK, np.int64), rows

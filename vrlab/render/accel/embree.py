@@ -115,7 +115,8 @@ class EmbreeTriangles:
 
     def closest(self, o, d, t_min: float, t, shape, normal, prim=None) -> np.ndarray:
         """Set the closest planar hits of rays ``(o, d)`` in ``t, shape, normal`` (and
-        ``prim``) where they are closer than ``t`` (in place); returns the rows set."""
+        ``prim``) where they are closer than ``t`` (in place; ``normal=None``: no normals);
+        returns the rows set."""
         o32, d32 = self._start(o, d, t_min)
         res = self.scene.run(o32, d32, output=1)
         k = np.asarray(res["primID"], np.int64)
@@ -139,7 +140,8 @@ class EmbreeTriangles:
                 tt[m] = np.where(np.isfinite(t64) & (t64 > t_min), t64, tt[m])
             t[m] = tt[m]
             shape[m] = sh
-            normal[m] = nrm
+            if normal is not None:
+                normal[m] = nrm
             if prim is not None:
                 prim[m] = loc
         return rows

@@ -12,7 +12,8 @@ primitive groups:
   intersection");
 * quadrics (``sphere``, ``ellipsoid``): the unit sphere under an affine map
   x = c + M s, intersected in the unit-sphere frame;
-* disks: the unit disk in z = 0 under an affine map.
+* disks: the unit disk in z = 0 under an affine map;
+* tubes (``cylinder``): the open unit tube under an affine map (:mod:`vrlab.render.accel.tubes`).
 
 ``intersect(origin, direction)`` (rays ``(N, 3)``, directions need not be unit; t is in
 units of their length) returns :class:`Hits` with the closest ``t > t_min`` per ray,
@@ -46,6 +47,13 @@ disks) and then the lowest primitive wins (a parallelogram before a cube face). 
 over primitive groups, blocks and tree steps, never over single rays.  The primitive groups
 live in :mod:`vrlab.render.accel.groups`.
 
+With ``kernels="numba"`` every scene, small or large, goes into the BVH, walked by the
+compiled kernel (:mod:`vrlab.render.accel.traverse_kernel`: one serial loop per ray, the
+same float64 tests and tie rule as the NumPy walk, its oracle); planar primitives go to
+Embree only from ``EMBREE_FROM`` of them on (with ``backend="auto"``).  Decisions are then
+float64 everywhere: a render differs from the NumPy path's float32 all-pairs decisions only
+at rays within float32 rounding of a silhouette or an edge.
+
 Building: the loop over shapes only collects their parts; every triangle of every mesh and
 cube is pooled into one indexed set (:mod:`vrlab.render.accel.pool`: one vertex array, one
 face array, parallelograms found by array operations over all triangles at once), so the
@@ -66,18 +74,24 @@ from typing import NamedTuple
 import numpy as np
 
 from ... import checks
+from ...kernels import resolve_kernels
 from ..._vec import scale
 from ..scene import Scene
-from ..shapes.base import CustomPart, DiskPart, IndexedTriangles, Parallelograms, Quadric, Triangles
+from ..shapes.base import CustomPart, DiskPart, IndexedTriangles, Parallelograms, Quadric, Triangles, TubePart
 from .disks import Disks
 from .groups import Planar, Quadrics
 from .pool import IndexedPlanar, TrianglePool, pool_triangles
 from .scene_bvh import BACKENDS, Accel, embree_used
+from .tubes import Tubes
 
-__all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "Hits", "SceneGeometry"]
+__all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "EMBREE_FROM", "Hits", "SceneGeometry"]
 
 DEFAULT_RAY_CHUNK = 1 << 15   # rays per block
 DENSE_COST = 256              # scenes up to this all-pairs cost (planar primitives + quadrics / 4) skip the BVH
+#: with the compiled walk (``kernels="numba"``) and ``backend="auto"``, Embree takes the planar
+#: primitives from this many on (below, the compiled walk is as fast or faster:
+#: benchmarks/bench_rays.py, 0.8-1.6x Embree's closest-hit rays/s at 10^3 triangles, 0.4x at 10^5)
+EMBREE_FROM = 1000
 
 
 class Hits(NamedTuple):
@@ -150,13 +164,17 @@ class SceneGeometry:
     ``unmerged``: shapes whose triangles are never paired into parallelograms (their hits
     report the exact triangle: the light BVH's per-triangle mesh lights); ``backend``: how a
     large scene's BVH traces planar primitives (:data:`~vrlab.render.accel.scene_bvh.BACKENDS`:
-    ``"auto"`` Embree where ``embreex`` is installed, else NumPy)."""
+    ``"auto"`` Embree where ``embreex`` is installed, else NumPy); ``kernels``: ``"numpy"``
+    (default), ``"numba"`` or ``"auto"`` (:mod:`vrlab.kernels`): with numba every scene goes
+    into the BVH, walked by the compiled kernel (see the module docstring)."""
 
     def __init__(self, scene: Scene, only: Sequence[int] | None = None, track_prim: bool = True,
-                 unmerged: Sequence[int] = (), backend: str = "auto"):
+                 unmerged: Sequence[int] = (), backend: str = "auto", kernels: str = "numpy"):
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be a vrlab.render.Scene, got {type(scene).__name__}")
         checks.choice(backend, "backend", BACKENDS)
+        #: the kernels of the ray queries ("numpy" or "numba", resolved)
+        self.kernels = resolve_kernels(kernels)
         if only is not None:
             idx = np.asarray(only)
             if idx.ndim != 1 or (idx.size and idx.dtype.kind not in "iu"):
@@ -167,7 +185,7 @@ class SceneGeometry:
         #: whether ``intersect`` reports each hit's primitive (meshes' triangles: smooth normals, textures)
         self.track_prim = bool(track_prim)
         # collect the parts (references only: the arrays are pooled below, for every shape at once)
-        para_parts, tri_parts, quad, disk, custom, centers, boxes = [], [], [], [], [], [np.zeros(3)], {}
+        para_parts, tri_parts, quad, disk, tube, custom, centers, boxes = [], [], [], [], [], [], [np.zeros(3)], {}
         para_order, tri_order = [], []
         self.n_shapes = len(scene.shapes) if only is None else len(only)
         radii = []
@@ -194,6 +212,9 @@ class SceneGeometry:
                 elif isinstance(part, DiskPart):
                     disk.append((k, part.center, np.linalg.inv(part.matrix), part.normal))
                     radii.append(np.linalg.norm(part.matrix, 2))
+                elif isinstance(part, TubePart):
+                    tube.append((k, part.center, np.linalg.inv(part.matrix), part.sign))
+                    radii.append(s.bound_radius)
                 elif isinstance(part, CustomPart):
                     custom.append((k, part.intersect))
                     radii.append(s.bound_radius)
@@ -205,9 +226,12 @@ class SceneGeometry:
         self._n_tri = 2 * sum(len(d) for _, d in para_parts) + (int(pool.start[-1]) if pool else 0)
         # all pairs while their cost stays small (a quadric costs about a quarter of a planar
         # primitive through the culling products), else one BVH over every primitive
-        cost = len(para[0]) + (pool.n_group if pool else 0) + len(disk) + len(quad) / 4
-        dense = cost <= DENSE_COST
-        embree = not dense and embree_used(backend, len(para[0]) > 0 or pool is not None)
+        cost = len(para[0]) + (pool.n_group if pool else 0) + len(disk) + len(tube) + len(quad) / 4
+        dense = cost <= DENSE_COST and self.kernels == "numpy"
+        n_planar = len(para[0]) + (pool.n_group if pool else 0)
+        if self.kernels == "numba" and backend == "auto" and n_planar < EMBREE_FROM:
+            backend = "numpy"            # the compiled walk is faster than Embree's calls here
+        embree = not dense and embree_used(backend, n_planar > 0)
         self.planar = []
         if len(para[0]):
             data, ids, local = para
@@ -222,10 +246,12 @@ class SceneGeometry:
                 self.planar.append(IndexedPlanar(pool).planar(dense))
         self.quadrics = Quadrics(quad) if quad else None
         self.disks = Disks(disk) if disk else None
+        self.tubes = Tubes(tube) if tube else None
         self.custom = custom
         #: the BVH over every primitive (:mod:`vrlab.render.accel.scene_bvh`) of scenes whose all-pairs
         #: cost exceeds ``DENSE_COST``; None: the all-pairs kernels
-        self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks, backend)
+        self.accel = None if dense else Accel(self.planar, self.quadrics, self.disks, backend, self.kernels,
+                                                   tubes=self.tubes)
         #: a length scale of the scene (for ray offsets): the largest coordinate of a shape's
         #: centre, a parallelogram's corner or a triangle's vertex, plus the largest radius
         extent = max(float(np.max(np.abs(np.vstack(centers)))), _para_extent(para_parts), _pool_extent(pool))
@@ -312,7 +338,7 @@ class SceneGeometry:
         ``finish=False`` (float32 rays) the dense groups only set t and, with ``shapes``,
         the shape."""
         if self.accel is not None:
-            self.accel.closest(o, d, t_min, t, shape, normal, prim)
+            self.accel.closest(o, d, t_min, t, shape, normal if finish else None, prim)
             if self.custom:
                 self._custom(o.astype(np.float64, copy=False), d.astype(np.float64, copy=False), t_min, t, shape,
                              normal, prim)
@@ -349,12 +375,14 @@ class SceneGeometry:
                 elif len(r):
                     g.finish(o, d, t_min, r, j_best[r], best[r], t, shape, normal, prim)
         cull = self.quadrics is not None and not self.quadrics.use_dense
-        if cull or self.disks is not None or self.custom:   # float64 decisions: float64 rays
+        if cull or self.disks is not None or self.tubes is not None or self.custom:   # float64 decisions
             o, d = o.astype(np.float64, copy=False), d.astype(np.float64, copy=False)
         if cull:
             self.quadrics.closest(o, d, t_min, t, shape, normal, prim)
         if self.disks is not None:
             self.disks.closest(o, d, t_min, t, shape, normal, prim)
+        if self.tubes is not None:
+            self.tubes.closest(o, d, t_min, t, shape, normal, prim)
         self._custom(o, d, t_min, t, shape, normal, prim)
 
     def _custom(self, o, d, t_min, t, shape, normal, prim) -> None:

@@ -14,6 +14,7 @@ from ..._vec import dot as _dot
 from ..._vec import norm, scale
 from ...distributions.quadrics import unit_sphere_hit
 from .dense import DensePlanar, closest_quadrics
+from .flat import PARA, QUADRIC, SPHERE, TRI
 
 __all__ = ["DENSE_QUADRICS", "Planar", "Quadrics", "affine_boxes", "unit", "unit_sphere_hit"]
 
@@ -140,6 +141,13 @@ class Planar:
         """Each primitive's index within its shape (a mesh's triangle)."""
         return self.local[j]
 
+    def kernel_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(kind codes, rows (P, 16))`` of the compiled traversal (:mod:`.flat`): ``v0, n, a1, a2``,
+        the normal."""
+        rows = np.zeros((len(self), 16))
+        rows[:, :12], rows[:, 12:15] = self.packed, self.normal
+        return np.full(len(self), PARA if self.para else TRI, np.int64), rows
+
     def exact(self, o, d, t_min, i, j):
         """Exact t (inf on a miss) of the pairs ``(ray i, primitive j)``."""
         q = self.packed[j]                         # [v0, n, a1, a2]
@@ -223,6 +231,18 @@ class Quadrics:
 
     def prims(self, j) -> np.ndarray:
         return np.zeros(len(j), np.int64)
+
+    def kernel_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(kind codes, rows (P, 16))`` of the compiled traversal (:mod:`.flat`): ``c, 1 / r``
+        for a group of spheres (the test ``exact`` takes), else ``c, M^-1``; the normals' sign."""
+        rows = np.zeros((len(self), 16))
+        rows[:, 15] = self.sign
+        rows[:, :3] = self.c
+        if self.radius is not None:
+            rows[:, 3] = 1.0 / self.radius
+            return np.full(len(self), SPHERE, np.int64), rows
+        rows[:, 3:12] = self.minv.reshape(-1, 9)
+        return np.full(len(self), QUADRIC, np.int64), rows
 
     def _fold(self, o, d, t_min, i, j, tt, t, shape, normal, prim=None):
         _update(t, shape, normal, i, tt, lambda w: self.shape[j[w]],

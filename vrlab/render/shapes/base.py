@@ -9,10 +9,10 @@ emitter, and its behaviour:
   triangles; ``box`` marks the six faces of a parallelepiped for the slab test),
   :class:`IndexedTriangles` (a mesh: world vertices and faces, pooled with the scene's other
   triangles without a copy per triangle), :class:`Quadric`
-  (an ellipsoid ``|M^-1 (x - c)| = 1``), :class:`DiskPart`, or :class:`CustomPart` (the
-  shape's own batched ``intersect(o, d, t_min) -> (t, normal)``).  The kernels for the
-  first four are vectorised over rays and primitives; a new shape type that is not one
-  of them brings its own intersection;
+  (an ellipsoid ``|M^-1 (x - c)| = 1``), :class:`DiskPart`, :class:`TubePart` (an open
+  tube, the cylinder), or :class:`CustomPart` (the shape's own batched ``intersect(o, d,
+  t_min) -> (t, normal)``).  The kernels for all but the last are vectorised over rays and
+  primitives; a new shape type that is not one of them brings its own intersection;
 * ``area``, ``center``, ``bound_radius``;
 * ``surface()``: its area-sampling distribution from :mod:`vrlab.distributions` (the
   ``"light"`` technique converts it to solid angle), or None;
@@ -36,7 +36,8 @@ from .. import transforms as tf
 from ..registry import Element
 from ..scene_checks import MAX_COORD, affine, matrix4
 
-__all__ = ["CustomPart", "DiskPart", "IndexedTriangles", "Parallelograms", "Quadric", "Shape", "Triangles"]
+__all__ = ["CustomPart", "DiskPart", "IndexedTriangles", "Parallelograms", "Quadric", "Shape", "Triangles",
+           "TubePart"]
 
 
 class Parallelograms(NamedTuple):
@@ -75,6 +76,14 @@ class DiskPart(NamedTuple):
     center: np.ndarray
     matrix: np.ndarray
     normal: np.ndarray
+
+
+class TubePart(NamedTuple):
+    """The open tube ``x = center + M (cos phi, sin phi, z)``, ``0 <= z <= 1`` (M's first two
+    columns orthogonal and of equal length); ``sign`` -1 flips its normals."""
+    center: np.ndarray
+    matrix: np.ndarray
+    sign: float
 
 
 class CustomPart(NamedTuple):

@@ -2,10 +2,10 @@
 (default (0, 0, 1)) of ``radius`` (default 1), under ``to_world``; normals point outwards
 (``flip_normals`` turns them in).  The tube {(cos phi, sin phi, z): 0 <= z <= 1} is mapped
 by to_world @ T(p0) @ R @ S(r, r, |p1 - p0|), R turning +z to p1 - p0; the result must
-keep the cross-section circular (to_world a similarity on it).  The ray tracer calls the
-shape's own intersection (the roots of the tube in its local frame,
-:func:`vrlab.distributions.cylinder.tube_hits`); lights sample it uniformly by area
-(:class:`vrlab.distributions.CylinderSurface`)."""
+keep the cross-section circular (to_world a similarity on it).  The ray tracer intersects
+its :class:`~vrlab.render.shapes.base.TubePart` (the roots of the tube in its local frame,
+:func:`vrlab.distributions.cylinder.tube_hits`; in the scene's BVH with the other
+primitives); lights sample it uniformly by area (:class:`vrlab.distributions.CylinderSurface`)."""
 from __future__ import annotations
 
 from typing import Any
@@ -17,7 +17,7 @@ from ...distributions.cylinder import CylinderSurface
 from ...distributions.frames import Frame
 from .. import transforms as tf
 from ..registry import register
-from .base import CustomPart, Shape, shape_matrix
+from .base import Shape, TubePart, shape_matrix
 
 __all__ = ["Cylinder"]
 
@@ -59,15 +59,6 @@ class Cylinder(Shape):
         super().validate()
         self._make_surface()
 
-    def _intersect(self, o: np.ndarray, d: np.ndarray, t_min: float) -> tuple[np.ndarray, np.ndarray]:
-        s = self._surface
-        t = s.intersect(o, d, t_min)[:, 0]
-        hit = np.isfinite(t)
-        n = np.zeros_like(o)
-        if hit.any():
-            n[hit] = s.normal(o[hit] + t[hit, None] * d[hit])
-        return t, n
-
     def uv(self, p, prim):
         """Mitsuba's cylinder: uv = (phi / 2 pi, z) of the local point, phi in [0, 2 pi)."""
         x = self._surface.local(p)
@@ -75,7 +66,8 @@ class Cylinder(Shape):
         return np.stack([np.where(phi < 0, phi + 1.0, phi), x[:, 2]], -1)
 
     def parts(self) -> list:
-        return [CustomPart(self._intersect)]
+        s = self._surface
+        return [TubePart(s.origin, s.matrix, s.sign)]
 
     @property
     def center(self) -> np.ndarray:
