@@ -36,8 +36,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ("veach_mis", "cornell_box", "many_lights")
-CODE = ("import sys; sys.path.insert(0, {src!r}); import vrlab.render as R; "
-        "r = R.render({scene!r}, {spp}, {est!r}, rng=1, workers={workers}, width={w}, height={h}); "
+# the NumPy path on revisions that have the kernels switch (issue 31), the only path on older ones
+CODE = ("import sys, inspect; sys.path.insert(0, {src!r}); import vrlab.render as R; "
+        "kw = {{'kernels': 'numpy'}} if 'kernels' in inspect.signature(R.render).parameters else {{}}; "
+        "r = R.render({scene!r}, {spp}, {est!r}, rng=1, workers={workers}, width={w}, height={h}, **kw); "
         "img = r.value if hasattr(r, 'value') else r[0]; assert img.shape == ({h}, {w}, 3)")
 
 
