@@ -86,7 +86,7 @@ def test_cli_json_reports_the_plan_and_the_kernels(capsys, tmp_path):
 
 
 def test_the_light_bvh_walk_runs_compiled_with_the_same_image():
-    """kernels="numba"/"auto" runs the compiled ray queries (vrlab.render.accel.traverse_kernel) and,
+    """kernels="numba" (and "auto" where it gains) runs the compiled ray queries (vrlab.render.accel.traverse_kernel) and,
     where the render selects lights by the BVH, the compiled light-BVH walk
     (vrlab.distributions.light_bvh_kernel): many_lights' image equals the NumPy path's bit for bit
     (its oracle; its rays hit the same primitives at the same float32 points), whatever the
@@ -98,7 +98,8 @@ def test_the_light_bvh_walk_runs_compiled_with_the_same_image():
     c = render("many_lights", 4, kernels="auto", workers=2, **kw)
     assert (a.extra["kernels"], b.extra["kernels"], c.extra["kernels"]) == ("numpy", "numba", "numba")
     assert np.array_equal(a.value, b.value) and np.array_equal(a.value, c.value)
-    assert render("cornell_box", 2, kernels="auto", width=8, height=6, rng=0).extra["kernels"] == "numba"
+    # cornell_box: rays tested all pairs, uniform selection, no compiled estimator: nothing to gain
+    assert render("cornell_box", 2, kernels="auto", width=8, height=6, rng=0).extra["kernels"] == "numpy"
 
 
 def test_auto_kernels_compile_only_what_gains():
