@@ -41,7 +41,6 @@ __getattr__, __dir__ = lazy_attributes(__name__, {
     "Beckmann": "microfacet", "MicrofacetNormals": "microfacet", "VisibleNormals": "visible_normals",
     "CylinderSurface": "cylinder",
     **{n: "triangles" for n in ("SphericalTriangle", "triangle_solid_angle")},
-    **{n: "mesh_light" for n in ("MeshLightSample", "TriangleMeshSolidAngle")},
-    "TriangleMeshSurface": "mesh_surface",
+    **{n: "mesh_light" for n in ("MeshLightSample", "TriangleMeshSolidAngle", "TriangleMeshSurface")},
     **{n: "envmap" for n in ("EnvironmentMap", "latlong_direction", "latlong_uv")},
     "BilinearPiecewise2D": "bilinear", "DeltaDirection": "lobes", "LobeMixture": "lobes"}, __all__)

@@ -1,7 +1,7 @@
 """Compiled emitter sampling towards given mesh triangles (Numba): ``TriangleMeshSolidAngle``
-``sample_given`` and ``pdf_given`` with ``kernels="numba"``.
+``sample_given`` and ``pdf_given`` with ``kernels="numba"`` (:mod:`.triangle_given`).
 
-The NumPy code of :mod:`vrlab.distributions.mesh_light` and :mod:`vrlab.distributions.triangles`
+The NumPy code of :mod:`vrlab.distributions.triangle_given` and :mod:`vrlab.distributions.triangles`
 (its oracle) works on whole arrays; here one serial loop over the points (``@njit(cache=True)``,
 no prange: vrlab's parallelism is its worker processes) does, per point i with triangle
 k = ``k[i]`` (rows ``v0, e1, e2`` and ``n = e1 x e2`` of the mesh's tables) and uniforms u:
