@@ -171,3 +171,16 @@ def test_parity_fails_on_a_mutated_kernel(mutant, monkeypatch):
         return
     with pytest.raises(AssertionError):
         _checks()
+
+
+def test_render_on_forked_workers_equals_numpy(field):
+    """The plan loads the kernel before the workers fork: 2 workers, kernels numba, give the
+    1-worker NumPy image."""
+    for s in field.shapes:
+        if s.emitter is not None:
+            s.emitter.triangle_sampling = "area"
+    kw = dict(rng=4, light_selection="bvh")
+    ref = render(field, 2, "mis-power", kernels="numpy", workers=1, **kw)
+    got = render(field, 2, "mis-power", kernels="numba", workers=2, **kw)
+    assert got.extra["kernels"] == "numba"
+    np.testing.assert_array_equal(got.value, ref.value)
