@@ -6,7 +6,8 @@
   area converted to solid angle (p_w = sum over every triangle the ray crosses of
   p_A d^2 / |cos|) or by choosing a triangle and sampling its spherical triangle uniformly
   (Arvo 1995, :class:`vrlab.distributions.SphericalTriangle`); ``sample_given``, ``pdf_given``:
-  towards one given triangle (the light BVH's per-triangle leaves, :mod:`vrlab.render.light_tree`).
+  towards one given triangle (the light BVH's per-triangle leaves, :mod:`vrlab.render.light_tree`;
+  computed by :mod:`.triangle_given`, compiled with ``kernels="numba"``).
 
 The spherical-triangle sampler and the solid angle of a triangle live in :mod:`.triangles`.
 """
@@ -18,10 +19,12 @@ import numpy as np
 
 from .. import checks
 from .._vec import dot, norm
+from ..kernels import resolve_kernels
 from .base import Distribution, as_float, as_points, as_uniforms, check_broadcast, finite_points
 from .discrete import AliasTable
 from .surfaces import Surface, _INTERSECT_DOC
-from .triangles import _BARY, _TOL, MIN_SOLID_ANGLE, _blocks, _f64, _Geom, _omega, _rows, _unit
+from .triangle_given import density_given, relative, sample_given, spherical_towards
+from .triangles import _BARY, _TOL, MIN_SOLID_ANGLE, _blocks, _f64, _omega, _rows, _unit
 
 __all__ = ["MeshLightSample", "TriangleMeshSolidAngle", "TriangleMeshSurface"]
 
@@ -202,7 +205,9 @@ class TriangleMeshSolidAngle(Distribution):
     hits found by another tracer (every hit of the ray, as ``surface.hits`` gives them).
     ``ref`` (..., 3) broadcasts with u (..., 2) / w (..., 3) as in ``SolidAngleFromArea``.
     Checked: ``surface`` a ``TriangleMeshSurface`` (``TypeError``), ``ref`` finite (..., 3),
-    ``method``, ``selection`` in ``METHODS``, ``SELECTIONS``, ``min_solid_angle >= 0``.
+    ``method``, ``selection`` in ``METHODS``, ``SELECTIONS``, ``min_solid_angle >= 0``;
+    ``kernels`` ("numpy", "numba", "auto"; resolved here): those of ``sample_given`` and
+    ``pdf_given`` (:mod:`.triangle_given`).
     """
 
     dim_u = 2
@@ -212,7 +217,8 @@ class TriangleMeshSolidAngle(Distribution):
     SELECTIONS = ("area", "solid_angle")
 
     def __init__(self, surface: TriangleMeshSurface, ref: Any, method: str = "spherical", selection: str = "area",
-                 min_solid_angle: float = MIN_SOLID_ANGLE):
+                 min_solid_angle: float = MIN_SOLID_ANGLE, *, kernels: str = "numpy"):
+        self.kernels = resolve_kernels(kernels)
         if not isinstance(surface, TriangleMeshSurface):
             raise TypeError(f"surface must be a TriangleMeshSurface, got {checks.describe(surface)}")
         self.surface = surface
@@ -228,9 +234,7 @@ class TriangleMeshSolidAngle(Distribution):
                 np.broadcast_to(self.ref, shape + (3,)).reshape(-1, 3), shape)
 
     def _rel(self, k, ref):
-        s = self.surface
-        va = s.v0[k] - ref
-        return va, va + s.e1[k], va + s.e2[k], s.n[k]
+        return relative(self.surface, k, ref)
 
     def _totals(self, ref, u1=None):
         """sum_j Omega_j per point; with u1 also (k, r): k ~ Omega_k / sum, r the remapped u1."""
@@ -296,18 +300,8 @@ class TriangleMeshSolidAngle(Distribution):
             (k, r), tot = s.table.sample(u[:, 0], return_remapped=True), None
         else:
             tot, k, r = self._totals(ref, u[:, 0])
-        w, y, t = self._spherical(k, np.stack([r, u[:, 1]], -1), ref)
+        w, y, t = spherical_towards(s, k, np.stack([r, u[:, 1]], -1), ref, self.min_solid_angle)
         return w, y, t, k, ref, shape, tot
-
-    def _spherical(self, k, u, ref):
-        """``(w, y, t)``: w uniform in the spherical triangle of triangles ``k`` from ``ref``
-        (or by area below ``min_solid_angle``), y = ref + t w the point on k."""
-        va, vb, vc, n = self._rel(k, ref)
-        w = _Geom(va, vb, vc, self.min_solid_angle).sample(u)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = dot(va, n) / dot(w, n)
-        t = np.where(np.isfinite(t) & (t > 0), t, 0.0)
-        return w, ref + w * t[:, None], t
 
     # -- one given triangle per point (the light BVH's per-triangle leaves) -----------------
     def sample_given(self, triangles: Any, u: np.ndarray) -> MeshLightSample:
@@ -317,13 +311,7 @@ class TriangleMeshSolidAngle(Distribution):
         *given* k, p_k(w) (see :meth:`pdf_given`), not the mesh's sum over hits."""
         u, ref, shape = self._flat(as_uniforms(u, 2), 2, "u")
         k = self._given(triangles, shape)
-        if self.method == "area":
-            y = self.surface.point_on(k, u)
-            v = y - ref
-            w, dist = _unit(v, self.surface.face_normals[k]), norm(v)
-        else:
-            w, y, dist = self._spherical(k, u, ref)
-        pdf = self._density_given(w, ref, k)
+        w, y, dist, pdf = sample_given(self.surface, k, u, ref, self.method, self.min_solid_angle, self.kernels)
         return MeshLightSample(*(a.reshape(shape + a.shape[1:]) for a in (w, y, dist, pdf, k)))
 
     def pdf_given(self, w: np.ndarray, triangles: Any) -> np.ndarray:
@@ -332,7 +320,8 @@ class TriangleMeshSolidAngle(Distribution):
         by area t^2 / (A_k |cos theta_k|) = 2 t^2 / |w . (e1 x e2)|; spherical 1 / Omega_k
         (the area density below ``min_solid_angle``, as in the mesh density)."""
         w, ref, shape = self._flat(w, 3, "w")
-        return self._density_given(_unit(w), ref, self._given(triangles, shape)).reshape(shape)
+        return density_given(self.surface, _unit(w), ref, self._given(triangles, shape), self.method,
+                             self.min_solid_angle, self.kernels).reshape(shape)
 
     def _given(self, triangles, shape):
         k = np.asarray(triangles)
@@ -343,20 +332,6 @@ class TriangleMeshSolidAngle(Distribution):
             raise ValueError(f"triangles: indices must lie in [0, {len(self.surface.n) - 1}], got {k.min()} "
                              f"to {k.max()}")
         return k
-
-    def _density_given(self, w, ref, k):
-        va, vb, vc, n = self._rel(k, ref)
-        wn = np.abs(dot(w, n))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = dot(va, n) / dot(w, n)
-        ok = (wn > 0) & np.isfinite(t) & (t > 0)
-        tt, wn = np.where(ok, t, 0.0), np.where(ok, wn, 1.0)
-        p = 2.0 * tt * tt / wn
-        if self.method == "spherical":
-            om = _omega(va, vb, vc, n)
-            sph = om >= max(self.min_solid_angle, np.finfo(float).tiny)
-            p = np.where(sph, 1.0 / np.where(sph, om, 1.0), p)
-        return np.where(ok, p, 0.0)
 
     def sample(self, u: np.ndarray) -> np.ndarray:
         w, *_, shape, _ = self._sample(u)

@@ -46,7 +46,8 @@ class LightSet:
     the emitting shapes (indices 0.. in shape order) then the other ``emitters`` (point, spot,
     directional, constant, envmap, ...); ``radius``: of a sphere around the scene (power of
     lights at infinity).  Selection weights are multiplied by each emitter's
-    ``sampling_weight``.  ``kernels``: the light BVH walk's (``"numpy"`` or ``"numba"``)."""
+    ``sampling_weight``.  ``kernels``: the light BVH walk's and the mesh lights' sampling towards
+    given triangles (``"numpy"`` or ``"numba"``)."""
 
     def __init__(self, shapes: list[Shape], selection: str = "uniform", emitters=(), radius: float = 1.0, *,
                  kernels: str = "numpy"):
@@ -59,7 +60,7 @@ class LightSet:
         for k, s in enumerate(shapes):
             if s.emitter is not None:
                 self.light_of_shape[k] = len(self.lights)
-                self.lights.append(Light(s))
+                self.lights.append(Light(s, kernels=kernels))
                 weights.append(s.emitter.sampling_weight)
         self.shape_of_light = np.flatnonzero(self.light_of_shape >= 0)
         for e in emitters:

@@ -54,10 +54,12 @@ def default_workers() -> int:
 
 
 #: the compiled kernels of the per-sample path: the ray queries' (every render); by the light
-#: selection that uses it, the light BVH walk's; by the estimator, RIS's and ReSTIR's reservoirs
+#: selection that uses it, the light BVH walk's and (its leaves are mesh triangles) the sampling
+#: towards given triangles; by the estimator, RIS's and ReSTIR's reservoirs
 #: and reuse (an estimator object names its own in ``kernel_module``)
 COMPILED = {"rays": "vrlab.render.accel.traverse_kernel",
-            "light_selection": {"bvh": "vrlab.distributions.light_bvh_kernel"},
+            "light_selection": {"bvh": ("vrlab.distributions.light_bvh_kernel",
+                                        "vrlab.distributions.mesh_light_kernel")},
             "estimator": {"ris": "vrlab.estimators.restir_kernel", "restir": "vrlab.estimators.restir_kernel"}}
 
 
@@ -80,7 +82,7 @@ def resolve_kernels(kernels: Any, light_selection: str, estimator: Any = None, s
         return "numpy"
     by_estimator = COMPILED["estimator"].get(estimator) if isinstance(estimator, str) else \
         getattr(estimator, "kernel_module", None)
-    modules = [m for m in (COMPILED["light_selection"].get(light_selection), by_estimator) if m]
+    modules = [*COMPILED["light_selection"].get(light_selection, ()), *([by_estimator] if by_estimator else [])]
     if kernels == "auto" and not modules and scene is not None:
         from .accel.choice import compiled_walk_pays
 

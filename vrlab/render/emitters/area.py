@@ -93,9 +93,11 @@ class AreaLight:
     spheres by their cone, other shapes by their area-sampling surface (``shape.surface()``)
     converted to solid angle.  A shape without a surface distribution cannot be sampled
     (ValueError).  It answers what the light set asks of every light (``emitter``, ``shape``,
-    ``is_delta``, ``is_infinite``, ``textured``, ``directions``, ``planar``, ``sphere``...)."""
+    ``is_delta``, ``is_infinite``, ``textured``, ``directions``, ``planar``, ``sphere``...).
+    ``kernels`` ("numpy" or "numba", resolved by the caller): a mesh's sampling towards given
+    triangles (``TriangleMeshSolidAngle(kernels=...)``)."""
 
-    def __init__(self, shape: Shape):
+    def __init__(self, shape: Shape, *, kernels: str = "numpy"):
         self.emitter = shape.emitter
         self.radiance = np.asarray(shape.emitter.mean_radiance, float)      # a texture's mean
         self.textured = shape.emitter.texture is not None
@@ -119,7 +121,7 @@ class AreaLight:
         # meshes: by area or by spherical triangles (the emitter's ``triangle_sampling``)
         from ...distributions import TriangleMeshSurface
 
-        self.directions = {"method": shape.emitter.triangle_sampling} \
+        self.directions = {"method": shape.emitter.triangle_sampling, "kernels": kernels} \
             if isinstance(self.surface, TriangleMeshSurface) else {}
         # one hit per direction: whether the light faces the point is a function of w
         self.planar = self.surface.max_hits == 1
