@@ -122,8 +122,10 @@ def add_parser(sub, **kw) -> argparse.ArgumentParser:
     rend.add_argument("--spp-batch", help=f"samples per pixel of one work unit, 1 .. {SPP_MAX}: the image depends "
                                           "on it, not on how units run (default: 64)")
     rend.add_argument("--kernels", choices=["auto", "numba", "numpy"], default="auto",
-                      help="kernels of the per-sample path: auto (default: compiled where they exist and can run), "
-                           "numba, or numpy (the reference implementation); --json reports which ran")
+                      help="kernels of the per-sample path: auto (default: the compiled ones where numba imports and "
+                           "they gain: the light BVH, RIS, ReSTIR, and rays in scenes with many spheres or "
+                           "without Embree), numba, or numpy (the reference implementation); --json reports "
+                           "which ran")
     rend.add_argument("--scheduler", metavar="ADDRESS",
                       help="render the units on a running Dask scheduler, e.g. tcp://127.0.0.1:8786 (needs "
                            "vrlab[distributed]; same image as a local render; not with --workers; an address that "

@@ -34,8 +34,8 @@ from .scene import Scene
 
 __all__ = ["RenderPlan", "plan", "KERNELS", "default_workers", "resolve_kernels"]
 
-#: the kernel choices of ``plan(kernels=...)``: ``"auto"`` is the compiled kernels where
-#: they exist and can run, else NumPy (:func:`resolve_kernels`)
+#: the kernel choices of ``plan(kernels=...)``: ``"auto"`` is the compiled kernels where numba
+#: imports and they gain, else NumPy (:func:`resolve_kernels`)
 KERNELS = ("auto", "numba", "numpy")
 TILE_PIXELS = 1024           # pixels per work unit (fixed: it defines the random streams)
 SPP_BATCH = 64               # samples per pixel of one work unit (a batch); more spp: more batches
