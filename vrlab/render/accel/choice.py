@@ -23,7 +23,7 @@ def compiled_walk_pays(scene: Scene, backend: str = "auto") -> bool:
     """Whether the compiled walk would trace some of ``scene``'s primitives faster than the
     NumPy path does (see the module docstring); counts the shapes' parts, builds nothing."""
     from .embree import embree_available
-    from .geometry import DENSE_COST, EMBREE_FROM
+    from .geometry import EMBREE_FROM, all_pairs
     from .groups import DENSE_QUADRICS
 
     planar = quadrics = others = 0
@@ -40,7 +40,7 @@ def compiled_walk_pays(scene: Scene, backend: str = "auto") -> bool:
                 others += 1
     if quadrics > DENSE_QUADRICS:
         return True
-    if planar + others + quadrics / 4 <= DENSE_COST:
+    if all_pairs(planar, quadrics, others):
         return False
     embree = backend in ("auto", "embree") and embree_available() and planar >= EMBREE_FROM
     return bool(quadrics or others or not embree)

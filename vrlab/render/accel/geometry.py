@@ -84,7 +84,7 @@ from .pool import IndexedPlanar, TrianglePool, pool_triangles
 from .scene_bvh import BACKENDS, Accel, embree_used
 from .tubes import Tubes
 
-__all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "EMBREE_FROM", "Hits", "SceneGeometry"]
+__all__ = ["DEFAULT_RAY_CHUNK", "DENSE_COST", "EMBREE_FROM", "Hits", "SceneGeometry", "all_pairs"]
 
 DEFAULT_RAY_CHUNK = 1 << 15   # rays per block
 DENSE_COST = 256              # scenes up to this all-pairs cost (planar primitives + quadrics / 4) skip the BVH
@@ -92,6 +92,11 @@ DENSE_COST = 256              # scenes up to this all-pairs cost (planar primiti
 #: primitives from this many on (below, the compiled walk is as fast or faster:
 #: benchmarks/bench_rays.py, 0.8-1.6x Embree's closest-hit rays/s at 10^3 triangles, 0.4x at 10^5)
 EMBREE_FROM = 1000
+
+
+def all_pairs(planar: int, quadrics: int, others: int) -> bool:
+    """Whether the NumPy path tests these all pairs: planar + others + quadrics / 4 <= DENSE_COST."""
+    return planar + others + quadrics / 4 <= DENSE_COST
 
 
 class Hits(NamedTuple):
@@ -224,10 +229,8 @@ class SceneGeometry:
         pool = pool_triangles(tri_parts, tri_order) if tri_parts else None
         para = _para_group(para_parts, para_order, pool)
         self._n_tri = 2 * sum(len(d) for _, d in para_parts) + (int(pool.start[-1]) if pool else 0)
-        # all pairs while their cost stays small (a quadric costs about a quarter of a planar
-        # primitive through the culling products), else one BVH over every primitive
-        cost = len(para[0]) + (pool.n_group if pool else 0) + len(disk) + len(tube) + len(quad) / 4
-        dense = cost <= DENSE_COST and self.kernels == "numpy"
+        dense = all_pairs(len(para[0]) + (pool.n_group if pool else 0), len(quad), len(disk) + len(tube)) \
+            and self.kernels == "numpy"
         n_planar = len(para[0]) + (pool.n_group if pool else 0)
         if self.kernels == "numba" and backend == "auto" and n_planar < EMBREE_FROM:
             backend = "numpy"            # the compiled walk is faster than Embree's calls here
